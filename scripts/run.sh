@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Set up a virtual environment with ROS 2 Jazzy from PyPI, then run one job in it.
+#   scripts/run.sh demo [ARGS]   main job: render a sequence and initialize on it, live
+#   scripts/run.sh test [ARGS]   lint and the whole test suite
+#   scripts/run.sh shell         an interactive shell with the environment set
+#   scripts/run.sh CMD [ARGS]    any command inside the environment (e.g. initsel --help)
+# Environment: INITSEL_VENV (default .venv), PYTHON (default python3).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+venv=${INITSEL_VENV:-$root/.venv}
+python=${PYTHON:-python3}
+
+# A parent ROS-wheels process marks its children; a fresh venv must bootstrap itself.
+unset _ROS_WHEELS_BOOTSTRAP_COMPLETE LD_LIBRARY_PATH
+
+stamp="$venv/.initsel-installed"
+if [ ! -f "$stamp" ] || [ "$root/setup.py" -nt "$stamp" ]; then
+    echo "== setting up $venv (ROS 2 Jazzy wheels, numpy, OpenCV, scikit-learn)" >&2
+    [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
+    "$venv/bin/python" -m pip install --quiet --upgrade pip
+    "$venv/bin/python" -m pip install --quiet -e "$root[ros,test,plot]"
+    touch "$stamp"
+fi
+
+export VIRTUAL_ENV=$venv
+export PATH="$venv/bin:$PATH"
+export AMENT_PREFIX_PATH=$venv
+# Keep DDS discovery on this machine, on a domain and log folder of our own.
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( RANDOM % 100 + 100 ))}
+export ROS_LOG_DIR=${ROS_LOG_DIR:-$(mktemp -d -t initsel-roslog.XXXXXX)}
+# Shared-memory segment large enough for full camera frames (see README, Transport).
+export FASTRTPS_DEFAULT_PROFILES_FILE=${FASTRTPS_DEFAULT_PROFILES_FILE:-$root/config/fastdds_shm.xml}
+cd "$root"
+
+job=${1:-demo}
+[ $# -gt 0 ] && shift
+case "$job" in
+    demo) exec initsel demo "$@" ;;
+    test)
+        ruff check initsel_ros test
+        exec python -m pytest -q "$@" test ;;
+    shell) exec "${SHELL:-bash}" -i ;;
+    *) exec "$job" "$@" ;;
+esac
