@@ -40,7 +40,6 @@ setup(
     maintainer_email='initsel-ros@example.org',
     description='Decides when and with which method a monocular SLAM system initializes its map.',
     license='Apache-2.0',
-    tests_require=['pytest'],
     entry_points={
         'console_scripts': [
             'selector = initsel_ros.ros.node:main',
