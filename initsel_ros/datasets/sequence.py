@@ -1,0 +1,133 @@
+"""The common sequence interface shared by TUM folders and bags.
+
+A :class:`Sequence` is a list of :class:`Frame` records (timestamps and ground-truth poses, cheap)
+plus lazy access to the images and depth maps behind them (loaded on demand).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import DatasetError
+
+_LOG = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """One colour frame of a sequence.
+
+    Attributes:
+        index: position in the sequence, 0-based.
+        stamp: colour image time, seconds.
+        pose: (4, 4) float64 camera-to-world ground truth at ``stamp``, or None when unknown.
+        depth_stamp: time of the associated depth map (seconds) or None when there is none.
+    """
+
+    index: int
+    stamp: float
+    pose: np.ndarray | None
+    depth_stamp: float | None = None
+
+
+class Sequence:
+    """Base class: frames, intrinsics and lazy image access.
+
+    Subclasses implement :meth:`_load_image` (BGR uint8) and :meth:`_load_depth` (metres).
+    """
+
+    def __init__(self, name: str, intrinsics: Intrinsics, frames: list[Frame],
+                 path: Path | None = None) -> None:
+        self.name = name
+        self.intrinsics = intrinsics
+        self.frames = frames
+        self.path = path
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def __iter__(self) -> Iterator[Frame]:
+        return iter(self.frames)
+
+    def __repr__(self) -> str:
+        return (f'{type(self).__name__}({self.name!r}, {len(self)} frames, '
+                f'{self.intrinsics.width}x{self.intrinsics.height})')
+
+    @property
+    def stamps(self) -> np.ndarray:
+        """(N,) float64 colour image times, seconds."""
+        return np.array([f.stamp for f in self.frames], dtype=np.float64)
+
+    @property
+    def has_pose(self) -> np.ndarray:
+        """(N,) bool, True where the frame has a ground-truth pose."""
+        return np.array([f.pose is not None for f in self.frames], dtype=bool)
+
+    def poses(self) -> np.ndarray:
+        """(N, 4, 4) float64 camera-to-world poses, NaN where unknown."""
+        out = np.full((len(self), 4, 4), np.nan)
+        for f in self.frames:
+            if f.pose is not None:
+                out[f.index] = f.pose
+        return out
+
+    def _check_index(self, i: int) -> int:
+        if not -len(self) <= i < len(self):
+            raise IndexError(f'frame {i} out of range for {len(self)} frames')
+        return i % len(self)
+
+    def image(self, i: int) -> np.ndarray:
+        """Colour frame ``i`` as (H, W, 3) uint8 BGR."""
+        return self._load_image(self._check_index(i))
+
+    def gray(self, i: int) -> np.ndarray:
+        """Frame ``i`` as (H, W) uint8 grey."""
+        return cv2.cvtColor(self.image(i), cv2.COLOR_BGR2GRAY)
+
+    def depth(self, i: int) -> np.ndarray | None:
+        """Depth of frame ``i`` as (H, W) float32 metres (0 = no data), or None if absent."""
+        i = self._check_index(i)
+        if self.frames[i].depth_stamp is None:
+            return None
+        return self._load_depth(i)
+
+    def _load_image(self, i: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def _load_depth(self, i: int) -> np.ndarray | None:
+        raise NotImplementedError
+
+
+def read_image_file(path: Path, flags: int = cv2.IMREAD_COLOR) -> np.ndarray:
+    """``cv2.imread`` that raises DatasetError naming the file when it is missing or corrupt."""
+    path = Path(path)
+    if not path.is_file():
+        raise DatasetError(f'{path}: image file not found')
+    try:
+        img = cv2.imread(str(path), flags)
+    except cv2.error as exc:
+        raise DatasetError(f'{path}: cannot decode image: {exc}') from exc
+    if img is None or img.size == 0:
+        raise DatasetError(f'{path}: unreadable, empty or corrupt image file')
+    return img
+
+
+def bgr_from_any(img: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 BGR from grey, BGR or BGRA uint8/uint16 images."""
+    if img.dtype == np.uint16:
+        img = (img >> 8).astype(np.uint8)
+    if img.ndim == 2:
+        return cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+    if img.shape[2] == 4:
+        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
+    return img
+
+
+__all__ = ['Frame', 'Sequence', 'bgr_from_any', 'read_image_file']
