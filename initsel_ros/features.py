@@ -1,0 +1,201 @@
+"""The 23 summary features of a correspondence set (Troutman & Tuceryan 2021).
+
+Feature order (``FEATURE_NAMES``): count; mean and population standard deviation of the
+disparity |p1 - p0|; min and max of x0, y0, x1, y1; range of x0, y0, x1, y1; the
+8-bin histogram of motion directions. Directions are measured with image y pointing up,
+i.e. the angle of ``(x1 - x0, -(y1 - y0))``, and bin k is centred on ``45 * k`` degrees
+(each bin spans +-22.5 degrees).
+
+Two scalings map the raw values into the models' input:
+
+* ``Scaling.PAPER`` (the authors' code, tied to 640x480): count / 300, disparities / 800,
+  x / 640, y / 480.
+* ``Scaling.RESOLUTION_FREE``: count / 300, x / width, y / height, disparities / image
+  diagonal; identical to ``PAPER`` for 640x480 images and meaningful at any resolution.
+
+In both, the 8 direction counts are divided by their Euclidean norm (zeros stay zeros).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from enum import Enum
+
+import numpy as np
+
+from initsel_ros.errors import GeometryError
+
+FEATURE_NAMES: tuple[str, ...] = (
+    'count', 'disparity_mean', 'disparity_std',
+    'x0_min', 'x0_max', 'y0_min', 'y0_max', 'x1_min', 'x1_max', 'y1_min', 'y1_max',
+    'x0_range', 'y0_range', 'x1_range', 'y1_range',
+    *(f'direction_{45 * k}' for k in range(8)),
+)
+N_FEATURES = len(FEATURE_NAMES)
+
+COUNT_SCALE = 300.0
+_PAPER_WIDTH, _PAPER_HEIGHT, _PAPER_DISPARITY = 640.0, 480.0, 800.0
+# Index groups into the feature vector.
+_DISPARITY = [1, 2]
+_X = [3, 4, 7, 8, 11, 13]
+_Y = [5, 6, 9, 10, 12, 14]
+_BINS = slice(15, 23)
+
+
+class Scaling(str, Enum):
+    """How raw feature values are normalized before the models see them."""
+
+    PAPER = 'paper'
+    RESOLUTION_FREE = 'resolution_free'
+
+
+def _as_points(p: np.ndarray, name: str) -> np.ndarray:
+    arr = np.asarray(p, dtype=np.float64)
+    if arr.size == 0:
+        return arr.reshape(0, 2)
+    if arr.ndim == 3 and arr.shape[1] == 1:
+        arr = arr[:, 0, :]
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise GeometryError(f'{name} must be (N, 2) pixel coordinates, got shape {arr.shape}')
+    return arr
+
+
+def direction_bins(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """Counts of motion directions in the 8 bins centred on 0, 45, ..., 315 degrees.
+
+    Args:
+        p0: (N, 2) reference pixels.
+        p1: (N, 2) current pixels.
+
+    Returns:
+        (8,) float64 counts; image y points down, so the angle uses ``-(y1 - y0)``.
+    """
+    d = _as_points(p1, 'p1') - _as_points(p0, 'p0')
+    angle = np.arctan2(-d[:, 1], d[:, 0])
+    bins = np.rint(angle / (np.pi / 4)).astype(np.int64) % 8
+    return np.bincount(bins, minlength=8).astype(np.float64)
+
+
+def raw_features(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """Unscaled features of one correspondence set.
+
+    Args:
+        p0: (N, 2) reference pixel coordinates (x right, y down).
+        p1: (N, 2) current pixel coordinates, row i matching row i of ``p0``.
+
+    Returns:
+        (23,) float64 in pixels (count as a number, direction bins as counts).
+        An empty set gives all zeros.
+    """
+    p0 = _as_points(p0, 'p0')
+    p1 = _as_points(p1, 'p1')
+    if p0.shape != p1.shape:
+        raise GeometryError(f'p0 and p1 differ in shape: {p0.shape} vs {p1.shape}')
+    out = np.zeros(N_FEATURES)
+    n = p0.shape[0]
+    if n == 0:
+        return out
+    disparity = np.hypot(*(p1 - p0).T)
+    both = np.concatenate([p0, p1], axis=1)  # columns x0 y0 x1 y1
+    lo, hi = both.min(axis=0), both.max(axis=0)
+    out[0] = n
+    out[1] = disparity.mean()
+    out[2] = disparity.std()
+    out[3:11] = np.stack([lo, hi], axis=1).ravel()  # x0min x0max y0min y0max ...
+    out[11:15] = hi - lo
+    out[_BINS] = direction_bins(p0, p1)
+    return out
+
+
+def scale_features(
+    raw: np.ndarray,
+    width: int = 640,
+    height: int = 480,
+    scaling: Scaling | str = Scaling.RESOLUTION_FREE,
+) -> np.ndarray:
+    """Scale raw features (see module docstring) for the models.
+
+    Args:
+        raw: (..., 23) raw features.
+        width: image width, pixels.
+        height: image height, pixels.
+        scaling: ``Scaling.PAPER`` or ``Scaling.RESOLUTION_FREE``.
+
+    Returns:
+        (..., 23) float64 scaled features.
+    """
+    scaling = Scaling(scaling)
+    x = np.array(raw, dtype=np.float64, copy=True)
+    if x.shape[-1] != N_FEATURES:
+        raise GeometryError(f'expected {N_FEATURES} features, got shape {x.shape}')
+    if scaling is Scaling.PAPER:
+        sx, sy, sd = _PAPER_WIDTH, _PAPER_HEIGHT, _PAPER_DISPARITY
+    else:
+        if width <= 0 or height <= 0:
+            raise GeometryError(f'image size must be positive, got {width}x{height}')
+        sx, sy, sd = float(width), float(height), float(np.hypot(width, height))
+    x[..., 0] /= COUNT_SCALE
+    x[..., _DISPARITY] /= sd
+    x[..., _X] /= sx
+    x[..., _Y] /= sy
+    bins = x[..., _BINS]
+    norm = np.linalg.norm(bins, axis=-1, keepdims=True)
+    x[..., _BINS] = np.divide(bins, norm, out=np.zeros_like(bins), where=norm > 0)
+    return x
+
+
+def pair_features(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    width: int = 640,
+    height: int = 480,
+    scaling: Scaling | str = Scaling.RESOLUTION_FREE,
+) -> np.ndarray:
+    """The 23 scaled features of one (reference, current) correspondence set.
+
+    Args:
+        p0: (N, 2) reference pixels.
+        p1: (N, 2) current pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+        scaling: which normalization to apply.
+
+    Returns:
+        (23,) float64.
+
+    Examples:
+        >>> p0 = np.array([[100.0, 100.0], [200.0, 300.0]])
+        >>> f = pair_features(p0, p0 + [10.0, 0.0], 640, 480)
+        >>> float(f[1] * 800), float(f[15])  # mean disparity in pixels, bin 0 (rightwards)
+        (10.0, 1.0)
+    """
+    return scale_features(raw_features(p0, p1), width, height, scaling)
+
+
+def batch_features(
+    pairs: Iterable[tuple[np.ndarray, np.ndarray]],
+    width: int = 640,
+    height: int = 480,
+    scaling: Scaling | str = Scaling.RESOLUTION_FREE,
+) -> np.ndarray:
+    """Scaled features of many correspondence sets.
+
+    Args:
+        pairs: iterable of (p0, p1), each (N_i, 2) pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+        scaling: which normalization to apply.
+
+    Returns:
+        (M, 23) float64, one row per pair.
+    """
+    raw = [raw_features(p0, p1) for p0, p1 in pairs]
+    if not raw:
+        return np.zeros((0, N_FEATURES))
+    return scale_features(np.stack(raw), width, height, scaling)
+
+
+def mean_disparity(p0: np.ndarray, p1: np.ndarray) -> float:
+    """Mean of |p1 - p0| in pixels (0 for an empty set)."""
+    d = _as_points(p1, 'p1') - _as_points(p0, 'p0')
+    return float(np.hypot(d[:, 0], d[:, 1]).mean()) if len(d) else 0.0

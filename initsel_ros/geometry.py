@@ -1,0 +1,381 @@
+"""Two-view geometry: pose recovery with F, E or H, triangulation, and error metrics.
+
+Conventions: pixel arrays are (N, 2); poses follow OpenCV, ``x_cur = R @ x_ref + t``, with
+the reference camera at ``[I | 0]``. Monocular translation has no scale: estimates return
+``t`` with ``|t| = 1`` and points triangulated at that scale, in the reference camera frame.
+A failed or degenerate estimate is a value (``PoseEstimate.ok`` is False, ``reason`` says
+why), not an exception; malformed arguments raise :class:`GeometryError`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import cv2
+import numpy as np
+
+from initsel_ros.errors import GeometryError
+
+#: Minimum correspondences each method needs before it is attempted.
+MIN_CORRESPONDENCES = {'F': 8, 'E': 5, 'H': 4}
+_EPS = 1e-12
+
+
+class Method(str, Enum):
+    """Structure-from-motion method that initializes the map."""
+
+    F = 'F'  # fundamental matrix, 8-point (normalized), then E = K^T F K
+    E = 'E'  # essential matrix, Nister 5-point
+    H = 'H'  # homography, 4-point DLT, Faugeras-Lustman decomposition
+
+
+@dataclass(frozen=True)
+class PoseEstimate:
+    """Result of :func:`estimate_pose`.
+
+    Attributes:
+        method: the method used.
+        ok: True when a pose was found with at least ``min_points`` triangulated points.
+        reason: why not, when ``ok`` is False ('' otherwise).
+        R: (3, 3) rotation, reference to current camera.
+        t: (3,) translation with unit norm (zeros when none was found).
+        points: (M, 3) triangulated points, reference camera frame, scale |t| = 1.
+        indices: (M,) indices of those points' correspondences in the input arrays.
+        inliers: (N,) bool, the robust estimator's inliers.
+        parallax_deg: median parallax angle, degrees, over inliers in front of both cameras.
+    """
+
+    method: Method
+    ok: bool
+    reason: str
+    R: np.ndarray
+    t: np.ndarray
+    points: np.ndarray
+    indices: np.ndarray
+    inliers: np.ndarray
+    parallax_deg: float
+
+    @property
+    def n_points(self) -> int:
+        """Number of triangulated points kept."""
+        return int(self.points.shape[0])
+
+
+def _failure(
+    method: Method, n: int, reason: str, inliers: np.ndarray | None = None
+) -> PoseEstimate:
+    return PoseEstimate(
+        method=method, ok=False, reason=reason, R=np.eye(3), t=np.zeros(3),
+        points=np.zeros((0, 3)), indices=np.zeros(0, dtype=np.int64),
+        inliers=np.zeros(n, dtype=bool) if inliers is None else inliers, parallax_deg=0.0,
+    )
+
+
+def _check_pair(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    b = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+    if a.shape != b.shape:
+        raise GeometryError(f'p0 and p1 differ in shape: {a.shape} vs {b.shape}')
+    return a, b
+
+
+def _check_camera_matrix(K: np.ndarray) -> np.ndarray:
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise GeometryError(f'K must be a finite (3, 3) camera matrix, got {K!r}')
+    return K
+
+
+@dataclass(frozen=True)
+class Triangulation:
+    """Points of one candidate pose and their per-point quality.
+
+    Attributes:
+        points: (N, 3) reference-frame points (NaN where the rays are parallel).
+        in_front: (N,) bool, positive depth in both cameras.
+        parallax_deg: (N,) angle between the two viewing rays, degrees.
+        reprojection_px: (N,) larger of the two reprojection errors, pixels.
+    """
+
+    points: np.ndarray
+    in_front: np.ndarray
+    parallax_deg: np.ndarray
+    reprojection_px: np.ndarray
+
+
+def triangulate_pair(
+    R: np.ndarray, t: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray
+) -> Triangulation:
+    """Triangulate correspondences for the pose ``(R, t)`` and measure each point.
+
+    Args:
+        R: (3, 3) rotation, reference to current.
+        t: (3,) translation, reference to current.
+        K: (3, 3) camera matrix shared by both views.
+        p0: (N, 2) reference pixels.
+        p1: (N, 2) current pixels.
+    """
+    R = np.asarray(R, dtype=np.float64).reshape(3, 3)
+    t = np.asarray(t, dtype=np.float64).reshape(3)
+    P0 = K @ np.hstack([np.eye(3), np.zeros((3, 1))])
+    P1 = K @ np.hstack([R, t[:, None]])
+    n = p0.shape[0]
+    if n == 0:
+        empty = np.zeros(0)
+        return Triangulation(np.zeros((0, 3)), empty.astype(bool), empty, empty)
+    X4 = cv2.triangulatePoints(P0, P1, p0.T.astype(np.float64), p1.T.astype(np.float64))
+    w = X4[3]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        X = (X4[:3] / np.where(np.abs(w) > _EPS, w, np.nan)).T
+    Xc = X @ R.T + t
+    finite = np.all(np.isfinite(X), axis=1)
+    in_front = finite & (X[:, 2] > 0) & (Xc[:, 2] > 0)
+    centre1 = -R.T @ t
+    ray0 = X
+    ray1 = X - centre1
+    cos = np.einsum('ij,ij->i', ray0, ray1) / (
+        np.linalg.norm(ray0, axis=1) * np.linalg.norm(ray1, axis=1) + _EPS
+    )
+    parallax = np.degrees(np.arccos(np.clip(np.nan_to_num(cos, nan=1.0), -1.0, 1.0)))
+    with np.errstate(divide='ignore', invalid='ignore'):
+        u0 = X @ K.T
+        u1 = Xc @ K.T
+        e0 = np.linalg.norm(u0[:, :2] / u0[:, 2:3] - p0, axis=1)
+        e1 = np.linalg.norm(u1[:, :2] / u1[:, 2:3] - p1, axis=1)
+    reproj = np.nan_to_num(np.maximum(e0, e1), nan=np.inf)
+    return Triangulation(X, in_front, parallax, reproj)
+
+
+def triangulate(
+    R: np.ndarray, t: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray
+) -> np.ndarray:
+    """Triangulated (N, 3) points in the reference camera frame (linear, OpenCV)."""
+    a, b = _check_pair(p0, p1)
+    return triangulate_pair(R, t, _check_camera_matrix(K), a, b).points
+
+
+def _homography_pose(
+    H: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray, inliers: np.ndarray,
+    max_reprojection_px: float, min_baseline_ratio: float,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Choose among the (up to 4) decompositions of H by points in front of both cameras.
+
+    Decompositions whose translation (baseline over plane distance) is below
+    ``min_baseline_ratio`` are rotations, with no usable translation, and are skipped.
+    """
+    count, rotations, translations, normals = cv2.decomposeHomographyMat(H, K)
+    if count == 0:
+        return None
+    pts0 = p0[inliers].reshape(-1, 1, 2).astype(np.float32)
+    pts1 = p1[inliers].reshape(-1, 1, 2).astype(np.float32)
+    # Undistorted normalized points for the visibility filter.
+    n0 = cv2.undistortPoints(pts0, K, None)
+    n1 = cv2.undistortPoints(pts1, K, None)
+    possible = cv2.filterHomographyDecompByVisibleRefpoints(rotations, normals, n0, n1)
+    candidates = range(count) if possible is None else np.asarray(possible).ravel().tolist()
+    best, best_key = None, None
+    for i in candidates:
+        R = np.asarray(rotations[i])
+        t = np.asarray(translations[i]).reshape(3)
+        norm = np.linalg.norm(t)  # baseline / plane distance
+        if norm < min_baseline_ratio:
+            continue
+        t_unit = t / norm
+        tri = triangulate_pair(R, t_unit, K, p0[inliers], p1[inliers])
+        good = tri.in_front & (tri.reprojection_px <= max_reprojection_px)
+        key = (int(good.sum()), -float(np.median(tri.reprojection_px)) if len(good) else 0.0)
+        if best_key is None or key > best_key:
+            best, best_key = (R, t_unit), key
+    return best
+
+
+def estimate_pose(
+    method: Method | str,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    *,
+    ransac_threshold_px: float = 1.0,
+    confidence: float = 0.999,
+    max_iterations: int = 2000,
+    max_reprojection_px: float = 2.5,
+    min_point_parallax_deg: float = 0.36,
+    min_points: int = 8,
+    min_homography_baseline_ratio: float = 0.01,
+) -> PoseEstimate:
+    """Recover the relative pose with one method and triangulate the map points.
+
+    F and H are robustly estimated with RANSAC (OpenCV's 8-point fit on the inliers, and
+    4-point DLT with Faugeras-Lustman decomposition); E with RANSAC over Nister's 5-point
+    solver. The pose is the candidate with the most points in front of both cameras.
+    Kept points are inliers in front of both cameras, reprojecting within
+    ``max_reprojection_px`` and seen with at least ``min_point_parallax_deg`` of parallax.
+
+    Args:
+        method: ``'F'``, ``'E'`` or ``'H'``.
+        p0: (N, 2) reference pixels (undistorted).
+        p1: (N, 2) current pixels (undistorted).
+        K: (3, 3) camera matrix.
+        ransac_threshold_px: RANSAC inlier threshold, pixels.
+        confidence: RANSAC confidence.
+        max_iterations: RANSAC iteration cap (F and H).
+        max_reprojection_px: largest reprojection error of a kept point, pixels.
+        min_point_parallax_deg: smallest parallax of a kept point, degrees.
+        min_points: fewer kept points than this makes the estimate not ``ok``.
+        min_homography_baseline_ratio: H decompositions with baseline / plane distance
+            below this are treated as pure rotation.
+
+    Returns:
+        A :class:`PoseEstimate`; ``ok`` False with a ``reason`` for degenerate input
+        (too few correspondences, no model found, pure rotation, ...).
+    """
+    method = Method(method)
+    a, b = _check_pair(p0, p1)
+    K = _check_camera_matrix(K)
+    n = a.shape[0]
+    finite = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+    if not finite.all():
+        raise GeometryError('correspondences contain NaN or infinity')
+    needed = MIN_CORRESPONDENCES[method.value]
+    if n < needed:
+        return _failure(method, n, f'{n} correspondences, {method.value} needs {needed}')
+    f0 = a.reshape(-1, 1, 2)
+    f1 = b.reshape(-1, 1, 2)
+
+    if method is Method.H:
+        H, mask = cv2.findHomography(
+            f0, f1, cv2.RANSAC, ransac_threshold_px, maxIters=max_iterations,
+            confidence=confidence,
+        )
+        if H is None or mask is None:
+            return _failure(method, n, 'no homography found')
+        inliers = mask.ravel().astype(bool)
+        chosen = _homography_pose(
+            H, K, a, b, inliers, max_reprojection_px, min_homography_baseline_ratio
+        )
+        if chosen is None:
+            return _failure(
+                method, n, 'homography has no decomposition with translation (rotation?)',
+                inliers,
+            )
+        R, t = chosen
+    else:
+        if method is Method.F:
+            F, mask = cv2.findFundamentalMat(
+                f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
+            )
+            if F is None or F.shape != (3, 3) or mask is None:
+                return _failure(method, n, 'no fundamental matrix found')
+            E = K.T @ F @ K
+        else:
+            E, mask = cv2.findEssentialMat(
+                f0, f1, K, cv2.RANSAC, confidence, ransac_threshold_px
+            )
+            if E is None or E.shape[0] < 3 or mask is None:
+                return _failure(method, n, 'no essential matrix found')
+            E = E[:3]
+        inliers = mask.ravel().astype(bool)
+        if inliers.sum() < needed:
+            return _failure(method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers)
+        _, R, t, _ = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
+        t = t.reshape(3)
+        t = t / max(np.linalg.norm(t), _EPS)
+
+    if np.linalg.norm(t) < 0.5:
+        return _failure(method, n, 'no translation recovered (pure rotation?)', inliers)
+    tri = triangulate_pair(R, t, K, a, b)
+    valid = inliers & tri.in_front
+    parallax = float(np.median(tri.parallax_deg[valid])) if valid.any() else 0.0
+    keep = (
+        valid
+        & (tri.reprojection_px <= max_reprojection_px)
+        & (tri.parallax_deg >= min_point_parallax_deg)
+    )
+    indices = np.flatnonzero(keep)
+    ok = indices.size >= min_points
+    reason = '' if ok else (
+        f'{indices.size} points triangulated with parallax >= {min_point_parallax_deg} deg '
+        f'(median parallax {parallax:.2f} deg)'
+    )
+    return PoseEstimate(
+        method=method, ok=ok, reason=reason, R=np.asarray(R, dtype=np.float64), t=t,
+        points=tri.points[indices], indices=indices, inliers=inliers, parallax_deg=parallax,
+    )
+
+
+def translation_chordal_error(t_gt: np.ndarray, t_est: np.ndarray) -> float:
+    """Normalized translational chordal distance ``|t_g/|t_g| - t_e/|t_e||``, in [0, 2].
+
+    Returns NaN when either translation is (numerically) zero: its direction is undefined,
+    as for a pure rotation.
+    """
+    g = np.asarray(t_gt, dtype=np.float64).reshape(3)
+    e = np.asarray(t_est, dtype=np.float64).reshape(3)
+    ng, ne = np.linalg.norm(g), np.linalg.norm(e)
+    if ng < 1e-9 or ne < 1e-9 or not (np.isfinite(ng) and np.isfinite(ne)):
+        return float('nan')
+    return float(np.linalg.norm(g / ng - e / ne))
+
+
+def reconstruction_error(
+    points_gt: np.ndarray, points_est: np.ndarray, scale: str = 'first_two'
+) -> float:
+    """Median scaled reconstruction error ``median_i |P_g,i - s P_e,i|``.
+
+    Args:
+        points_gt: (M, 3) ground-truth points, reference camera frame, metres.
+        points_est: (M, 3) estimated points, same order and frame, arbitrary scale.
+        scale: ``'first_two'`` (the paper: ``s = |P_g,0 - P_g,1| / |P_e,0 - P_e,1|``) or
+            ``'median'`` (robust: median over points of ``|P_g,i| / |P_e,i|``, distances
+            from the reference camera centre).
+
+    Returns:
+        The error in the ground truth's unit (metres); NaN when it is undefined (fewer
+        than two points, or a zero scale denominator).
+    """
+    g = np.asarray(points_gt, dtype=np.float64).reshape(-1, 3)
+    e = np.asarray(points_est, dtype=np.float64).reshape(-1, 3)
+    if g.shape != e.shape:
+        raise GeometryError(f'point sets differ in shape: {g.shape} vs {e.shape}')
+    if g.shape[0] < 2:
+        return float('nan')
+    if scale == 'first_two':
+        den = np.linalg.norm(e[0] - e[1])
+        if den < _EPS:
+            return float('nan')
+        s = np.linalg.norm(g[0] - g[1]) / den
+    elif scale == 'median':
+        ne = np.linalg.norm(e, axis=1)
+        ok = ne > _EPS
+        if not ok.any():
+            return float('nan')
+        s = float(np.median(np.linalg.norm(g[ok], axis=1) / ne[ok]))
+    else:
+        raise GeometryError(f"scale must be 'first_two' or 'median', got {scale!r}")
+    return float(np.median(np.linalg.norm(g - s * e, axis=1)))
+
+
+def relative_pose(T_w_ref: np.ndarray, T_w_cur: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Relative pose between two camera-to-world poses, in OpenCV's convention.
+
+    Args:
+        T_w_ref: (4, 4) reference camera to world.
+        T_w_cur: (4, 4) current camera to world.
+
+    Returns:
+        ``(R, t)`` with ``x_cur = R @ x_ref + t``; ``|t|`` is the baseline in world units.
+    """
+    A = np.asarray(T_w_ref, dtype=np.float64)
+    B = np.asarray(T_w_cur, dtype=np.float64)
+    if A.shape != (4, 4) or B.shape != (4, 4):
+        raise GeometryError('poses must be (4, 4) matrices')
+    R = B[:3, :3].T @ A[:3, :3]
+    t = B[:3, :3].T @ (A[:3, 3] - B[:3, 3])
+    return R, t
+
+
+def rotation_angle_deg(R: np.ndarray) -> float:
+    """Angle of a rotation matrix, degrees."""
+    c = (np.trace(np.asarray(R, dtype=np.float64)) - 1.0) / 2.0
+    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))

@@ -1,0 +1,359 @@
+"""Initialization rules of other systems, as baselines for the learned models.
+
+Three families (numpy/OpenCV only):
+
+- Butt et al. 2020: H is good when the disparity (mean or median) exceeds 50 px; F is good when,
+  in addition, the disparity's standard deviation exceeds 15 px. Works on table columns.
+- VINS-Mono: more than 20 correspondences with an average parallax above 30 px at a virtual
+  focal length of 460 px (the cheap rule), then F-RANSAC on normalized points and
+  ``recoverPose``, accepting more than 12 inliers (:func:`vins_relative_pose`).
+- ORB-SLAM2/3: H and F RANSAC on the same 200 random 8-point sets, symmetric transfer scores with
+  chi-square cut-offs 5.991 (H) / 3.841 (F), H chosen when ``S_H / (S_H + S_F)`` exceeds 0.40
+  (ORB-SLAM2) or 0.50 (ORB-SLAM3) (:func:`orbslam_scores`, :func:`orbslam_choice`).
+
+The correspondence-based baselines run at dataset time (``initsel dataset``) and are stored as
+table columns, so evaluation is a matter of thresholds on columns.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import cv2
+import numpy as np
+
+#: ORB-SLAM's chi-square cut-offs (95 %, 2 and 1 degrees of freedom) and its score offset.
+CHI2_H = 5.991
+CHI2_F = 3.841
+#: VINS-Mono's virtual focal length (pixels).
+VINS_FOCAL = 460.0
+
+
+class OrbSlamVersion(int, Enum):
+    """ORB-SLAM version, for the H-vs-F ratio cut-off."""
+
+    ORB2 = 2
+    ORB3 = 3
+
+    @property
+    def ratio_threshold(self) -> float:
+        """Choose H when ``S_H / (S_H + S_F)`` exceeds this value."""
+        return 0.40 if self is OrbSlamVersion.ORB2 else 0.50
+
+
+# ---------------------------------------------------------------------------------- Butt 2020
+def butt_rule(
+    disparity_px: np.ndarray,
+    std_px: np.ndarray,
+    h_threshold_px: float = 50.0,
+    f_std_threshold_px: float = 15.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Butt et al. 2020: (H good, F good) per pair.
+
+    Parameters
+    ----------
+    disparity_px : (N,) array
+        Mean (the authors' code) or median (the paper's text) disparity, pixels.
+    std_px : (N,) array
+        Population standard deviation of the disparity, pixels.
+
+    Returns
+    -------
+    (N,) bool, (N,) bool
+        H fires when disparity > ``h_threshold_px``; F fires when, in addition,
+        std > ``f_std_threshold_px``.
+    """
+    disparity_px = np.asarray(disparity_px, dtype=float)
+    std_px = np.asarray(std_px, dtype=float)
+    h = disparity_px > h_threshold_px
+    return h, h & (std_px > f_std_threshold_px)
+
+
+# ---------------------------------------------------------------------------------- VINS-Mono
+@dataclass(frozen=True)
+class VinsResult:
+    """VINS-Mono's initialization check on one correspondence set.
+
+    Attributes
+    ----------
+    n : int
+        Number of correspondences.
+    parallax_px : float
+        Average parallax at the virtual focal length of 460 px.
+    rule : bool
+        The cheap rule: ``n > min_correspondences`` and ``parallax_px > min_parallax_px``.
+    inliers : int
+        Inliers that pass ``recoverPose``'s chirality check (-1 when not run).
+    accepted : bool
+        ``rule`` and ``inliers > min_inliers``.
+    R : (3, 3) float64
+        Rotation (x_cur = R x_ref + t); identity when not run.
+    t : (3,) float64
+        Unit translation direction; zeros when not run.
+    """
+
+    n: int
+    parallax_px: float
+    rule: bool
+    inliers: int
+    accepted: bool
+    R: np.ndarray
+    t: np.ndarray
+
+
+def normalized_points(points: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """(N, 2) pixels -> (N, 2) float64 normalized image coordinates (undistorted input)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    return np.column_stack(
+        ((points[:, 0] - K[0, 2]) / K[0, 0], (points[:, 1] - K[1, 2]) / K[1, 1])
+    )
+
+
+def vins_parallax(p0: np.ndarray, p1: np.ndarray, K: np.ndarray) -> float:
+    """Average parallax (pixels) at VINS-Mono's virtual focal length of 460 px."""
+    if len(p0) == 0:
+        return 0.0
+    d = normalized_points(p1, K) - normalized_points(p0, K)
+    return float(np.mean(np.hypot(d[:, 0], d[:, 1])) * VINS_FOCAL)
+
+
+def vins_relative_pose(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    *,
+    min_correspondences: int = 20,
+    min_parallax_px: float = 30.0,
+    min_inliers: int = 12,
+    run_ransac: bool = True,
+) -> VinsResult:
+    """VINS-Mono's ``relativePose`` check (rule, then F-RANSAC + recoverPose).
+
+    Parameters
+    ----------
+    p0, p1 : (N, 2) array
+        Reference and current pixels (undistorted).
+    K : (3, 3) array
+        Camera matrix.
+    run_ransac : bool
+        Run the RANSAC stage even when the cheap rule fails (to record inliers for analysis).
+    """
+    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+    n = len(p0)
+    parallax = vins_parallax(p0, p1, K)
+    rule = bool(n > min_correspondences and parallax > min_parallax_px)
+    R, t, inliers = np.eye(3), np.zeros(3), -1
+    if (rule or run_ransac) and n >= 15:
+        ll = normalized_points(p0, K)
+        rr = normalized_points(p1, K)
+        E, mask = cv2.findFundamentalMat(
+            ll.reshape(-1, 1, 2), rr.reshape(-1, 1, 2), cv2.FM_RANSAC, 0.3 / VINS_FOCAL, 0.99,
+            1000,
+        )
+        if E is not None and E.shape == (3, 3):
+            inliers, Rc, tc, _ = cv2.recoverPose(
+                E, ll.reshape(-1, 1, 2), rr.reshape(-1, 1, 2), np.eye(3), mask=mask
+            )
+            inliers = int(inliers)
+            R, t = np.asarray(Rc, dtype=float), np.asarray(tc, dtype=float).reshape(3)
+        else:
+            inliers = 0
+    accepted = bool(rule and inliers > min_inliers)
+    return VinsResult(n, parallax, rule, inliers, accepted, R, t)
+
+
+def vins_rule(
+    n: np.ndarray,
+    parallax_px: np.ndarray,
+    min_correspondences: int = 20,
+    min_parallax_px: float = 30.0,
+) -> np.ndarray:
+    """Vectorized cheap VINS rule on table columns: (N,) bool."""
+    return (np.asarray(n) > min_correspondences) & (np.asarray(parallax_px) > min_parallax_px)
+
+
+# ---------------------------------------------------------------------------------- ORB-SLAM
+@dataclass(frozen=True)
+class OrbSlamScores:
+    """ORB-SLAM's model scores for one correspondence set.
+
+    Attributes
+    ----------
+    s_h, s_f : float
+        Best homography and fundamental-matrix scores (higher is better).
+    ratio : float
+        ``s_h / (s_h + s_f)``; NaN when both are 0 or there are fewer than 8 correspondences.
+    H : (3, 3) float64
+        Best homography, reference -> current pixels (NaN when not computed).
+    F : (3, 3) float64
+        Best fundamental matrix, ``x_cur^T F x_ref = 0`` (NaN when not computed).
+    inliers_h, inliers_f : (N,) bool
+        Inliers of the best models.
+    """
+
+    s_h: float
+    s_f: float
+    ratio: float
+    H: np.ndarray
+    F: np.ndarray
+    inliers_h: np.ndarray
+    inliers_f: np.ndarray
+
+
+def _normalize(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ORB-SLAM's normalization: zero mean, unit mean absolute deviation per axis."""
+    mean = points.mean(axis=0)
+    dev = np.abs(points - mean).mean(axis=0)
+    dev = np.where(dev > 0, dev, 1.0)
+    T = np.array([[1 / dev[0], 0, -mean[0] / dev[0]], [0, 1 / dev[1], -mean[1] / dev[1]],
+                  [0, 0, 1.0]])
+    return (points - mean) / dev, T
+
+
+def _null_vectors(A: np.ndarray) -> np.ndarray:
+    """(B, M, 9) design matrices -> (B, 3, 3) right singular vectors of the smallest value."""
+    _, _, vt = np.linalg.svd(A)
+    return vt[:, -1, :].reshape(-1, 3, 3)
+
+
+def _homographies(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+    """DLT homographies for B sets: x1, x2 (B, 8, 2) -> (B, 3, 3) mapping x1 to x2."""
+    u1, v1 = x1[..., 0], x1[..., 1]
+    u2, v2 = x2[..., 0], x2[..., 1]
+    zero, one = np.zeros_like(u1), np.ones_like(u1)
+    row1 = np.stack([zero, zero, zero, -u1, -v1, -one, v2 * u1, v2 * v1, v2], axis=-1)
+    row2 = np.stack([u1, v1, one, zero, zero, zero, -u2 * u1, -u2 * v1, -u2], axis=-1)
+    A = np.concatenate([row1, row2], axis=1)
+    return _null_vectors(A)
+
+
+def _fundamentals(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+    """Rank-2 8-point fundamental matrices for B sets: (B, 8, 2) -> (B, 3, 3), x2^T F x1 = 0."""
+    u1, v1 = x1[..., 0], x1[..., 1]
+    u2, v2 = x2[..., 0], x2[..., 1]
+    A = np.stack(
+        [u2 * u1, u2 * v1, u2, v2 * u1, v2 * v1, v2, u1, v1, np.ones_like(u1)], axis=-1
+    )
+    F = _null_vectors(A)
+    u, s, vt = np.linalg.svd(F)
+    s[:, 2] = 0.0
+    return u @ (s[:, :, None] * vt)
+
+
+def _homography_scores(
+    H: np.ndarray, p0: np.ndarray, p1: np.ndarray, sigma: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(B, 3, 3) H (p0 -> p1) -> scores (B,), inlier masks (B, N)."""
+    inv_sigma2 = 1.0 / (sigma * sigma)
+    h0 = np.column_stack((p0, np.ones(len(p0))))
+    h1 = np.column_stack((p1, np.ones(len(p1))))
+    with np.errstate(divide='ignore', invalid='ignore'):
+        H_inv = np.linalg.inv(H)
+        fwd = h0 @ H.transpose(0, 2, 1)
+        fwd = fwd[..., :2] / fwd[..., 2:3]
+        bwd = h1 @ H_inv.transpose(0, 2, 1)
+        bwd = bwd[..., :2] / bwd[..., 2:3]
+        chi1 = np.sum((fwd - p1) ** 2, axis=-1) * inv_sigma2
+        chi0 = np.sum((bwd - p0) ** 2, axis=-1) * inv_sigma2
+    chi1 = np.nan_to_num(chi1, nan=np.inf)
+    chi0 = np.nan_to_num(chi0, nan=np.inf)
+    ok1, ok0 = chi1 <= CHI2_H, chi0 <= CHI2_H
+    score = np.where(ok1, CHI2_H - chi1, 0.0).sum(-1) + np.where(ok0, CHI2_H - chi0, 0.0).sum(-1)
+    return score, ok0 & ok1
+
+
+def _fundamental_scores(
+    F: np.ndarray, p0: np.ndarray, p1: np.ndarray, sigma: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(B, 3, 3) F (x1^T F x0 = 0) -> scores (B,), inlier masks (B, N)."""
+    inv_sigma2 = 1.0 / (sigma * sigma)
+    h0 = np.column_stack((p0, np.ones(len(p0))))
+    h1 = np.column_stack((p1, np.ones(len(p1))))
+    l1 = h0 @ F.transpose(0, 2, 1)  # epipolar lines in the current image
+    l0 = h1 @ F  # in the reference image
+    with np.errstate(divide='ignore', invalid='ignore'):
+        num1 = (l1 * h1).sum(-1)
+        chi1 = num1**2 / (l1[..., 0] ** 2 + l1[..., 1] ** 2) * inv_sigma2
+        num0 = (l0 * h0).sum(-1)
+        chi0 = num0**2 / (l0[..., 0] ** 2 + l0[..., 1] ** 2) * inv_sigma2
+    chi1 = np.nan_to_num(chi1, nan=np.inf)
+    chi0 = np.nan_to_num(chi0, nan=np.inf)
+    # ORB-SLAM rejects with the 1-dof cut-off but scores against the 2-dof one.
+    ok1, ok0 = chi1 <= CHI2_F, chi0 <= CHI2_F
+    score = np.where(ok1, CHI2_H - chi1, 0.0).sum(-1) + np.where(ok0, CHI2_H - chi0, 0.0).sum(-1)
+    return score, ok0 & ok1
+
+
+def orbslam_scores(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    *,
+    iterations: int = 200,
+    sigma: float = 1.0,
+    rng: np.random.Generator | None = None,
+) -> OrbSlamScores:
+    """ORB-SLAM's parallel H and F RANSAC with symmetric transfer scores.
+
+    Parameters
+    ----------
+    p0, p1 : (N, 2) array
+        Reference and current pixels.
+    iterations : int
+        RANSAC iterations (ORB-SLAM: 200); both models use the same 8-point sets.
+    sigma : float
+        Measurement noise, pixels (ORB-SLAM: 1).
+    rng : numpy Generator
+        Source of the random sets (seeded for reproducibility; default seed 0).
+    """
+    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+    n = len(p0)
+    nan33 = np.full((3, 3), np.nan)
+    if n < 8:
+        empty = np.zeros(n, dtype=bool)
+        return OrbSlamScores(0.0, 0.0, math.nan, nan33, nan33, empty, empty)
+    rng = np.random.default_rng(0) if rng is None else rng
+    sets = np.argsort(rng.random((iterations, n)), axis=1)[:, :8]
+    n0, T0 = _normalize(p0)
+    n1, T1 = _normalize(p1)
+    Hn = _homographies(n0[sets], n1[sets])
+    H = np.linalg.inv(T1) @ Hn @ T0
+    Fn = _fundamentals(n0[sets], n1[sets])
+    F = T1.T @ Fn @ T0
+    score_h, in_h = _homography_scores(H, p0, p1, sigma)
+    score_f, in_f = _fundamental_scores(F, p0, p1, sigma)
+    bh, bf = int(np.argmax(score_h)), int(np.argmax(score_f))
+    s_h, s_f = float(score_h[bh]), float(score_f[bf])
+    total = s_h + s_f
+    ratio = s_h / total if total > 0 else math.nan
+    return OrbSlamScores(s_h, s_f, ratio, H[bh], F[bf], in_h[bh], in_f[bf])
+
+
+def orbslam_choice(
+    ratio: np.ndarray, version: OrbSlamVersion = OrbSlamVersion.ORB2
+) -> np.ndarray:
+    """Vectorized model choice: (N,) array of 'H' / 'F' ('' where the ratio is NaN)."""
+    ratio = np.asarray(ratio, dtype=float)
+    out = np.where(ratio > version.ratio_threshold, 'H', 'F').astype(object)
+    out[~np.isfinite(ratio)] = ''
+    return out
+
+
+__all__ = [
+    'CHI2_F',
+    'CHI2_H',
+    'VINS_FOCAL',
+    'OrbSlamScores',
+    'OrbSlamVersion',
+    'VinsResult',
+    'butt_rule',
+    'normalized_points',
+    'orbslam_choice',
+    'orbslam_scores',
+    'vins_parallax',
+    'vins_relative_pose',
+    'vins_rule',
+]

@@ -1,0 +1,398 @@
+"""Conversions between ROS 2 messages and numpy, by hand (no cv_bridge, no sensor_msgs_py).
+
+Images are read with ``np.frombuffer`` honouring ``step`` (row padding) and ``is_bigendian``;
+messages are built with ``msg.data = array.tobytes()`` (assigning an ndarray is ~100x slower).
+Poses follow OpenCV's two-view convention ``x_cur = R @ x_ref + t``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped, TransformStamped
+from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
+from std_msgs.msg import Header
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import ConfigError, ImageConversionError
+
+
+@dataclass(frozen=True)
+class EncodingInfo:
+    """Layout of one ``sensor_msgs/Image`` encoding."""
+
+    channels: int
+    dtype: str  # numpy dtype name of one channel, native order
+    #: cv2 code turning the raw (H, W) or (H, W, C) array into BGR, or None
+    to_bgr: int | None
+
+
+#: Supported encodings (sensor_msgs/image_encodings.hpp names).
+ENCODINGS: dict[str, EncodingInfo] = {
+    'mono8': EncodingInfo(1, 'uint8', None),
+    'mono16': EncodingInfo(1, 'uint16', None),
+    'rgb8': EncodingInfo(3, 'uint8', cv2.COLOR_RGB2BGR),
+    'bgr8': EncodingInfo(3, 'uint8', None),
+    'rgba8': EncodingInfo(4, 'uint8', cv2.COLOR_RGBA2BGR),
+    'bgra8': EncodingInfo(4, 'uint8', cv2.COLOR_BGRA2BGR),
+    # OpenCV names Bayer patterns after the second row, so RGGB is its BayerBG (as cv_bridge).
+    'bayer_rggb8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerBG2BGR),
+    'bayer_bggr8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerRG2BGR),
+    'bayer_gbrg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGR2BGR),
+    'bayer_grbg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGB2BGR),
+}
+
+#: Point cloud fields published on ``init/points``: all float32, little-endian, in this order.
+POINT_FIELDS: tuple[str, ...] = ('x', 'y', 'z', 'u0', 'v0', 'u1', 'v1')
+
+
+# --------------------------------------------------------------------------------------- time
+def stamp_to_seconds(stamp: Time) -> float:
+    """``builtin_interfaces/Time`` -> float seconds."""
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def seconds_to_stamp(seconds: float) -> Time:
+    """Float seconds (>= 0) -> ``builtin_interfaces/Time``, rounded to the nanosecond."""
+    total_ns = round(seconds * 1e9)
+    if total_ns < 0:
+        raise ValueError(f'ROS time cannot be negative: {seconds} s')
+    return Time(sec=total_ns // 1_000_000_000, nanosec=total_ns % 1_000_000_000)
+
+
+# ------------------------------------------------------------------------------------- images
+def image_to_numpy(msg: Image) -> np.ndarray:
+    """Pixels of an Image message as an array in the message's own channel order.
+
+    Args:
+        msg: ``sensor_msgs/Image`` in one of :data:`ENCODINGS`.
+
+    Returns:
+        (H, W) for mono and Bayer encodings (raw mosaic), (H, W, C) otherwise; uint8, or
+        uint16 (native byte order) for mono16. A view on ``msg.data`` when no copy is needed.
+
+    Raises:
+        ImageConversionError: unknown encoding, zero size, ``step`` shorter than a row, or
+            ``data`` shorter than ``step * height``.
+    """
+    encoding = msg.encoding
+    info = ENCODINGS.get(encoding)
+    if info is None:
+        raise ImageConversionError(
+            f'unsupported image encoding {encoding!r} (supported: {", ".join(ENCODINGS)})'
+        )
+    height, width, step = int(msg.height), int(msg.width), int(msg.step)
+    if height <= 0 or width <= 0:
+        raise ImageConversionError(f'{encoding} image has zero size ({width}x{height})')
+    itemsize = np.dtype(info.dtype).itemsize
+    row_bytes = width * info.channels * itemsize
+    if step < row_bytes:
+        raise ImageConversionError(
+            f'{encoding} image {width}x{height}: step {step} < width * bytes per pixel '
+            f'= {row_bytes}'
+        )
+    data = np.frombuffer(msg.data, dtype=np.uint8)
+    if data.size < step * height:
+        raise ImageConversionError(
+            f'{encoding} image {width}x{height}: data has {data.size} bytes, expected '
+            f'step * height = {step * height}'
+        )
+    rows = data[: step * height].reshape(height, step)[:, :row_bytes]
+    if itemsize == 1:
+        pixels = rows
+    else:
+        order = '>' if msg.is_bigendian else '<'
+        pixels = np.ascontiguousarray(rows).view(np.dtype(info.dtype).newbyteorder(order))
+        pixels = pixels.astype(info.dtype, copy=False)  # native order
+    if info.channels == 1:
+        return pixels.reshape(height, width)
+    return pixels.reshape(height, width, info.channels)
+
+
+def image_to_cv(msg: Image) -> np.ndarray:
+    """An Image message as the selector's input: (H, W) uint8 gray or (H, W, 3) uint8 BGR.
+
+    Colour and Bayer encodings become BGR; mono16 keeps its 8 high bits (value >> 8).
+
+    Raises:
+        ImageConversionError: as :func:`image_to_numpy`.
+    """
+    pixels = image_to_numpy(msg)
+    info = ENCODINGS[msg.encoding]
+    if pixels.dtype == np.uint16:
+        return (pixels >> 8).astype(np.uint8)
+    if info.to_bgr is not None:
+        return cv2.cvtColor(np.ascontiguousarray(pixels), info.to_bgr)
+    return pixels
+
+
+def numpy_to_image(
+    pixels: np.ndarray,
+    encoding: str,
+    *,
+    stamp: Time | None = None,
+    frame_id: str = '',
+    step: int | None = None,
+    is_bigendian: bool = False,
+) -> Image:
+    """Build an Image message from an array laid out as ``encoding`` says.
+
+    Args:
+        pixels: (H, W) or (H, W, C) array; uint8, or uint16 for mono16.
+        encoding: one of :data:`ENCODINGS`.
+        stamp: header stamp (zero when None).
+        frame_id: header frame id.
+        step: row length in bytes, >= W * C * itemsize (rows are zero-padded); None = packed.
+        is_bigendian: write multi-byte pixels big-endian.
+
+    Raises:
+        ImageConversionError: unknown encoding, or an array that does not match it.
+    """
+    info = ENCODINGS.get(encoding)
+    if info is None:
+        raise ImageConversionError(f'unsupported image encoding {encoding!r}')
+    pixels = np.asarray(pixels)
+    expected_ndim = 2 if info.channels == 1 else 3
+    if (
+        pixels.ndim != expected_ndim
+        or (info.channels > 1 and pixels.shape[2] != info.channels)
+        or pixels.dtype != np.dtype(info.dtype)
+    ):
+        raise ImageConversionError(
+            f'{encoding} needs a {info.dtype} array with {info.channels} channel(s), got '
+            f'{pixels.dtype} {pixels.shape}'
+        )
+    height, width = pixels.shape[:2]
+    itemsize = pixels.dtype.itemsize
+    row_bytes = width * info.channels * itemsize
+    step = row_bytes if step is None else int(step)
+    if step < row_bytes:
+        raise ImageConversionError(f'step {step} < row size {row_bytes} bytes')
+    if itemsize > 1:
+        pixels = pixels.astype(pixels.dtype.newbyteorder('>' if is_bigendian else '<'))
+    rows = np.ascontiguousarray(pixels).view(np.uint8).reshape(height, row_bytes)
+    if step > row_bytes:
+        padded = np.zeros((height, step), dtype=np.uint8)
+        padded[:, :row_bytes] = rows
+        rows = padded
+    msg = Image()
+    msg.header = Header(stamp=stamp or Time(), frame_id=frame_id)
+    msg.height, msg.width, msg.step = int(height), int(width), int(step)
+    msg.encoding = encoding
+    msg.is_bigendian = bool(is_bigendian and itemsize > 1)
+    msg.data = rows.tobytes()
+    return msg
+
+
+# -------------------------------------------------------------------------------- camera info
+def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
+    """Intrinsics (and OpenCV distortion) from a CameraInfo message.
+
+    ``plumb_bob`` and ``rational_polynomial`` coefficients pass through to OpenCV; an empty
+    model or all-zero ``d`` means no distortion. ``binning`` and ``roi`` are ignored.
+
+    Raises:
+        ConfigError: K not finite or with non-positive focal lengths, zero image size, or an
+            unsupported distortion model with non-zero coefficients.
+    """
+    K = np.asarray(msg.k, dtype=float).reshape(3, 3)
+    if not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise ConfigError(f'camera_info has an invalid K {K.ravel().tolist()}')
+    distortion = tuple(float(d) for d in msg.d)
+    if not all(math.isfinite(d) for d in distortion):
+        raise ConfigError(f'camera_info has non-finite distortion {list(distortion)}')
+    if not any(distortion):
+        distortion = ()
+    elif msg.distortion_model not in ('plumb_bob', 'rational_polynomial', ''):
+        raise ConfigError(
+            f'camera_info distortion model {msg.distortion_model!r} is not supported '
+            '(plumb_bob, rational_polynomial)'
+        )
+    if msg.width <= 0 or msg.height <= 0:
+        raise ConfigError(f'camera_info has zero image size ({msg.width}x{msg.height})')
+    return Intrinsics.from_matrix(K, int(msg.width), int(msg.height), distortion)
+
+
+def intrinsics_to_camera_info(
+    intrinsics: Intrinsics, *, stamp: Time | None = None, frame_id: str = ''
+) -> CameraInfo:
+    """A CameraInfo message (plumb_bob, identity R, P = [K | 0]) for ``intrinsics``."""
+    msg = CameraInfo()
+    msg.header = Header(stamp=stamp or Time(), frame_id=frame_id)
+    msg.width, msg.height = int(intrinsics.width), int(intrinsics.height)
+    msg.distortion_model = 'plumb_bob'
+    distortion = list(intrinsics.distortion) + [0.0] * max(0, 5 - len(intrinsics.distortion))
+    msg.d = [float(d) for d in distortion]
+    K = intrinsics.K
+    msg.k = K.ravel().tolist()
+    msg.r = np.eye(3).ravel().tolist()
+    msg.p = np.hstack([K, np.zeros((3, 1))]).ravel().tolist()
+    return msg
+
+
+# -------------------------------------------------------------------------------- point cloud
+def make_point_cloud(
+    points: np.ndarray,
+    pixels_ref: np.ndarray,
+    pixels_cur: np.ndarray,
+    header: Header,
+) -> PointCloud2:
+    """A PointCloud2 of triangulated points with their pixel coordinates.
+
+    Args:
+        points: (M, 3) points in the reference camera frame (scale: median depth 1).
+        pixels_ref: (M, 2) pixels (u0, v0) in the reference image.
+        pixels_cur: (M, 2) pixels (u1, v1) in the current image.
+        header: stamp and frame id (the reference camera's optical frame).
+
+    Returns:
+        Unordered cloud (height 1, width M) with float32 fields :data:`POINT_FIELDS`,
+        28 bytes per point, little-endian.
+    """
+    points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    n = points.shape[0]
+    pixels_ref = np.asarray(pixels_ref, dtype=np.float32).reshape(n, 2)
+    pixels_cur = np.asarray(pixels_cur, dtype=np.float32).reshape(n, 2)
+    table = np.hstack([points, pixels_ref, pixels_cur]).astype('<f4')
+    msg = PointCloud2()
+    msg.header = header
+    msg.height, msg.width = 1, n
+    msg.fields = [
+        PointField(name=name, offset=4 * i, datatype=PointField.FLOAT32, count=1)
+        for i, name in enumerate(POINT_FIELDS)
+    ]
+    msg.is_bigendian = False
+    msg.point_step = 4 * len(POINT_FIELDS)
+    msg.row_step = msg.point_step * n
+    msg.is_dense = bool(np.all(np.isfinite(table)))
+    msg.data = np.ascontiguousarray(table).tobytes()
+    return msg
+
+
+_POINTFIELD_DTYPES = {
+    PointField.INT8: 'i1', PointField.UINT8: 'u1', PointField.INT16: 'i2',
+    PointField.UINT16: 'u2', PointField.INT32: 'i4', PointField.UINT32: 'u4',
+    PointField.FLOAT32: 'f4', PointField.FLOAT64: 'f8',
+}
+
+
+def point_cloud_to_array(msg: PointCloud2) -> np.ndarray:
+    """A PointCloud2 as a (height * width,) structured array with one column per field.
+
+    Raises:
+        ValueError: unknown field type or data shorter than the declared size.
+    """
+    order = '>' if msg.is_bigendian else '<'
+    names, formats, offsets = [], [], []
+    for field in msg.fields:
+        if field.datatype not in _POINTFIELD_DTYPES:
+            raise ValueError(f'point field {field.name!r} has unknown datatype {field.datatype}')
+        base = order + _POINTFIELD_DTYPES[field.datatype]
+        names.append(field.name)
+        formats.append(base if field.count == 1 else (base, (field.count,)))
+        offsets.append(field.offset)
+    dtype = np.dtype(
+        {'names': names, 'formats': formats, 'offsets': offsets, 'itemsize': msg.point_step}
+    )
+    n = msg.height * msg.width
+    data = np.frombuffer(msg.data, dtype=np.uint8)
+    if data.size < msg.point_step * n or msg.row_step * msg.height > data.size:
+        raise ValueError(f'point cloud data has {data.size} bytes, expected {msg.row_step} x '
+                         f'{msg.height}')
+    rows = data[: msg.row_step * msg.height].reshape(msg.height, msg.row_step)
+    packed = np.ascontiguousarray(rows[:, : msg.point_step * msg.width])
+    return packed.view(dtype).reshape(n)
+
+
+# ---------------------------------------------------------------------------------------- pose
+def rotation_to_quaternion(R: np.ndarray) -> np.ndarray:
+    """(3, 3) rotation matrix -> (4,) unit quaternion (x, y, z, w) with w >= 0."""
+    R = np.asarray(R, dtype=float).reshape(3, 3)
+    # Symmetric 4x4 matrix whose top eigenvector is the quaternion (Bar-Itzhack); robust to
+    # slightly non-orthogonal input.
+    m = R
+    K = np.array([
+        [m[0, 0] - m[1, 1] - m[2, 2], m[1, 0] + m[0, 1], m[2, 0] + m[0, 2], m[2, 1] - m[1, 2]],
+        [m[1, 0] + m[0, 1], m[1, 1] - m[0, 0] - m[2, 2], m[2, 1] + m[1, 2], m[0, 2] - m[2, 0]],
+        [m[2, 0] + m[0, 2], m[2, 1] + m[1, 2], m[2, 2] - m[0, 0] - m[1, 1], m[1, 0] - m[0, 1]],
+        [m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], m[0, 0] + m[1, 1] + m[2, 2]],
+    ]) / 3.0
+    _, vectors = np.linalg.eigh(K)
+    q = vectors[:, -1]
+    return q if q[3] >= 0 else -q
+
+
+def quaternion_to_rotation(q: Sequence[float]) -> np.ndarray:
+    """(x, y, z, w) quaternion (any norm > 0) -> (3, 3) rotation matrix."""
+    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def camera_pose_in_reference(R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The current camera's pose in the reference camera frame, for ``x_cur = R x_ref + t``.
+
+    Returns:
+        (R_ref_cur (3, 3), position (3,)) with ``R_ref_cur = R.T`` and ``position = -R.T t``
+        (the current optical centre in reference coordinates).
+    """
+    R = np.asarray(R, dtype=float).reshape(3, 3)
+    t = np.asarray(t, dtype=float).reshape(3)
+    return R.T, -R.T @ t
+
+
+def make_pose_stamped(R: np.ndarray, t: np.ndarray, header: Header) -> PoseStamped:
+    """PoseStamped of the current camera in the reference frame (``header.frame_id``)."""
+    rotation, position = camera_pose_in_reference(R, t)
+    msg = PoseStamped()
+    msg.header = header
+    msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = map(float, position)
+    q = rotation_to_quaternion(rotation)
+    o = msg.pose.orientation
+    o.x, o.y, o.z, o.w = map(float, q)
+    return msg
+
+
+def make_transform(
+    R: np.ndarray, t: np.ndarray, header: Header, child_frame_id: str
+) -> TransformStamped:
+    """TF transform reference frame (``header.frame_id``) -> current camera frame."""
+    rotation, position = camera_pose_in_reference(R, t)
+    msg = TransformStamped()
+    msg.header = header
+    msg.child_frame_id = child_frame_id
+    tr = msg.transform.translation
+    tr.x, tr.y, tr.z = map(float, position)
+    q = rotation_to_quaternion(rotation)
+    rot = msg.transform.rotation
+    rot.x, rot.y, rot.z, rot.w = map(float, q)
+    return msg
+
+
+__all__ = [
+    'ENCODINGS',
+    'POINT_FIELDS',
+    'EncodingInfo',
+    'camera_info_to_intrinsics',
+    'camera_pose_in_reference',
+    'image_to_cv',
+    'image_to_numpy',
+    'intrinsics_to_camera_info',
+    'make_point_cloud',
+    'make_pose_stamped',
+    'make_transform',
+    'numpy_to_image',
+    'point_cloud_to_array',
+    'quaternion_to_rotation',
+    'rotation_to_quaternion',
+    'seconds_to_stamp',
+    'stamp_to_seconds',
+]
