@@ -1,0 +1,134 @@
+"""Tests for initsel_ros.geometry on points projected into two known cameras."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import GeometryError
+from initsel_ros.geometry import (
+    estimate_pose,
+    reconstruction_error,
+    relative_pose,
+    rotation_angle_deg,
+    translation_chordal_error,
+    triangulate,
+)
+
+K = Intrinsics.tum_fr3().K
+
+
+def rotation(rx: float, ry: float, rz: float) -> np.ndarray:
+    return cv2.Rodrigues(np.array([rx, ry, rz], dtype=np.float64))[0]
+
+
+def project(X: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    u = (X @ R.T + t) @ K.T
+    return u[:, :2] / u[:, 2:3]
+
+
+def scene(rng: np.random.Generator, n: int = 200, planar: bool = False) -> np.ndarray:
+    z = np.full(n, 2.5) if planar else rng.uniform(1.5, 4.0, n)
+    return np.c_[rng.uniform(-1.0, 1.0, n) * z / 2.5, rng.uniform(-0.7, 0.7, n) * z / 2.5, z]
+
+
+def views(X, R, t, rng, noise=0.3):
+    p0 = project(X, np.eye(3), np.zeros(3)) + rng.normal(0, noise, (len(X), 2))
+    p1 = project(X, R, t) + rng.normal(0, noise, (len(X), 2))
+    return p0, p1
+
+
+R_TRUE = rotation(0.02, -0.08, 0.01)
+T_TRUE = np.array([0.25, 0.03, 0.05])
+
+
+@pytest.mark.parametrize('method', ['F', 'E', 'H'])
+def test_each_method_recovers_the_translation_direction(method):
+    rng = np.random.default_rng(10)
+    X = scene(rng, planar=method == 'H')
+    p0, p1 = views(X, R_TRUE, T_TRUE, rng)
+    est = estimate_pose(method, p0, p1, K)
+    assert est.ok, est.reason
+    assert translation_chordal_error(T_TRUE, est.t) < 0.1  # about 5.7 degrees
+    assert rotation_angle_deg(est.R @ R_TRUE.T) < 1.0
+    assert est.n_points > 150
+    assert np.all(est.points[:, 2] > 0)
+    assert est.parallax_deg > 1.0
+    # Points come back at unit baseline; after scaling they match the truth.
+    assert reconstruction_error(X[est.indices], est.points, 'median') < 0.1  # metres, 2-4 m away
+
+
+def test_homography_on_a_3d_scene_gives_a_worse_pose_than_essential():
+    rng = np.random.default_rng(11)
+    X = scene(rng)
+    p0, p1 = views(X, R_TRUE, T_TRUE, rng)
+    e = estimate_pose('E', p0, p1, K)
+    h = estimate_pose('H', p0, p1, K)
+    assert e.ok
+    assert h.n_points < e.n_points / 2  # most of a 3-D scene is off any one plane
+
+
+@pytest.mark.parametrize('method', ['F', 'E', 'H'])
+def test_pure_rotation_is_reported_as_degenerate(method):
+    rng = np.random.default_rng(12)
+    X = scene(rng)
+    p0, p1 = views(X, R_TRUE, np.zeros(3), rng)
+    est = estimate_pose(method, p0, p1, K)
+    assert not est.ok
+    assert est.reason
+    assert est.parallax_deg < 0.5
+
+
+def test_too_few_correspondences_is_a_value_not_an_exception():
+    est = estimate_pose('F', np.zeros((5, 2)), np.ones((5, 2)), K)
+    assert not est.ok
+    assert 'needs 8' in est.reason
+    with pytest.raises(GeometryError, match='NaN'):
+        estimate_pose('E', np.full((10, 2), np.nan), np.ones((10, 2)), K)
+    with pytest.raises(GeometryError, match='camera matrix'):
+        estimate_pose('E', np.ones((10, 2)), np.ones((10, 2)), np.zeros((3, 3)))
+
+
+def test_triangulate_recovers_known_points():
+    rng = np.random.default_rng(13)
+    X = scene(rng, 20)
+    p0, p1 = views(X, R_TRUE, T_TRUE, rng, noise=0.0)
+    np.testing.assert_allclose(triangulate(R_TRUE, T_TRUE, K, p0, p1), X, atol=1e-6)
+
+
+def test_chordal_error_values():
+    assert translation_chordal_error([1, 0, 0], [2, 0, 0]) == pytest.approx(0.0)
+    assert translation_chordal_error([1, 0, 0], [-1, 0, 0]) == pytest.approx(2.0)
+    assert translation_chordal_error([1, 0, 0], [0, 3, 0]) == pytest.approx(np.sqrt(2))
+    assert np.isnan(translation_chordal_error([0, 0, 0], [1, 0, 0]))
+
+
+def test_reconstruction_error_removes_scale_with_both_rules():
+    rng = np.random.default_rng(14)
+    g = rng.uniform(1, 3, (30, 3))
+    assert reconstruction_error(g, g / 7.0, 'first_two') == pytest.approx(0.0, abs=1e-12)
+    assert reconstruction_error(g, g / 7.0, 'median') == pytest.approx(0.0, abs=1e-12)
+    e = g / 7.0
+    e[0] = e[1] + 1e-3  # a bad first pair ruins the paper's scale, not the median one
+    assert reconstruction_error(g, e, 'first_two') > 1.0
+    assert reconstruction_error(g, e, 'median') < 0.01
+    assert np.isnan(reconstruction_error(g[:1], e[:1]))
+    with pytest.raises(GeometryError, match='scale must be'):
+        reconstruction_error(g, e, 'mean')
+
+
+def test_relative_pose_of_camera_to_world_poses():
+    A = np.eye(4)
+    A[:3, :3] = rotation(0.1, 0.2, 0.3)
+    A[:3, 3] = [1.0, 2.0, 3.0]
+    B = np.eye(4)
+    B[:3, :3] = rotation(-0.2, 0.1, 0.0)
+    B[:3, 3] = [1.5, 2.0, 2.5]
+    R, t = relative_pose(A, B)
+    x_ref = np.array([0.3, -0.2, 2.0])
+    x_world = A[:3, :3] @ x_ref + A[:3, 3]
+    x_cur = B[:3, :3].T @ (x_world - B[:3, 3])
+    np.testing.assert_allclose(R @ x_ref + t, x_cur)
+    assert np.linalg.norm(t) == pytest.approx(np.linalg.norm(A[:3, 3] - B[:3, 3]))
