@@ -214,9 +214,9 @@ def _normalize(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _null_vectors(A: np.ndarray) -> np.ndarray:
-    """(B, M, 9) design matrices -> (B, 3, 3) right singular vectors of the smallest value."""
-    _, _, vt = np.linalg.svd(A)
-    return vt[:, -1, :].reshape(-1, 3, 3)
+    """(B, M, 9) design matrices -> (B, 3, 3) unit null vectors (least-squares, via A^T A)."""
+    _, vecs = np.linalg.eigh(A.transpose(0, 2, 1) @ A)
+    return vecs[:, :, 0].reshape(-1, 3, 3)
 
 
 def _homographies(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
@@ -243,48 +243,40 @@ def _fundamentals(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
     return u @ (s[:, :, None] * vt)
 
 
-def _homography_scores(
-    H: np.ndarray, p0: np.ndarray, p1: np.ndarray, sigma: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """(B, 3, 3) H (p0 -> p1) -> scores (B,), inlier masks (B, N)."""
-    inv_sigma2 = 1.0 / (sigma * sigma)
-    h0 = np.column_stack((p0, np.ones(len(p0))))
-    h1 = np.column_stack((p1, np.ones(len(p1))))
-    with np.errstate(divide='ignore', invalid='ignore'):
-        H_inv = np.linalg.inv(H)
-        fwd = h0 @ H.transpose(0, 2, 1)
-        fwd = fwd[..., :2] / fwd[..., 2:3]
-        bwd = h1 @ H_inv.transpose(0, 2, 1)
-        bwd = bwd[..., :2] / bwd[..., 2:3]
-        chi1 = np.sum((fwd - p1) ** 2, axis=-1) * inv_sigma2
-        chi0 = np.sum((bwd - p0) ** 2, axis=-1) * inv_sigma2
-    chi1 = np.nan_to_num(chi1, nan=np.inf)
-    chi0 = np.nan_to_num(chi0, nan=np.inf)
-    ok1, ok0 = chi1 <= CHI2_H, chi0 <= CHI2_H
-    score = np.where(ok1, CHI2_H - chi1, 0.0).sum(-1) + np.where(ok0, CHI2_H - chi0, 0.0).sum(-1)
-    return score, ok0 & ok1
+def _apply(M: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(B, 3, 3) matrices times the homogeneous points (x, y, 1), x and y (N,) -> 3 x (B, N)."""
+    out = M @ np.vstack((x, y, np.ones_like(x)))
+    return out[:, 0], out[:, 1], out[:, 2]
 
 
-def _fundamental_scores(
-    F: np.ndarray, p0: np.ndarray, p1: np.ndarray, sigma: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """(B, 3, 3) F (x1^T F x0 = 0) -> scores (B,), inlier masks (B, N)."""
-    inv_sigma2 = 1.0 / (sigma * sigma)
-    h0 = np.column_stack((p0, np.ones(len(p0))))
-    h1 = np.column_stack((p1, np.ones(len(p1))))
-    l1 = h0 @ F.transpose(0, 2, 1)  # epipolar lines in the current image
-    l0 = h1 @ F  # in the reference image
+def _chi2_transfer(
+    M: np.ndarray, src: np.ndarray, dst: np.ndarray, inv_sigma2: float
+) -> np.ndarray:
+    """Squared transfer error of src through homographies M against dst, over sigma^2: (B, N)."""
+    a, b, c = _apply(M, src[:, 0], src[:, 1])
     with np.errstate(divide='ignore', invalid='ignore'):
-        num1 = (l1 * h1).sum(-1)
-        chi1 = num1**2 / (l1[..., 0] ** 2 + l1[..., 1] ** 2) * inv_sigma2
-        num0 = (l0 * h0).sum(-1)
-        chi0 = num0**2 / (l0[..., 0] ** 2 + l0[..., 1] ** 2) * inv_sigma2
-    chi1 = np.nan_to_num(chi1, nan=np.inf)
-    chi0 = np.nan_to_num(chi0, nan=np.inf)
-    # ORB-SLAM rejects with the 1-dof cut-off but scores against the 2-dof one.
-    ok1, ok0 = chi1 <= CHI2_F, chi0 <= CHI2_F
-    score = np.where(ok1, CHI2_H - chi1, 0.0).sum(-1) + np.where(ok0, CHI2_H - chi0, 0.0).sum(-1)
-    return score, ok0 & ok1
+        inv_c = 1.0 / c
+        chi2 = ((a * inv_c - dst[:, 0]) ** 2 + (b * inv_c - dst[:, 1]) ** 2) * inv_sigma2
+    return np.nan_to_num(chi2, nan=np.inf)
+
+
+def _chi2_epipolar(
+    lines_from: np.ndarray, src: np.ndarray, dst: np.ndarray, inv_sigma2: float
+) -> np.ndarray:
+    """Squared distance of dst to the epipolar lines M @ src, over sigma^2: (B, N)."""
+    a, b, c = _apply(lines_from, src[:, 0], src[:, 1])
+    with np.errstate(divide='ignore', invalid='ignore'):
+        num = a * dst[:, 0] + b * dst[:, 1] + c
+        chi2 = num * num / (a * a + b * b) * inv_sigma2
+    return np.nan_to_num(chi2, nan=np.inf)
+
+
+def _score(chi_a: np.ndarray, chi_b: np.ndarray, reject: float) -> tuple[np.ndarray, np.ndarray]:
+    """ORB-SLAM's score: sum of (5.991 - chi2) over both directions where chi2 <= ``reject``."""
+    ok_a, ok_b = chi_a <= reject, chi_b <= reject
+    score = np.where(ok_a, CHI2_H - chi_a, 0.0).sum(-1)
+    score += np.where(ok_b, CHI2_H - chi_b, 0.0).sum(-1)
+    return score, ok_a & ok_b
 
 
 def orbslam_scores(
@@ -316,15 +308,25 @@ def orbslam_scores(
         empty = np.zeros(n, dtype=bool)
         return OrbSlamScores(0.0, 0.0, math.nan, nan33, nan33, empty, empty)
     rng = np.random.default_rng(0) if rng is None else rng
-    sets = np.argsort(rng.random((iterations, n)), axis=1)[:, :8]
+    sets = np.argpartition(rng.random((iterations, n)), 8, axis=1)[:, :8]
     n0, T0 = _normalize(p0)
     n1, T1 = _normalize(p1)
     Hn = _homographies(n0[sets], n1[sets])
     H = np.linalg.inv(T1) @ Hn @ T0
     Fn = _fundamentals(n0[sets], n1[sets])
     F = T1.T @ Fn @ T0
-    score_h, in_h = _homography_scores(H, p0, p1, sigma)
-    score_f, in_f = _fundamental_scores(F, p0, p1, sigma)
+    inv_sigma2 = 1.0 / (sigma * sigma)
+    with np.errstate(all='ignore'):
+        H_inv = np.linalg.inv(H)
+    score_h, in_h = _score(
+        _chi2_transfer(H, p0, p1, inv_sigma2), _chi2_transfer(H_inv, p1, p0, inv_sigma2), CHI2_H
+    )
+    # ORB-SLAM rejects F outliers with the 1-dof cut-off but scores against the 2-dof one.
+    score_f, in_f = _score(
+        _chi2_epipolar(F, p0, p1, inv_sigma2),
+        _chi2_epipolar(F.transpose(0, 2, 1), p1, p0, inv_sigma2),
+        CHI2_F,
+    )
     bh, bf = int(np.argmax(score_h)), int(np.argmax(score_f))
     s_h, s_f = float(score_h[bh]), float(score_f[bf])
     total = s_h + s_f

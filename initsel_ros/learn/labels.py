@@ -1,0 +1,259 @@
+"""Ground-truth labels of a correspondence set: per-method pose errors and the R label.
+
+For each method (F 8-point, E 5-point, H DLT) the pose is estimated from the correspondences
+(:func:`initsel_ros.geometry.estimate_pose`) and compared with ground truth:
+
+- ``E_t``: chordal distance between the unit ground-truth and estimated translation directions;
+- ``E_R``: median distance between ground-truth 3D points (the reference pixels back-projected
+  with the reference depth) and the triangulated points after a scale alignment, computed with
+  both scale rules (``first_two``: the paper's; ``median``: median of the ratios of distances
+  between consecutive point pairs, robust).
+
+Label(method) = ``E_t < et_max`` and ``E_R < er_max`` (0.8 and 1 in the paper);
+R label = ground-truth baseline <= 0.05 m. A failed estimate is label 0 with NaN errors and a
+reason. Raw errors are kept so :func:`relabel` can apply other thresholds later.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from initsel_ros import geometry
+from initsel_ros.errors import GeometryError, InitselError
+
+LOG = logging.getLogger(__name__)
+
+#: The methods that get a pose label, in table order.
+POSE_METHODS = ('F', 'E', 'H')
+
+
+class ScaleRule(str, Enum):
+    """How E_R removes the monocular scale."""
+
+    FIRST_TWO = 'first_two'
+    MEDIAN = 'median'
+
+
+@dataclass(frozen=True)
+class LabelConfig:
+    """Label thresholds.
+
+    Attributes
+    ----------
+    et_max : float
+        A pose is good when E_t is below this (chordal distance, 0..2).
+    er_max : float
+        ... and E_R is below this (metres).
+    rotation_baseline_m : float
+        R label = 1 when the ground-truth baseline is at most this (metres).
+    scale_rule : ScaleRule
+        Which E_R feeds the labels (both are stored).
+    ransac_threshold_px : float
+        RANSAC threshold given to ``estimate_pose`` (pixels).
+    """
+
+    et_max: float = 0.8
+    er_max: float = 1.0
+    rotation_baseline_m: float = 0.05
+    scale_rule: ScaleRule = ScaleRule.MEDIAN
+    ransac_threshold_px: float = 1.0
+
+
+@dataclass(frozen=True)
+class MethodOutcome:
+    """One method's estimate against ground truth (errors NaN when the estimate failed)."""
+
+    ok: bool
+    reason: str
+    et: float = math.nan
+    er_first_two: float = math.nan
+    er_median: float = math.nan
+    n_points: int = 0
+    n_gt_points: int = 0
+    parallax_deg: float = math.nan
+    t: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+
+    def er(self, rule: ScaleRule) -> float:
+        """E_R under ``rule``."""
+        return self.er_first_two if rule is ScaleRule.FIRST_TWO else self.er_median
+
+    def label(self, config: LabelConfig) -> int:
+        """1 when both errors are below the thresholds (NaN compares false)."""
+        er = self.er(config.scale_rule)
+        return int(self.ok and self.et < config.et_max and er < config.er_max)
+
+
+@dataclass(frozen=True)
+class PairLabels:
+    """Ground truth of one pair: baseline, rotation, R label and per-method outcomes."""
+
+    baseline_m: float
+    rotation_deg: float
+    R_gt: np.ndarray
+    t_gt: np.ndarray
+    outcomes: dict[str, MethodOutcome]
+    config: LabelConfig
+
+    @property
+    def r_label(self) -> int:
+        """1 when the baseline is at most ``rotation_baseline_m``."""
+        return int(self.baseline_m <= self.config.rotation_baseline_m)
+
+    def label(self, method: str) -> int:
+        """Label of ``method`` ('F', 'E' or 'H')."""
+        return self.outcomes[method].label(self.config)
+
+
+def backproject(pixels: np.ndarray, depth: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Back-project pixels with a depth image.
+
+    Parameters
+    ----------
+    pixels : (N, 2) array
+        Pixel coordinates (x right, y down); depth is read at the nearest pixel.
+    depth : (H, W) float32
+        Metres, 0 (or non-finite) = no data.
+    K : (3, 3) array
+        Camera matrix of the depth-registered image.
+
+    Returns
+    -------
+    points : (N, 3) float64
+        Points in the camera frame, metres (NaN where there is no depth).
+    valid : (N,) bool
+        Where the depth was available.
+    """
+    pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+    h, w = depth.shape[:2]
+    u = np.rint(pixels[:, 0]).astype(np.int64)
+    v = np.rint(pixels[:, 1]).astype(np.int64)
+    inside = (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    z = np.zeros(len(pixels))
+    z[inside] = depth[v[inside], u[inside]]
+    valid = inside & np.isfinite(z) & (z > 0)
+    z = np.where(valid, z, np.nan)
+    x = (pixels[:, 0] - K[0, 2]) / K[0, 0] * z
+    y = (pixels[:, 1] - K[1, 2]) / K[1, 1] * z
+    return np.column_stack((x, y, z)), valid
+
+
+def _reconstruction_errors(gt: np.ndarray, est: np.ndarray) -> tuple[float, float]:
+    """(first_two, median) E_R for matched (M, 3) arrays; NaN where undefined."""
+    out = []
+    for rule in (ScaleRule.FIRST_TWO, ScaleRule.MEDIAN):
+        try:
+            value = float(geometry.reconstruction_error(gt, est, scale=rule.value))
+        except (GeometryError, ValueError, ZeroDivisionError, FloatingPointError):
+            value = math.nan
+        out.append(value if math.isfinite(value) else math.nan)
+    return out[0], out[1]
+
+
+def method_outcome(
+    method: str,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    gt_points: np.ndarray,
+    gt_valid: np.ndarray,
+    t_gt: np.ndarray,
+    config: LabelConfig,
+) -> MethodOutcome:
+    """Estimate with ``method`` and compare with ground truth (see module docstring)."""
+    try:
+        est = geometry.estimate_pose(
+            geometry.Method(method), p0, p1, K, ransac_threshold_px=config.ransac_threshold_px
+        )
+    except InitselError as exc:
+        return MethodOutcome(False, f'error: {exc}')
+    if not est.ok:
+        return MethodOutcome(False, est.reason or 'failed')
+    n_points = len(est.points)
+    t_norm = float(np.linalg.norm(t_gt))
+    et = (
+        float(geometry.translation_chordal_error(t_gt, est.t)) if t_norm > 1e-9 else math.nan
+    )
+    idx = np.asarray(est.indices, dtype=np.int64)
+    keep = gt_valid[idx]
+    n_gt = int(keep.sum())
+    if n_gt >= 2:
+        er_first, er_median = _reconstruction_errors(gt_points[idx[keep]], est.points[keep])
+    else:
+        er_first = er_median = math.nan
+    return MethodOutcome(
+        True, est.reason or 'ok', et, er_first, er_median, n_points, n_gt,
+        float(est.parallax_deg), np.asarray(est.t, dtype=float).reshape(3),
+    )
+
+
+def label_pair(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    depth_ref: np.ndarray,
+    T_w_ref: np.ndarray,
+    T_w_cur: np.ndarray,
+    config: LabelConfig | None = None,
+) -> PairLabels:
+    """Label one pair.
+
+    Parameters
+    ----------
+    p0, p1 : (N, 2) float32
+        Reference and current pixels of the correspondences.
+    K : (3, 3) array
+        Camera matrix.
+    depth_ref : (H, W) float32
+        Reference frame depth, metres (0 = no data).
+    T_w_ref, T_w_cur : (4, 4) array
+        Ground-truth camera-to-world poses of the two frames.
+    """
+    config = config or LabelConfig()
+    R_gt, t_gt = geometry.relative_pose(np.asarray(T_w_ref), np.asarray(T_w_cur))
+    t_gt = np.asarray(t_gt, dtype=float).reshape(3)
+    baseline = float(np.linalg.norm(t_gt))
+    rotation = float(geometry.rotation_angle_deg(R_gt))
+    gt_points, gt_valid = backproject(p0, depth_ref, K)
+    outcomes = {
+        m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config) for m in POSE_METHODS
+    }
+    return PairLabels(baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config)
+
+
+def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np.ndarray]:
+    """Recompute ``m_er``, ``m_label``, ``R_label`` and ``scale_rule`` from the raw columns.
+
+    ``columns`` is a table's column mapping; a new mapping is returned (input untouched).
+    """
+    out = dict(columns)
+    rule = ScaleRule(config.scale_rule)
+    for m in POSE_METHODS:
+        er = np.asarray(columns[f'{m}_er_{rule.value}'], dtype=float)
+        et = np.asarray(columns[f'{m}_et'], dtype=float)
+        ok = np.asarray(columns[f'{m}_ok']).astype(bool)
+        with np.errstate(invalid='ignore'):
+            label = ok & (et < config.et_max) & (er < config.er_max)
+        out[f'{m}_er'] = er
+        out[f'{m}_label'] = label.astype(np.int64)
+    baseline = np.asarray(columns['gt_baseline_m'], dtype=float)
+    out['R_label'] = (baseline <= config.rotation_baseline_m).astype(np.int64)
+    out['scale_rule'] = np.full(len(baseline), rule.value, dtype=object)
+    return out
+
+
+__all__ = [
+    'POSE_METHODS',
+    'LabelConfig',
+    'MethodOutcome',
+    'PairLabels',
+    'ScaleRule',
+    'backproject',
+    'label_pair',
+    'method_outcome',
+    'relabel',
+]

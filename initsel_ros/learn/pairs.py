@@ -1,0 +1,488 @@
+"""Labelled pairs from sequences with ground truth: the paper's batch protocol.
+
+A sequence is cut into batches of ``batch`` frames; every frame of a batch is paired with the
+batch's first frame (the reference). Correspondences come from KLT tracks carried through the
+batch (:class:`initsel_ros.tracking.KltTracker`), or from ORB descriptor matching with a ratio
+test (for sparse or distant frames, such as the real 3-frame sample). Each pair becomes one row
+of the pair table (:mod:`initsel_ros.learn.table`): features, ground-truth labels
+(:mod:`initsel_ros.learn.labels`) and the correspondence-based baselines.
+
+Batches are independent, so they run in a process pool.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import multiprocessing
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from initsel_ros.errors import DatasetError, InitselError
+from initsel_ros.features import Scaling, pair_features
+from initsel_ros.learn import baselines
+from initsel_ros.learn.labels import POSE_METHODS, LabelConfig, PairLabels, label_pair
+from initsel_ros.learn.table import (
+    EXTRA_NAMES,
+    FREE_PREFIX,
+    PAPER_PREFIX,
+    PairTable,
+    free_feature_columns,
+    paper_feature_columns,
+)
+from initsel_ros.tracking import KltTracker, TrackerConfig
+
+LOG = logging.getLogger(__name__)
+
+
+class Source(str, Enum):
+    """Where the correspondences of a pair come from."""
+
+    KLT = 'klt'
+    ORB = 'orb'
+
+
+@dataclass(frozen=True)
+class Pair:
+    """Correspondences between a batch's reference frame and one later frame.
+
+    Attributes
+    ----------
+    ref_index, cur_index : int
+        Frame indices in the sequence.
+    p0, p1 : (N, 2) float32
+        Reference and current pixels.
+    """
+
+    ref_index: int
+    cur_index: int
+    p0: np.ndarray
+    p1: np.ndarray
+
+
+@dataclass(frozen=True)
+class DatasetConfig:
+    """Options of :func:`build_table`.
+
+    Attributes
+    ----------
+    batch : int
+        Frames per batch (the paper: 90 for training, 30 for testing).
+    source : Source
+        KLT tracks or ORB matches.
+    jobs : int
+        Worker processes (1 = in this process).
+    min_tracks : int
+        Pairs with fewer correspondences are skipped.
+    tracker : TrackerConfig
+        KLT settings.
+    orb_features : int
+        ORB keypoints per frame (ORB source).
+    orb_ratio : float
+        Lowe ratio test (ORB source).
+    label : LabelConfig
+        Label thresholds and scale rule.
+    orbslam_iterations : int
+        RANSAC iterations of the ORB-SLAM baseline (0 = skip it, columns NaN).
+    vins_ransac : bool
+        Run VINS-Mono's F-RANSAC stage when its cheap rule fires.
+    stride : int
+        Use every ``stride``-th frame (1 = all).
+    nearest_tolerance : float or None
+        Passed to the TUM reader: frames outside the ground-truth trajectory take the nearest
+        pose within this many seconds (None = the reader's default).
+    """
+
+    batch: int = 90
+    source: Source = Source.KLT
+    jobs: int = 2
+    min_tracks: int = 8
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    orb_features: int = 1500
+    orb_ratio: float = 0.8
+    label: LabelConfig = field(default_factory=LabelConfig)
+    orbslam_iterations: int = 200
+    vins_ransac: bool = True
+    stride: int = 1
+    nearest_tolerance: float | None = None
+
+
+def batch_ranges(n_frames: int, batch: int, stride: int = 1) -> list[list[int]]:
+    """Frame indices of each batch: consecutive runs of ``batch`` (strided) frames.
+
+    The last, shorter batch is kept when it holds at least two frames.
+    """
+    if batch < 2:
+        raise DatasetError(f'batch must be at least 2 frames, got {batch}')
+    frames = list(range(0, n_frames, max(1, stride)))
+    out = [frames[i : i + batch] for i in range(0, len(frames), batch)]
+    return [b for b in out if len(b) >= 2]
+
+
+def klt_pairs(sequence: Any, frames: Sequence[int], config: TrackerConfig) -> Iterator[Pair]:
+    """Pair every frame of ``frames`` with ``frames[0]`` through KLT tracks."""
+    tracker = KltTracker(config)
+    tracker.reset(sequence.gray(frames[0]))
+    for index in frames[1:]:
+        tracks = tracker.track(sequence.gray(index))
+        yield Pair(frames[0], index, np.asarray(tracks.ref), np.asarray(tracks.cur))
+
+
+def orb_matches(
+    des0: np.ndarray | None,
+    kp0: Sequence[Any],
+    des1: np.ndarray | None,
+    kp1: Sequence[Any],
+    ratio: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ratio-test ORB matches -> (N, 2) float32 reference and current pixels."""
+    empty = np.zeros((0, 2), np.float32)
+    if des0 is None or des1 is None or len(des0) < 2 or len(des1) < 2:
+        return empty, empty
+    knn = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(des0, des1, k=2)
+    good = [m[0] for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
+    # one-to-one: keep the best match per current keypoint
+    best: dict[int, Any] = {}
+    for m in good:
+        if m.trainIdx not in best or m.distance < best[m.trainIdx].distance:
+            best[m.trainIdx] = m
+    matches = sorted(best.values(), key=lambda m: m.queryIdx)
+    if not matches:
+        return empty, empty
+    p0 = np.array([kp0[m.queryIdx].pt for m in matches], np.float32)
+    p1 = np.array([kp1[m.trainIdx].pt for m in matches], np.float32)
+    return p0, p1
+
+
+def orb_pairs(
+    sequence: Any, frames: Sequence[int], n_features: int = 1500, ratio: float = 0.8
+) -> Iterator[Pair]:
+    """Pair every frame of ``frames`` with ``frames[0]`` through ORB descriptor matches."""
+    orb = cv2.ORB_create(n_features)
+    kp0, des0 = orb.detectAndCompute(sequence.gray(frames[0]), None)
+    for index in frames[1:]:
+        kp1, des1 = orb.detectAndCompute(sequence.gray(index), None)
+        p0, p1 = orb_matches(des0, kp0, des1, kp1, ratio)
+        yield Pair(frames[0], index, p0, p1)
+
+
+def extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Extra cheap, resolution-free features (names in :data:`table.EXTRA_NAMES`).
+
+    Parameters
+    ----------
+    p0, p1 : (N, 2) array
+        Reference and current pixels.
+    width, height : int
+        Image size, pixels.
+
+    Returns
+    -------
+    (7,) float64
+        Disparity percentiles 10/50/90 over the image diagonal; occupancy and normalized entropy
+        of the reference points over a 4x4 grid; RMS residuals (over the diagonal) of
+        least-squares affine and homography fits p0 -> p1 (small for pure rotation and planes).
+    """
+    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+    n = len(p0)
+    out = np.full(len(EXTRA_NAMES), np.nan)
+    if n == 0:
+        return out
+    diag = math.hypot(width, height)
+    d = np.hypot(*(p1 - p0).T)
+    out[0:3] = np.percentile(d, (10, 50, 90)) / diag
+    gx = np.clip((p0[:, 0] * (4.0 / width)).astype(np.int64), 0, 3)
+    gy = np.clip((p0[:, 1] * (4.0 / height)).astype(np.int64), 0, 3)
+    counts = np.bincount(gy * 4 + gx, minlength=16)
+    out[3] = np.count_nonzero(counts) / 16.0
+    prob = counts[counts > 0] / n
+    out[4] = float(-(prob * np.log(prob)).sum() / math.log(16))
+    if n >= 3:
+        q0, q1 = p0 / diag, p1 / diag
+        A = np.column_stack((q0, np.ones(n)))
+        sol, *_ = np.linalg.lstsq(A, q1, rcond=None)
+        out[5] = math.sqrt(float(np.mean(np.sum((q1 - A @ sol) ** 2, axis=1))))
+    if n >= 4:
+        H, _ = cv2.findHomography(p0.reshape(-1, 1, 2), p1.reshape(-1, 1, 2), 0)
+        if H is not None:
+            proj = cv2.perspectiveTransform(p0.reshape(-1, 1, 2), H).reshape(-1, 2)
+            err = np.sum((proj - p1) ** 2, axis=1)
+            if np.all(np.isfinite(err)):
+                out[6] = math.sqrt(float(np.mean(err))) / diag
+    return out
+
+
+def pair_row(
+    sequence_name: str,
+    batch: int,
+    pair: Pair,
+    stamps: tuple[float, float],
+    size: tuple[int, int],
+    K: np.ndarray,
+    labels: PairLabels,
+    source: Source,
+    config: DatasetConfig,
+) -> dict[str, Any]:
+    """One table row (every schema column) for a labelled pair."""
+    width, height = size
+    p0, p1 = pair.p0, pair.p1
+    row: dict[str, Any] = {
+        'sequence': sequence_name,
+        'batch': batch,
+        'ref_index': pair.ref_index,
+        'cur_index': pair.cur_index,
+        'ref_stamp': stamps[0],
+        'cur_stamp': stamps[1],
+        'source': source.value,
+        'width': width,
+        'height': height,
+        'n_tracks': len(p0),
+        'gt_baseline_m': labels.baseline_m,
+        'gt_rotation_deg': labels.rotation_deg,
+        'R_label': labels.r_label,
+        'scale_rule': labels.config.scale_rule.value,
+    }
+    paper = pair_features(p0, p1, width, height, scaling=Scaling.PAPER)
+    free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
+    row.update(zip(paper_feature_columns(), map(float, paper), strict=True))
+    row.update(zip(free_feature_columns(), map(float, free), strict=True))
+    extra = extra_features(p0, p1, width, height)
+    row.update(zip(EXTRA_NAMES, map(float, extra), strict=True))
+    disp = np.hypot(*(np.asarray(p1, float) - np.asarray(p0, float)).T)
+    row['disp_mean_px'] = float(disp.mean())
+    row['disp_median_px'] = float(np.median(disp))
+    row['disp_std_px'] = float(disp.std())
+    if config.orbslam_iterations > 0:
+        rng = np.random.default_rng([batch, pair.ref_index, pair.cur_index])
+        scores = baselines.orbslam_scores(p0, p1, iterations=config.orbslam_iterations, rng=rng)
+        row.update(orb_s_h=scores.s_h, orb_s_f=scores.s_f, orb_ratio=scores.ratio)
+    else:
+        row.update(orb_s_h=math.nan, orb_s_f=math.nan, orb_ratio=math.nan)
+    if config.vins_ransac:  # RANSAC only where the cheap rule fires, as VINS-Mono does
+        vins = baselines.vins_relative_pose(p0, p1, K, run_ransac=False)
+        t_gt = labels.t_gt
+        norm = float(np.linalg.norm(t_gt))
+        row.update(vins_parallax_px=vins.parallax_px, vins_inliers=vins.inliers)
+        row['vins_et'] = (
+            float(np.linalg.norm(t_gt / norm - vins.t)) if vins.inliers > 0 and norm > 1e-9
+            else math.nan
+        )
+    else:
+        row.update(vins_parallax_px=baselines.vins_parallax(p0, p1, K), vins_inliers=-1)
+        row['vins_et'] = math.nan
+    for m in POSE_METHODS:
+        o = labels.outcomes[m]
+        row.update({
+            f'{m}_ok': int(o.ok),
+            f'{m}_reason': o.reason.replace(',', ';').replace('\n', ' '),
+            f'{m}_et': o.et,
+            f'{m}_er': o.er(labels.config.scale_rule),
+            f'{m}_er_first_two': o.er_first_two,
+            f'{m}_er_median': o.er_median,
+            f'{m}_n_points': o.n_points,
+            f'{m}_n_gt_points': o.n_gt_points,
+            f'{m}_parallax_deg': o.parallax_deg,
+            f'{m}_label': o.label(labels.config),
+        })
+    return row
+
+
+# ----------------------------------------------------------------------------- batch workers
+_SEQUENCES: dict[str, Any] = {}
+
+
+def _open(path: str, nearest_tolerance: float | None = None) -> Any:
+    """open_sequence with a per-process cache (bags are slow to open)."""
+    key = f'{path}\0{nearest_tolerance}'
+    if key not in _SEQUENCES:
+        from initsel_ros.datasets import is_tum_folder, open_sequence
+
+        options = {}
+        if nearest_tolerance is not None and is_tum_folder(Path(path)):
+            options['nearest_tolerance'] = nearest_tolerance
+        _SEQUENCES[key] = open_sequence(path, **options)
+    return _SEQUENCES[key]
+
+
+@dataclass(frozen=True)
+class BatchTask:
+    """One batch of one sequence, as sent to a worker."""
+
+    path: str
+    batch: int
+    frames: tuple[int, ...]
+    config: DatasetConfig
+
+
+def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
+                         config: DatasetConfig) -> list[dict[str, Any]]:
+    """Rows of one batch of an open sequence (pairs without ground truth are skipped)."""
+    frames = list(frames)
+    ref = frames[0]
+    T_ref = sequence.frames[ref].pose
+    if T_ref is None:
+        LOG.debug('%s batch %d: reference frame %d has no pose', sequence.name, batch, ref)
+        return []
+    intr = sequence.intrinsics
+    K = intr.K
+    depth = sequence.depth(ref)
+    if config.source is Source.KLT:
+        pairs: Iterator[Pair] = klt_pairs(sequence, frames, config.tracker)
+    else:
+        pairs = orb_pairs(sequence, frames, config.orb_features, config.orb_ratio)
+    rows = []
+    for pair in pairs:
+        T_cur = sequence.frames[pair.cur_index].pose
+        if T_cur is None or len(pair.p0) < config.min_tracks:
+            continue
+        labels = label_pair(pair.p0, pair.p1, K, depth, T_ref, T_cur, config.label)
+        stamps = (float(sequence.frames[ref].stamp), float(sequence.frames[pair.cur_index].stamp))
+        rows.append(pair_row(
+            sequence.name, batch, pair, stamps, (intr.width, intr.height), K, labels,
+            config.source, config,
+        ))
+    return rows
+
+
+def _run_task(task: BatchTask) -> tuple[BatchTask, list[dict[str, Any]]]:
+    sequence = _open(task.path, task.config.nearest_tolerance)
+    return task, label_sequence_batch(sequence, task.batch, task.frames, task.config)
+
+
+def _init_worker() -> None:
+    cv2.setNumThreads(1)
+
+
+class Progress:
+    """A one-line progress bar on stderr."""
+
+    def __init__(self, total: int, enabled: bool = True, stream: Any = None) -> None:
+        self.total = total
+        self.enabled = enabled
+        self.stream = stream or sys.stderr
+        self.start = time.perf_counter()
+        self._last = 0.0
+
+    def update(self, done: int, pairs: int, force: bool = False) -> None:
+        """Redraw (at most every 0.2 s unless ``force``)."""
+        now = time.perf_counter()
+        if not self.enabled or (not force and now - self._last < 0.2):
+            return
+        self._last = now
+        elapsed = max(now - self.start, 1e-9)
+        width = 30
+        filled = int(width * done / max(self.total, 1))
+        bar = '#' * filled + '-' * (width - filled)
+        self.stream.write(
+            f'\r[{bar}] {done}/{self.total} batches, {pairs} pairs, {pairs / elapsed:.0f} pairs/s'
+        )
+        if force:
+            self.stream.write('\n')
+        self.stream.flush()
+
+
+@dataclass(frozen=True)
+class BuildStats:
+    """What :func:`build_table` did."""
+
+    sequences: tuple[str, ...]
+    batches: int
+    pairs: int
+    seconds: float
+
+    @property
+    def pairs_per_second(self) -> float:
+        """Labelled pairs per wall-clock second."""
+        return self.pairs / self.seconds if self.seconds > 0 else math.nan
+
+
+def build_table(
+    sources: Sequence[str | Path],
+    config: DatasetConfig | None = None,
+    *,
+    progress: bool = True,
+    on_stats: Callable[[BuildStats], None] | None = None,
+) -> PairTable:
+    """Label every pair of every batch of the given sequences.
+
+    Parameters
+    ----------
+    sources : sequence of paths
+        TUM folders or bags (anything :func:`initsel_ros.datasets.open_sequence` reads).
+    config : DatasetConfig
+        Batch size, correspondence source, label thresholds, jobs.
+    progress : bool
+        Draw a progress bar on stderr.
+    on_stats : callable
+        Receives the :class:`BuildStats` at the end (pairs/s etc.).
+    """
+    config = config or DatasetConfig()
+    start = time.perf_counter()
+    tasks: list[BatchTask] = []
+    names = []
+    for source in sources:
+        path = str(source)
+        try:
+            sequence = _open(path, config.nearest_tolerance)
+        except InitselError:
+            raise
+        except Exception as exc:  # readers may raise anything on foreign files
+            raise DatasetError(f'{path}: cannot open sequence: {exc}') from exc
+        names.append(sequence.name)
+        for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
+            tasks.append(BatchTask(path, b, tuple(frames), config))
+    bar = Progress(len(tasks), enabled=progress)
+    results: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    n_pairs = 0
+    if config.jobs <= 1 or len(tasks) <= 1:
+        for i, task in enumerate(tasks):
+            _, rows = _run_task(task)
+            results[(task.path, task.batch)] = rows
+            n_pairs += len(rows)
+            bar.update(i + 1, n_pairs)
+    else:
+        ctx = multiprocessing.get_context('spawn')
+        with ctx.Pool(config.jobs, initializer=_init_worker) as pool:
+            for i, (task, rows) in enumerate(pool.imap_unordered(_run_task, tasks)):
+                results[(task.path, task.batch)] = rows
+                n_pairs += len(rows)
+                bar.update(i + 1, n_pairs)
+    bar.update(len(tasks), n_pairs, force=True)
+    ordered = [row for task in tasks for row in results[(task.path, task.batch)]]
+    stats = BuildStats(tuple(names), len(tasks), len(ordered), time.perf_counter() - start)
+    LOG.info(
+        '%d pairs from %d batches of %d sequence(s) in %.1f s (%.0f pairs/s)',
+        stats.pairs, stats.batches, len(names), stats.seconds, stats.pairs_per_second,
+    )
+    if on_stats is not None:
+        on_stats(stats)
+    return PairTable.from_rows(ordered)
+
+
+__all__ = [
+    'FREE_PREFIX',
+    'PAPER_PREFIX',
+    'BatchTask',
+    'BuildStats',
+    'DatasetConfig',
+    'Pair',
+    'Progress',
+    'Source',
+    'batch_ranges',
+    'build_table',
+    'extra_features',
+    'klt_pairs',
+    'label_sequence_batch',
+    'orb_matches',
+    'orb_pairs',
+    'pair_row',
+]

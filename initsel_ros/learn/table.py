@@ -1,0 +1,269 @@
+"""The labelled-pairs table: a plain CSV with a fixed, documented schema.
+
+One row per (reference frame, current frame) pair. Columns (see docs/learning.md):
+
+- identity: ``sequence, batch, ref_index, cur_index, ref_stamp, cur_stamp, source, width,
+  height, n_tracks``
+- ground truth: ``gt_baseline_m, gt_rotation_deg, R_label``
+- the 23 features twice: ``paper__<name>`` (the authors' 640x480 scaling) and ``free__<name>``
+  (resolution-free scaling); training picks one set through the model file's scaling
+- extra cheap features: ``x_*`` (see :data:`EXTRA_NAMES`)
+- pixel disparity statistics for the baselines: ``disp_mean_px, disp_median_px, disp_std_px``
+- per method m in F, E, H: ``m_ok, m_reason, m_et, m_er, m_er_first_two, m_er_median,
+  m_n_points, m_n_gt_points, m_parallax_deg, m_label``
+- ``scale_rule`` (which E_R scale gave ``m_er`` and the labels)
+- baselines computed from the correspondences: ``orb_s_h, orb_s_f, orb_ratio, vins_parallax_px,
+  vins_inliers, vins_et``
+
+Files are written to a temporary name in the same folder, then renamed.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from initsel_ros.errors import DatasetError
+from initsel_ros.features import FEATURE_NAMES
+
+METHODS_FEH = ('F', 'E', 'H')
+
+#: Extra cheap features (beyond the paper's 23), all resolution-free.
+EXTRA_NAMES: tuple[str, ...] = (
+    'x_disp_p10',  # 10th percentile of disparity / image diagonal
+    'x_disp_p50',  # median disparity / image diagonal
+    'x_disp_p90',  # 90th percentile of disparity / image diagonal
+    'x_grid_occupancy',  # fraction of the 16 cells of a 4x4 grid holding a reference point
+    'x_grid_entropy',  # entropy of the reference points over the 4x4 grid / log(16)
+    'x_affine_residual',  # RMS residual of a least-squares affine fit p0 -> p1 / diagonal
+    'x_homography_residual',  # RMS residual of a least-squares homography p0 -> p1 / diagonal
+)
+
+PAPER_PREFIX = 'paper__'
+FREE_PREFIX = 'free__'
+
+ID_COLUMNS: tuple[tuple[str, type], ...] = (
+    ('sequence', str),
+    ('batch', int),
+    ('ref_index', int),
+    ('cur_index', int),
+    ('ref_stamp', float),
+    ('cur_stamp', float),
+    ('source', str),
+    ('width', int),
+    ('height', int),
+    ('n_tracks', int),
+    ('gt_baseline_m', float),
+    ('gt_rotation_deg', float),
+    ('R_label', int),
+)
+
+BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
+    ('disp_mean_px', float),
+    ('disp_median_px', float),
+    ('disp_std_px', float),
+    ('orb_s_h', float),
+    ('orb_s_f', float),
+    ('orb_ratio', float),
+    ('vins_parallax_px', float),
+    ('vins_inliers', int),
+    ('vins_et', float),
+)
+
+METHOD_FIELDS: tuple[tuple[str, type], ...] = (
+    ('ok', int),
+    ('reason', str),
+    ('et', float),
+    ('er', float),
+    ('er_first_two', float),
+    ('er_median', float),
+    ('n_points', int),
+    ('n_gt_points', int),
+    ('parallax_deg', float),
+    ('label', int),
+)
+
+
+def method_columns(method: str) -> tuple[tuple[str, type], ...]:
+    """Columns of one method, e.g. ``E_et``."""
+    return tuple((f'{method}_{name}', kind) for name, kind in METHOD_FIELDS)
+
+
+def paper_feature_columns() -> tuple[str, ...]:
+    """The 23 feature columns in the paper's scaling."""
+    return tuple(PAPER_PREFIX + name for name in FEATURE_NAMES)
+
+
+def free_feature_columns() -> tuple[str, ...]:
+    """The 23 feature columns in the resolution-free scaling."""
+    return tuple(FREE_PREFIX + name for name in FEATURE_NAMES)
+
+
+def schema() -> tuple[tuple[str, type], ...]:
+    """All columns, in file order, with their Python types."""
+    cols: list[tuple[str, type]] = list(ID_COLUMNS)
+    cols += [(c, float) for c in paper_feature_columns()]
+    cols += [(c, float) for c in free_feature_columns()]
+    cols += [(c, float) for c in EXTRA_NAMES]
+    cols += list(BASELINE_COLUMNS)
+    for m in METHODS_FEH:
+        cols += list(method_columns(m))
+    cols.append(('scale_rule', str))
+    return tuple(cols)
+
+
+def _format(value: Any, kind: type) -> str:
+    if kind is float:
+        v = float(value)
+        if math.isnan(v):
+            return 'nan'
+        if math.isinf(v):
+            return 'inf' if v > 0 else '-inf'
+        return repr(v)
+    if kind is int:
+        return str(int(value))
+    return str(value)
+
+
+@dataclass(frozen=True)
+class PairTable:
+    """Column-oriented table: name -> (N,) numpy array (object arrays for strings)."""
+
+    columns: Mapping[str, np.ndarray]
+
+    def __len__(self) -> int:
+        first = next(iter(self.columns.values()), None)
+        return 0 if first is None else len(first)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError as exc:
+            raise DatasetError(f'pair table has no column {name!r}') from exc
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.columns
+
+    def select(self, mask: np.ndarray) -> PairTable:
+        """Rows where ``mask`` (bool (N,) or index array) holds."""
+        return PairTable({k: v[mask] for k, v in self.columns.items()})
+
+    def matrix(self, names: Sequence[str]) -> np.ndarray:
+        """(N, len(names)) float64 matrix of the named columns."""
+        return np.column_stack([np.asarray(self[n], dtype=np.float64) for n in names])
+
+    def groups(self) -> np.ndarray:
+        """(N,) int group id per (sequence, batch): the unit of train/validation splits."""
+        keys = np.char.add(
+            np.asarray(self['sequence'], dtype=str), np.asarray(self['batch'], dtype=str)
+        )
+        _, ids = np.unique(keys, return_inverse=True)
+        return ids
+
+    @classmethod
+    def from_rows(cls, rows: Iterable[Mapping[str, Any]]) -> PairTable:
+        """Build from row dicts holding every schema column."""
+        rows = list(rows)
+        cols: dict[str, np.ndarray] = {}
+        for name, kind in schema():
+            values = [row[name] for row in rows]
+            if kind is str:
+                cols[name] = np.array(values, dtype=object)
+            else:
+                cols[name] = np.array(values, dtype=np.float64 if kind is float else np.int64)
+        return cls(cols)
+
+    @classmethod
+    def concat(cls, tables: Sequence[PairTable]) -> PairTable:
+        """Rows of several tables with the same columns."""
+        if not tables:
+            return cls.from_rows([])
+        names = list(tables[0].columns)
+        return cls({n: np.concatenate([t[n] for t in tables]) for n in names})
+
+
+def write_table(table: PairTable, path: Path) -> None:
+    """Write ``table`` as CSV (header + one row per pair) atomically (temp file + rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cols = schema()
+    fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=path.parent)
+    try:
+        with os.fdopen(fd, 'w', newline='') as handle:
+            writer = csv.writer(handle)
+            writer.writerow([name for name, _ in cols])
+            data = [(table[name], kind) for name, kind in cols]
+            for i in range(len(table)):
+                writer.writerow([_format(d[i], kind) for d, kind in data])
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def read_table(path: Path) -> PairTable:
+    """Read a CSV written by :func:`write_table`; raises DatasetError on schema mismatch."""
+    path = Path(path)
+    try:
+        with path.open(newline='') as handle:
+            reader = csv.reader(handle)
+            header = next(reader)
+            raw = list(reader)
+    except (OSError, StopIteration, csv.Error) as exc:
+        raise DatasetError(f'{path}: cannot read pair table: {exc}') from exc
+    cols = schema()
+    missing = [name for name, _ in cols if name not in header]
+    if missing:
+        raise DatasetError(
+            f'{path}: not a pair table of this version, missing columns {missing[:5]}'
+            f'{" ..." if len(missing) > 5 else ""}'
+        )
+    index = {name: i for i, name in enumerate(header)}
+    out: dict[str, np.ndarray] = {}
+    for name, kind in cols:
+        j = index[name]
+        try:
+            values = [row[j] for row in raw]
+            if kind is str:
+                out[name] = np.array(values, dtype=object)
+            elif kind is float:
+                out[name] = np.array(values, dtype=np.float64) if values else np.zeros(0)
+            else:
+                out[name] = np.array([int(v) for v in values], dtype=np.int64)
+        except (IndexError, ValueError) as exc:
+            bad = next(
+                (k + 2 for k, row in enumerate(raw) if len(row) != len(header)), 'unknown'
+            )
+            raise DatasetError(
+                f'{path}: column {name!r} is malformed (first bad line: {bad}): {exc}'
+            ) from exc
+    return PairTable(out)
+
+
+def read_tables(paths: Sequence[Path]) -> PairTable:
+    """Rows of several CSV files."""
+    return PairTable.concat([read_table(p) for p in paths])
+
+
+__all__ = [
+    'EXTRA_NAMES',
+    'FREE_PREFIX',
+    'METHODS_FEH',
+    'PAPER_PREFIX',
+    'PairTable',
+    'free_feature_columns',
+    'method_columns',
+    'paper_feature_columns',
+    'read_table',
+    'read_tables',
+    'schema',
+    'write_table',
+]
