@@ -1,0 +1,117 @@
+"""Tests for initsel_ros.selector: the ROS-free live pipeline."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_tracking import shifted, texture
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import ConfigError, ImageConversionError
+from initsel_ros.features import N_FEATURES
+from initsel_ros.models import METHODS, LogisticModel, ModelSet
+from initsel_ros.policy import PolicyConfig, Reason
+from initsel_ros.selector import Selector, SelectorConfig, to_gray
+
+CAMERA = Intrinsics.tum_fr3()
+
+
+def constant_models(**probabilities: float) -> ModelSet:
+    """Models that ignore the features and always answer ``probabilities`` (test double)."""
+    models = {}
+    for m in METHODS:
+        p = probabilities.get(m, 0.01)
+        models[m] = LogisticModel(m, np.zeros(N_FEATURES), math.log(p / (1 - p)), 0.5)
+    return ModelSet(models)
+
+
+def test_first_frame_becomes_the_reference_and_later_frames_carry_reasons():
+    sel = Selector(constant_models(), CAMERA)
+    img = texture(4)
+    first = sel.process(img, 10.0)
+    assert first.new_reference and first.decision.reason is Reason.NEW_REFERENCE
+    assert first.reference_stamp == 10.0
+    second = sel.process(shifted(img, 1.0, 0.0), 10.033)
+    assert second.decision.reason is Reason.NO_MODEL_FIRED
+    assert second.decision.n_tracks > 200
+    assert second.decision.mean_disparity == pytest.approx(1.0, abs=0.1)
+    assert second.decision.probabilities['E'] == pytest.approx(0.01)
+    assert second.reference_stamp == 10.0 and second.frames_since_reference == 1
+
+
+def test_rotation_model_vetoes_and_says_so():
+    sel = Selector(constant_models(E=0.9, F=0.9, R=0.9), CAMERA)
+    img = texture(5)
+    sel.process(img, 0.0)
+    result = sel.process(shifted(img, 4.0, 0.0), 0.1)
+    assert result.decision.reason is Reason.ROTATION
+    assert set(result.decision.vetoed) == {'E', 'F'}
+    assert result.initialization is None
+
+
+def test_firing_model_on_a_pure_image_shift_is_refused_by_the_pose_check():
+    # A rigid image shift is what a small pan looks like: no parallax to triangulate.
+    sel = Selector(constant_models(E=0.9, H=0.8), CAMERA)
+    img = texture(6)
+    sel.process(img, 0.0)
+    result = sel.process(shifted(img, 8.0, 3.0), 0.1)
+    assert result.initialization is None
+    assert result.decision.reason in (Reason.POSE_FAILED, Reason.LOW_PARALLAX,
+                                      Reason.TOO_FEW_POINTS)
+    assert 'E:' in result.decision.detail and 'H:' in result.decision.detail
+
+
+def test_losing_the_tracks_starts_a_new_reference():
+    sel = Selector(constant_models(), CAMERA, SelectorConfig(policy=PolicyConfig(min_tracks=50)))
+    sel.process(texture(7), 0.0)
+    result = sel.process(np.zeros((480, 640), np.uint8), 0.1)
+    assert result.decision.reason is Reason.TOO_FEW_TRACKS
+    assert result.new_reference and result.reference_stamp == 0.1
+
+
+def test_reference_is_renewed_after_max_frames():
+    sel = Selector(constant_models(), CAMERA, SelectorConfig(max_frames_since_reference=3))
+    img = texture(8)
+    results = [sel.process(shifted(img, 0.5 * k, 0.0), 0.1 * k) for k in range(5)]
+    assert [r.new_reference for r in results] == [True, False, False, True, False]
+    assert results[4].reference_stamp == pytest.approx(0.3)
+
+
+def test_bad_images_raise_without_changing_state():
+    sel = Selector(constant_models(), CAMERA)
+    img = texture(9)
+    sel.process(img, 0.0)
+    with pytest.raises(ImageConversionError, match='intrinsics are for 640x480'):
+        sel.process(np.zeros((240, 320), np.uint8), 0.1)
+    with pytest.raises(ImageConversionError):
+        sel.process(np.zeros((480, 640), np.float32), 0.1)
+    with pytest.raises(ImageConversionError):
+        sel.process(np.zeros((0, 0), np.uint8), 0.1)
+    result = sel.process(shifted(img, 1.0, 0.0), 0.2)
+    assert result.frame_index == 1 and result.decision.reason is Reason.NO_MODEL_FIRED
+
+
+def test_reset_makes_the_next_frame_the_reference():
+    sel = Selector(constant_models(), CAMERA)
+    img = texture(10)
+    sel.process(img, 0.0)
+    sel.process(img, 0.1)
+    sel.reset()
+    assert sel.process(img, 0.2).new_reference
+
+
+def test_to_gray_accepts_the_documented_layouts():
+    bgr = np.zeros((4, 5, 3), np.uint8)
+    bgr[..., 2] = 255  # red
+    assert to_gray(bgr).shape == (4, 5) and to_gray(bgr)[0, 0] == 76
+    assert to_gray(np.full((4, 5), 65535, np.uint16))[0, 0] == 255
+    assert to_gray(np.zeros((4, 5, 4), np.uint8)).shape == (4, 5)
+    with pytest.raises(ImageConversionError):
+        to_gray(np.zeros((4, 5, 2), np.uint8))
+
+
+def test_invalid_mode_is_a_config_error():
+    with pytest.raises(ConfigError, match='mode'):
+        SelectorConfig(mode='sometimes')  # type: ignore[arg-type]
