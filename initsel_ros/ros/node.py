@@ -288,7 +288,7 @@ class SelectorNode(Node):
             'reason': reason if not detail else f'{reason}: {detail}',
         }
         diag.values = [KeyValue(key=k, value=v) for k, v in values.items()]
-        array = DiagnosticArray(statuses=[diag])
+        array = DiagnosticArray(status=[diag])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(array)
 

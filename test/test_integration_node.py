@@ -1,0 +1,328 @@
+"""The selector node in one process: node and test publisher/subscribers on one executor.
+
+No launch, no subprocesses: a private rclpy context on a private DDS domain. Frames are fed
+one at a time and each waits for its ``~/status``, so nothing is dropped and every frame is
+accounted for.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+pytest.importorskip('rclpy')
+pytest.importorskip('sensor_msgs.msg')
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from ros_helpers import DOMAIN_ID, configure_this_process
+from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+from test_tracking import shifted, texture
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import ModelFileError
+from initsel_ros.geometry import relative_pose, translation_chordal_error
+from initsel_ros.ros import conversions as conv
+from initsel_ros.ros.node import DIAGNOSTIC_NAME, LATCHED_QOS, SKIPPED_IMAGE, SelectorNode
+
+configure_this_process()
+TIMEOUT_S = 20.0
+_namespaces = itertools.count()
+
+
+@pytest.fixture(scope='module')
+def context():
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=DOMAIN_ID)
+    yield ctx
+    rclpy.try_shutdown(context=ctx)
+
+
+class Harness:
+    """A selector node plus a client node publishing images and recording every output."""
+
+    def __init__(self, context: rclpy.Context, **parameters: object) -> None:
+        self.namespace = f'/itest{next(_namespaces)}'
+        overrides = [Parameter(k.replace('__', '.'), value=v) for k, v in parameters.items()]
+        self.node = SelectorNode(context=context, namespace=self.namespace,
+                                 parameter_overrides=overrides)
+        self.client = rclpy.create_node('initsel_test_client', namespace=self.namespace,
+                                        context=context)
+        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        self.image_pub = self.client.create_publisher(Image, 'image_raw', reliable)
+        self.info_pub = self.client.create_publisher(CameraInfo, 'camera_info', reliable)
+        self.status: list[dict] = []
+        self.diagnostics: list[DiagnosticStatus] = []
+        self.method: list[str] = []
+        self.pose: list[PoseStamped] = []
+        self.points: list[PointCloud2] = []
+        c = self.client
+        c.create_subscription(String, 'selector/status',
+                              lambda m: self.status.append(json.loads(m.data)), reliable)
+        c.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, reliable)
+        c.create_subscription(String, 'init/method', lambda m: self.method.append(m.data),
+                              LATCHED_QOS)
+        c.create_subscription(PoseStamped, 'init/pose', self.pose.append, LATCHED_QOS)
+        c.create_subscription(PointCloud2, 'init/points', self.points.append, LATCHED_QOS)
+        self.reset_client = c.create_client(Trigger, 'selector/reset')
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.client)
+        self.spin_until(lambda: self.image_pub.get_subscription_count() > 0
+                        and self.client.count_publishers(f'{self.namespace}/selector/status'),
+                        what='discovery')
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        self.diagnostics.extend(s for s in msg.status if s.name == DIAGNOSTIC_NAME
+                                and s.hardware_id == self.node.get_fully_qualified_name())
+
+    def spin_until(self, predicate: Callable[[], bool], timeout: float = TIMEOUT_S,
+                   what: str = 'condition') -> None:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > deadline:
+                raise AssertionError(f'timed out after {timeout} s waiting for {what}')
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def send(self, msg: Image) -> dict:
+        """Publish one image and return the status it produced."""
+        count = len(self.status)
+        self.image_pub.publish(msg)
+        self.spin_until(lambda: len(self.status) > count, what='a status')
+        return self.status[-1]
+
+    def send_array(self, image: np.ndarray, stamp: float, encoding: str = 'bgr8') -> dict:
+        if image.ndim == 2 and encoding == 'bgr8':
+            encoding = 'mono8'
+        return self.send(conv.numpy_to_image(image, encoding, stamp=conv.seconds_to_stamp(stamp),
+                                             frame_id='camera_optical_frame'))
+
+    def send_camera_info(self, intrinsics: Intrinsics) -> None:
+        self.info_pub.publish(conv.intrinsics_to_camera_info(intrinsics))
+        for _ in range(5):
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        self.client.destroy_node()
+
+
+@pytest.fixture
+def harness_factory(context):
+    made: list[Harness] = []
+
+    def make(**parameters: object) -> Harness:
+        h = Harness(context, **parameters)
+        made.append(h)
+        return h
+
+    yield make
+    for h in made:
+        h.close()
+
+
+def as_sequence(fixture_value):
+    """Conftest fixtures may hand out a Sequence or a path to one."""
+    if hasattr(fixture_value, 'frames'):
+        return fixture_value
+    from initsel_ros.datasets import open_sequence
+
+    return open_sequence(fixture_value)
+
+
+def play(h: Harness, sequence) -> list[dict]:
+    h.send_camera_info(sequence.intrinsics)
+    return [h.send_array(sequence.image(i), f.stamp) for i, f in enumerate(sequence.frames)]
+
+
+# ------------------------------------------------------------------------------ with a model
+def test_node_initializes_on_a_near_sequence_with_the_true_baseline_direction(
+    harness_factory, near_sequence
+):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    statuses = play(h, sequence)
+    assert len(statuses) == len(sequence)  # one status per frame, none dropped
+    assert all(s['dropped_frames'] == 0 for s in statuses)
+    h.spin_until(lambda: h.method and h.pose and h.points, what='init/method, pose, points')
+    assert h.method == [next(s['method'] for s in statuses if s['method'])]
+    assert h.method[0] in ('F', 'E', 'H')
+    assert statuses[-1]['initialized']
+
+    pose, cloud = h.pose[0], h.points[0]
+    assert pose.header.frame_id == cloud.header.frame_id == 'initsel_reference_optical'
+    stamps = sequence.stamps
+    cur = int(np.argmin(np.abs(stamps - conv.stamp_to_seconds(pose.header.stamp))))
+    ref = int(np.argmin(np.abs(stamps - conv.stamp_to_seconds(cloud.header.stamp))))
+    assert ref < cur
+    q = pose.pose.orientation
+    R_est = conv.quaternion_to_rotation([q.x, q.y, q.z, q.w]).T
+    p = pose.pose.position
+    t_est = -R_est @ np.array([p.x, p.y, p.z])
+    _, t_gt = relative_pose(sequence.frames[ref].pose, sequence.frames[cur].pose)
+    assert translation_chordal_error(t_gt, t_est) < 0.8
+
+    points = conv.point_cloud_to_array(cloud)
+    assert points.size >= 50
+    z = points['z']
+    assert np.mean(z > 0) > 0.95
+    assert np.median(z) == pytest.approx(1.0, rel=0.01)  # scale convention: median depth 1
+    assert np.all((points['u0'] >= 0) & (points['u0'] < sequence.intrinsics.width))
+    assert len(h.diagnostics) >= len(sequence) - 1
+
+
+@pytest.mark.parametrize('fixture_name', ['rotation_sequence', 'static_sequence'])
+def test_node_never_initializes_on_rotation_or_a_static_camera(
+    harness_factory, request, fixture_name
+):
+    sequence = as_sequence(request.getfixturevalue(fixture_name))
+    h = harness_factory()
+    statuses = play(h, sequence)
+    assert len(statuses) == len(sequence)
+    assert not any(s['method'] for s in statuses)
+    assert not statuses[-1]['initialized']
+    for _ in range(10):
+        h.executor.spin_once(timeout_sec=0.02)
+    assert h.method == [] and h.pose == [] and h.points == []
+
+
+# ----------------------------------------------------------------- behaviour without a model
+def _double_model_file(tmp_path):
+    """A test-double model file: constant probabilities, nothing ever fires."""
+    from test_selector import constant_models
+
+    path = tmp_path / 'constant_models.json'
+    constant_models().save(path)
+    return str(path)
+
+
+def test_status_reports_reasons_probabilities_and_diagnostics(harness_factory, tmp_path):
+    h = harness_factory(model_file=_double_model_file(tmp_path))
+    img = texture(1)
+    first = h.send_array(img, 100.0)
+    second = h.send_array(shifted(img, 2.0, 1.0), 100.033)
+    assert first['reason'] == 'new reference' and first['new_reference']
+    assert second['reason'] == 'no model fired' and second['level'] == 'OK'
+    assert second['probabilities']['E'] == pytest.approx(0.01)
+    assert second['tracks'] > 100
+    assert second['mean_disparity_px'] == pytest.approx(math.hypot(2.0, 1.0), abs=0.2)
+    assert second['frames_since_reference'] == 1
+    h.spin_until(lambda: len(h.diagnostics) >= 2, what='diagnostics')
+    diag = h.diagnostics[-1]
+    assert diag.level == DiagnosticStatus.OK and diag.message == 'no model fired'
+    keys = {kv.key for kv in diag.values}
+    assert {'p_F', 'p_E', 'p_H', 'p_R', 'tracks', 'mean_disparity_px',
+            'frames_since_reference', 'dropped_frames', 'reason'} <= keys
+
+
+def test_reset_service_makes_the_next_frame_the_reference(harness_factory, tmp_path):
+    h = harness_factory(model_file=_double_model_file(tmp_path))
+    img = texture(2)
+    for k in range(3):
+        status = h.send_array(shifted(img, k, 0.0), 10.0 + k / 30)
+    assert status['frames_since_reference'] == 2 and not status['new_reference']
+    assert h.reset_client.wait_for_service(timeout_sec=TIMEOUT_S)
+    future = h.reset_client.call_async(Trigger.Request())
+    h.spin_until(future.done, what='the reset response')
+    assert future.result().success
+    status = h.send_array(shifted(img, 3.0, 0.0), 10.1)
+    assert status['new_reference'] and status['reason'] == 'new reference'
+    status = h.send_array(shifted(img, 4.0, 0.0), 10.13)
+    assert status['frames_since_reference'] == 1
+
+
+def _bad_images() -> list[Image]:
+    good = conv.numpy_to_image(texture(3), 'mono8', stamp=conv.seconds_to_stamp(5.0))
+    unknown = conv.numpy_to_image(texture(3), 'mono8')
+    unknown.encoding = '32FC1'
+    short_step = conv.numpy_to_image(texture(3), 'mono8')
+    short_step.step = short_step.width - 1
+    truncated = conv.numpy_to_image(np.zeros((480, 640, 3), np.uint8), 'rgb8')
+    truncated.data = bytes(truncated.data)[: 3 * 640 * 100]
+    empty = Image(encoding='bgr8')
+    return [unknown, short_step, truncated, empty, good]
+
+
+def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(
+    harness_factory, tmp_path
+):
+    h = harness_factory(model_file=_double_model_file(tmp_path))
+    *bad, good = _bad_images()
+    for msg in bad:
+        status = h.send(msg)
+        assert status['reason'] == SKIPPED_IMAGE and status['level'] == 'WARN'
+        assert status['frame_index'] is None
+    assert 'unsupported image encoding' in h.status[0]['detail']
+    assert 'step' in h.status[1]['detail'] and 'data has' in h.status[2]['detail']
+    status = h.send(good)
+    assert status['reason'] == 'new reference' and status['frame_index'] == 0
+    assert status['skipped_frames'] == len(bad)
+
+
+def test_images_of_another_size_than_the_intrinsics_are_still_processed(
+    harness_factory, tmp_path
+):
+    h = harness_factory(model_file=_double_model_file(tmp_path), use_camera_info=False)
+    small = texture(4, shape=(240, 320))
+    assert h.send_array(small, 1.0)['reason'] == 'new reference'
+    status = h.send_array(shifted(small, 1.0, 0.0), 1.033)
+    assert status['reason'] == 'no model fired'
+    assert h.node._selector.intrinsics == Intrinsics.tum_fr3().scaled(320, 240)
+
+
+def test_invalid_camera_info_is_ignored_and_a_valid_one_is_used(harness_factory, tmp_path):
+    h = harness_factory(model_file=_double_model_file(tmp_path))
+    bad = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
+    bad.k = [math.nan] * 9
+    h.info_pub.publish(bad)
+    h.send_array(texture(5), 1.0)
+    assert h.node._selector.intrinsics == Intrinsics.tum_fr3()
+    other = Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480)
+    h.send_camera_info(other)
+    h.send_array(texture(5), 1.033)
+    assert h.node._selector.intrinsics == other
+
+
+def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
+    harness_factory, tmp_path
+):
+    h = harness_factory(model_file=_double_model_file(tmp_path))
+    frames = [conv.numpy_to_image(texture(6), 'mono8', stamp=conv.seconds_to_stamp(1.0 + k))
+              for k in range(4)]
+    for msg in frames:  # arrive faster than the worker runs
+        h.node._on_image(msg)
+    h.spin_until(lambda: h.status, what='a status')
+    for _ in range(10):
+        h.executor.spin_once(timeout_sec=0.02)
+    assert len(h.status) == 1
+    assert h.status[0]['stamp'] == pytest.approx(4.0) and h.status[0]['dropped_frames'] == 3
+
+
+def test_missing_or_malformed_model_file_stops_the_node_with_one_error(context, tmp_path):
+    broken = tmp_path / 'broken.json'
+    broken.write_text('{"format": "something else"')
+    for path in (tmp_path / 'missing.json', broken):
+        with pytest.raises(ModelFileError, match=str(path.name)):
+            SelectorNode(context=context, namespace='/broken',
+                         parameter_overrides=[Parameter('model_file', value=str(path))])
+
+
+def test_main_returns_1_on_a_bad_model_file(tmp_path, monkeypatch):
+    from initsel_ros.ros.node import main
+
+    monkeypatch.setenv('ROS_DOMAIN_ID', str(DOMAIN_ID))
+    code = main(['selector', '--ros-args', '-p', f'model_file:={tmp_path / "none.json"}'])
+    assert code == 1
