@@ -17,8 +17,11 @@ stamp="$venv/.initsel-installed"
 if [ ! -f "$stamp" ] || [ "$root/setup.py" -nt "$stamp" ]; then
     echo "== setting up $venv (ROS 2 Jazzy wheels, numpy, OpenCV, scikit-learn)" >&2
     [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
-    "$venv/bin/python" -m pip install --quiet --upgrade pip
-    "$venv/bin/python" -m pip install --quiet -e "$root[ros,test,plot]"
+    # (sed drops the notes this machine's pip configuration prints for every package)
+    "$venv/bin/python" -m pip install --quiet --upgrade pip 2>&1 | sed '/is ignored: it is neither/d'
+    "$venv/bin/python" -m pip install --quiet -e "$root[ros,test,plot]" 2>&1 \
+        | sed '/is ignored: it is neither/d'
+
     touch "$stamp"
 fi
 
