@@ -1,0 +1,77 @@
+"""``initsel train``: fit the F/E/H/R logistic models into a JSON model file."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``initsel train``."""
+    parser.add_argument('tables', nargs='+', type=Path, metavar='PAIRS_CSV',
+                        help='pair tables written by `initsel dataset`')
+    parser.add_argument('--out', required=True, type=Path, help='model file to write (JSON)')
+    parser.add_argument('--target-precision', type=float, default=0.8,
+                        help='choose each threshold for this validation precision '
+                             '(default 0.8)')
+    parser.add_argument('--C', dest='C', type=float, default=1.0,
+                        help='inverse L2 regularization of LogisticRegression (default 1)')
+    parser.add_argument('--class-weight', choices=('balanced', 'none'), default='balanced',
+                        help='class weighting (default balanced: F positives are rare)')
+    parser.add_argument('--scaling', choices=('resolution_free', 'paper'),
+                        default='resolution_free', help='feature scaling (default '
+                        'resolution_free; identical to paper at 640x480)')
+    parser.add_argument('--folds', type=int, default=5,
+                        help='grouped cross-validation folds over batches (default 5)')
+    parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
+    labels = parser.add_argument_group('relabel (default: the labels stored in the table)')
+    labels.add_argument('--et-max', type=float, default=None, help='E_t threshold (0.8)')
+    labels.add_argument('--er-max', type=float, default=None, help='E_R threshold, m (1.0)')
+    labels.add_argument('--rotation-baseline', type=float, default=None,
+                        help='R label: baseline at most this, m (0.05)')
+    labels.add_argument('--scale-rule', choices=('median', 'first_two'), default=None,
+                        help='E_R scale rule')
+
+
+def run(args: argparse.Namespace) -> int:
+    """Read the tables, train, write the model file."""
+    from initsel_ros.errors import ConfigError
+    from initsel_ros.features import Scaling
+    from initsel_ros.learn.labels import LabelConfig, ScaleRule
+    from initsel_ros.learn.table import read_tables
+    from initsel_ros.learn.train import ClassWeight, TrainConfig, describe_inputs, train_models
+
+    if not 0.0 < args.target_precision <= 1.0:
+        raise ConfigError(f'--target-precision must be in (0, 1], got {args.target_precision}')
+    if args.C <= 0:
+        raise ConfigError(f'--C must be positive, got {args.C}')
+    relabel = None
+    if any(v is not None for v in (args.et_max, args.er_max, args.rotation_baseline,
+                                   args.scale_rule)):
+        d = LabelConfig()
+        relabel = LabelConfig(
+            et_max=d.et_max if args.et_max is None else args.et_max,
+            er_max=d.er_max if args.er_max is None else args.er_max,
+            rotation_baseline_m=(
+                d.rotation_baseline_m if args.rotation_baseline is None
+                else args.rotation_baseline
+            ),
+            scale_rule=d.scale_rule if args.scale_rule is None else ScaleRule(args.scale_rule),
+        )
+    config = TrainConfig(
+        scaling=Scaling(args.scaling), C=args.C, class_weight=ClassWeight(args.class_weight),
+        target_precision=args.target_precision, folds=args.folds, seed=args.seed,
+        labels=relabel,
+    )
+    table = read_tables(args.tables)
+    report = train_models(table, config, description=describe_inputs(
+        [p.name for p in args.tables]))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    report.models.save(args.out)
+    print(f'{args.out}: trained on {report.n_pairs} pairs in {report.n_batches} batches')
+    print('| model | positives | threshold | val. precision | val. recall | val. F1 | target |')
+    print('|---|---|---|---|---|---|---|')
+    for m, c in report.choices.items():
+        print(f'| {m} | {report.positives[m]} | {c.threshold:.3f} | {c.precision:.3f} '
+              f'| {c.recall:.3f} | {c.f1:.3f} | {"reached" if c.reached else "not reached"} |')
+    return 0

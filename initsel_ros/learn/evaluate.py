@@ -1,0 +1,553 @@
+"""Evaluation of the models and the baselines on a test set of labelled pairs.
+
+Pair level (the paper's tables): accuracy, precision, recall and F1 of models F, E, H, R, of
+F/E/H after the R veto, and of the baselines (Butt et al. 2020, VINS-Mono, ORB-SLAM2/3), with
+the paper's published numbers beside ours. Sequence level (what a SLAM user sees): frames until
+the first 'yes' of each batch, whether that first initialization is good, and the rate of false
+'yes' on pure rotation (ground-truth baseline <= 0.05 m) and on sequences named rotation/static.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from initsel_ros.learn import baselines
+from initsel_ros.learn.table import PairTable
+from initsel_ros.learn.train import (
+    Candidate,
+    FittedCandidate,
+    TrainConfig,
+    feature_columns,
+    fit_candidate,
+    label_column,
+)
+from initsel_ros.models import METHODS, ModelSet
+
+LOG = logging.getLogger(__name__)
+
+#: The paper's test results on fr3/structure_texture_near (accuracy, precision, recall, F1).
+PAPER_RESULTS: dict[str, tuple[float, float, float, float]] = {
+    'Butt 2020 F (mean)': (0.7589, 0.0811, 0.0133, 0.0229),
+    'Butt 2020 H (mean)': (0.7401, 0.2852, 0.4601, 0.3521),
+    'Model F': (0.6959, 0.3639, 0.5822, 0.4479),
+    'Model E': (0.7326, 0.4290, 0.6453, 0.5154),
+    'Model H': (0.8343, 0.3725, 0.1166, 0.1776),
+    'Model R': (0.8380, 0.6091, 0.9302, 0.7362),
+    'Model F after R veto': (0.7598, 0.4370, 0.4622, 0.4492),
+    'Model E after R veto': (0.7815, 0.5041, 0.5256, 0.5146),
+    'Model H after R veto': (0.8399, 0.3600, 0.0552, 0.0957),
+}
+
+#: ORB-SLAM's acceptance of a reconstruction.
+ORB_MIN_POINTS = 50
+ORB_MIN_PARALLAX_DEG = 1.0
+
+
+@dataclass(frozen=True)
+class Scores:
+    """Binary classification figures."""
+
+    accuracy: float
+    precision: float
+    recall: float
+    f1: float
+    predicted: int
+    positives: int
+    n: int
+
+
+def binary_scores(y: np.ndarray, pred: np.ndarray) -> Scores:
+    """Accuracy, precision, recall, F1 of ``pred`` against ``y`` ((N,) bool each).
+
+    Precision is 0 when nothing is predicted positive (and recall 0 without positives).
+    """
+    y = np.asarray(y).astype(bool)
+    pred = np.asarray(pred).astype(bool)
+    tp = int(np.sum(y & pred))
+    npred, pos, n = int(pred.sum()), int(y.sum()), len(y)
+    precision = tp / npred if npred else 0.0
+    recall = tp / pos if pos else 0.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    acc = float(np.mean(y == pred)) if n else math.nan
+    return Scores(acc, precision, recall, f1, npred, pos, n)
+
+
+@dataclass(frozen=True)
+class EvalRow:
+    """One line of the results table."""
+
+    name: str
+    group: str  # 'model', 'veto', 'baseline', 'candidate'
+    label: str  # which label it is scored against: F, E, H or R
+    scores: Scores
+    paper: tuple[float, float, float, float] | None = None
+    note: str = ''
+
+
+@dataclass(frozen=True)
+class SystemLevel:
+    """Sequence-level behaviour of one decision rule."""
+
+    name: str
+    batches: int
+    batches_with_yes: int
+    median_frames_to_first_yes: float
+    mean_frames_to_first_yes: float
+    first_yes_good: float  # fraction of first 'yes' whose chosen method is labelled good
+    false_yes_rotation: float  # 'yes' rate on pairs with baseline <= 0.05 m
+    false_yes_named: dict[str, float] = field(default_factory=dict)  # per rotation/static seq
+
+
+@dataclass(frozen=True)
+class CandidateReport:
+    """A richer model against the shipped logistic model at equal recall."""
+
+    candidate: str
+    model: str
+    scores: Scores
+    precision_at_logistic_recall: float
+    logistic_precision: float
+    logistic_recall: float
+    decision_us: float
+
+
+@dataclass(frozen=True)
+class EvalReport:
+    """Everything :func:`evaluate` measured."""
+
+    rows: list[EvalRow]
+    systems: list[SystemLevel]
+    candidates: list[CandidateReport]
+    probabilities: dict[str, np.ndarray]
+    n_pairs: int
+    sequences: dict[str, int]
+    inference_ms_all_pairs: float
+    decision_us_logistic: float
+
+
+# ----------------------------------------------------------------------------- decisions
+@dataclass(frozen=True)
+class Rule:
+    """Per-pair decision of one system: yes (N,) bool and the chosen method (N,) str."""
+
+    name: str
+    yes: np.ndarray
+    method: np.ndarray
+
+
+def _orb_accepts(test: PairTable, method: np.ndarray) -> np.ndarray:
+    out = np.zeros(len(test), dtype=bool)
+    for m in ('F', 'H'):
+        sel = method == m
+        out |= sel & (
+            (np.asarray(test[f'{m}_ok']) == 1)
+            & (np.asarray(test[f'{m}_n_points']) >= ORB_MIN_POINTS)
+            & (np.asarray(test[f'{m}_parallax_deg']) >= ORB_MIN_PARALLAX_DEG)
+        )
+    return out
+
+
+def baseline_rules(test: PairTable) -> dict[str, Rule]:
+    """Sequence-level rules of the baselines (yes + chosen method per pair)."""
+    n = len(test)
+    rules = {}
+    for stat in ('mean', 'median'):
+        h, f = baselines.butt_rule(test[f'disp_{stat}_px'], test['disp_std_px'])
+        method = np.where(f, 'F', 'H').astype(object)
+        rules[f'Butt 2020 ({stat})'] = Rule(f'Butt 2020 ({stat})', h, method)
+    vins = baselines.vins_rule(test['n_tracks'], test['vins_parallax_px'])
+    e = np.full(n, 'E', dtype=object)
+    rules['VINS-Mono rule'] = Rule('VINS-Mono rule', vins, e)
+    inl = np.asarray(test['vins_inliers'])
+    rules['VINS-Mono rule+RANSAC'] = Rule('VINS-Mono rule+RANSAC', vins & (inl > 12), e)
+    for version in baselines.OrbSlamVersion:
+        choice = baselines.orbslam_choice(test['orb_ratio'], version)
+        name = f'ORB-SLAM{version.value}'
+        rules[name] = Rule(name, _orb_accepts(test, choice), choice)
+    return rules
+
+
+def model_rule(
+    name: str, probs: Mapping[str, np.ndarray], thresholds: Mapping[str, float],
+    veto: Sequence[str] = ('F', 'E'),
+) -> Rule:
+    """The live policy on table rows: fire, R veto, most confident (margin) method."""
+    n = len(next(iter(probs.values())))
+    rotation = probs['R'] >= thresholds['R']
+    margins = np.full((n, 3), -np.inf)
+    order = ('E', 'H', 'F')  # policy.PREFERENCE breaks ties in this order
+    for j, m in enumerate(order):
+        fired = probs[m] >= thresholds[m]
+        if m in veto:
+            fired &= ~rotation
+        margins[:, j] = np.where(fired, probs[m] - thresholds[m], -np.inf)
+    yes = np.isfinite(margins).any(axis=1)
+    method = np.array(order, dtype=object)[np.argmax(margins, axis=1)]
+    return Rule(name, yes, np.where(yes, method, '').astype(object))
+
+
+def _good(test: PairTable, method: np.ndarray) -> np.ndarray:
+    out = np.zeros(len(test), dtype=bool)
+    for m in ('F', 'E', 'H'):
+        out |= (method == m) & (np.asarray(test[f'{m}_label']) == 1)
+    return out
+
+
+def system_level(test: PairTable, rule: Rule) -> SystemLevel:
+    """Frames to the first 'yes' per batch, its quality, and false 'yes' on rotation."""
+    groups = test.groups()
+    frames = np.asarray(test['cur_index']) - np.asarray(test['ref_index'])
+    good = _good(test, rule.method)
+    firsts, quality = [], []
+    unique = np.unique(groups)
+    for g in unique:
+        idx = np.flatnonzero(groups == g)
+        idx = idx[np.argsort(frames[idx], kind='stable')]
+        hits = idx[rule.yes[idx]]
+        if len(hits):
+            firsts.append(frames[hits[0]])
+            quality.append(good[hits[0]])
+    rot = np.asarray(test['R_label']) == 1
+    named = {}
+    seqs = np.asarray(test['sequence']).astype(str)
+    for s in np.unique(seqs):
+        if 'rotation' in s.lower() or 'static' in s.lower():
+            sel = seqs == s
+            named[str(s)] = float(np.mean(rule.yes[sel]))
+    return SystemLevel(
+        rule.name, len(unique), len(firsts),
+        float(np.median(firsts)) if firsts else math.nan,
+        float(np.mean(firsts)) if firsts else math.nan,
+        float(np.mean(quality)) if quality else math.nan,
+        float(np.mean(rule.yes[rot])) if rot.any() else math.nan,
+        named,
+    )
+
+
+# ----------------------------------------------------------------------------- timing
+def time_call(fn: Callable[[], Any], repeat: int = 2000) -> float:
+    """Median-of-5 mean time of ``fn()`` in microseconds."""
+    fn()
+    runs = []
+    for _ in range(5):
+        start = time.perf_counter()
+        for _ in range(repeat):
+            fn()
+        runs.append((time.perf_counter() - start) / repeat * 1e6)
+    return float(np.median(runs))
+
+
+def precision_at_recall(y: np.ndarray, scores: np.ndarray, recall: float) -> float:
+    """Highest precision among thresholds whose recall is at least ``recall``."""
+    y = np.asarray(y).astype(bool)
+    pos = int(y.sum())
+    if pos == 0:
+        return math.nan
+    order = np.argsort(-np.asarray(scores, dtype=float), kind='stable')
+    tp = np.cumsum(y[order])
+    k = np.arange(1, len(y) + 1)
+    rec = tp / pos
+    prec = tp / k
+    ok = rec >= recall - 1e-12
+    return float(prec[ok].max()) if ok.any() else math.nan
+
+
+# ----------------------------------------------------------------------------- evaluate
+def evaluate(
+    test: PairTable,
+    models: ModelSet,
+    *,
+    train: PairTable | None = None,
+    train_config: TrainConfig | None = None,
+    candidates: Sequence[Candidate] = (Candidate.LOGISTIC_EXTRA, Candidate.HGB_EXTRA,
+                                       Candidate.MLP_EXTRA),
+) -> EvalReport:
+    """Score models and baselines on ``test`` (see module docstring).
+
+    Parameters
+    ----------
+    test : PairTable
+        Test pairs.
+    models : ModelSet
+        The model file under test (its scaling picks the feature columns).
+    train : PairTable or None
+        Training pairs: when given, the richer ``candidates`` are fitted on them in memory and
+        compared with the logistic models at equal recall.
+    """
+    X = test.matrix(feature_columns(models.scaling))
+    finite = np.all(np.isfinite(X), axis=1)
+    if not finite.all():
+        LOG.warning('ignoring %d test pairs with non-finite features', int((~finite).sum()))
+        test, X = test.select(finite), X[finite]
+    start = time.perf_counter()
+    probs = models.predict_proba_batch(X)
+    inference_ms = (time.perf_counter() - start) * 1e3
+    x0 = X[0] if len(X) else np.zeros(X.shape[1])
+    decision_us = time_call(lambda: models.predict_proba(x0))
+    thr = models.thresholds
+    y = {m: np.asarray(test[label_column(m)]).astype(bool) for m in METHODS}
+    fired = {m: probs[m] >= thr[m] for m in METHODS}
+    rows: list[EvalRow] = []
+    for m in METHODS:
+        name = f'Model {m}'
+        rows.append(EvalRow(name, 'model', m, binary_scores(y[m], fired[m]),
+                            PAPER_RESULTS.get(name)))
+    for m in ('F', 'E', 'H'):
+        name = f'Model {m} after R veto'
+        rows.append(EvalRow(name, 'veto', m, binary_scores(y[m], fired[m] & ~fired['R']),
+                            PAPER_RESULTS.get(name)))
+    for stat in ('mean', 'median'):
+        h, f = baselines.butt_rule(test[f'disp_{stat}_px'], test['disp_std_px'])
+        for m, pred in (('F', f), ('H', h)):
+            name = f'Butt 2020 {m} ({stat})'
+            rows.append(EvalRow(name, 'baseline', m, binary_scores(y[m], pred),
+                                PAPER_RESULTS.get(name)))
+    vins = baselines.vins_rule(test['n_tracks'], test['vins_parallax_px'])
+    vins_full = vins & (np.asarray(test['vins_inliers']) > 12)
+    for m in ('E', 'F'):
+        rows.append(EvalRow(f'VINS-Mono rule -> {m}', 'baseline', m, binary_scores(y[m], vins)))
+    rows.append(EvalRow('VINS-Mono rule+RANSAC -> E', 'baseline', 'E',
+                        binary_scores(y['E'], vins_full), note='> 12 recoverPose inliers'))
+    for version in baselines.OrbSlamVersion:
+        choice = baselines.orbslam_choice(test['orb_ratio'], version)
+        accepted = _orb_accepts(test, choice)
+        for m in ('H', 'F'):
+            rows.append(EvalRow(
+                f'ORB-SLAM{version.value} {m}', 'baseline', m,
+                binary_scores(y[m], accepted & (choice == m)),
+                note=f'S_H/(S_H+S_F) {">" if m == "H" else "<="} '
+                     f'{version.ratio_threshold:.2f}, >= {ORB_MIN_POINTS} points, '
+                     f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg',
+            ))
+    # sequence level
+    rules = [model_rule('Models (R veto on F, E)', probs, thr)]
+    check = rules[0]
+    pose_ok = _orb_accepts(test, check.method) | (
+        (check.method == 'E')
+        & (np.asarray(test['E_ok']) == 1)
+        & (np.asarray(test['E_n_points']) >= ORB_MIN_POINTS)
+        & (np.asarray(test['E_parallax_deg']) >= ORB_MIN_PARALLAX_DEG)
+    )
+    rules.append(Rule('Models + pose check', check.yes & pose_ok, check.method))
+    rules += list(baseline_rules(test).values())
+    systems = [system_level(test, r) for r in rules]
+    # richer candidates
+    cand_reports: list[CandidateReport] = []
+    if train is not None:
+        cfg = train_config or TrainConfig(scaling=models.scaling)
+        for cand in candidates:
+            for m in METHODS:
+                fitted = fit_candidate(cand, m, train, cfg)
+                if fitted is None:
+                    continue
+                cand_reports.append(_compare(fitted, test, y[m], fired[m], probs[m]))
+        base_scores = [
+            _compare_logistic(m, test, y[m], fired[m], decision_us) for m in METHODS
+        ]
+        cand_reports = base_scores + cand_reports
+    seqs = {
+        str(s): int(c)
+        for s, c in zip(*np.unique(np.asarray(test['sequence']).astype(str),
+                                   return_counts=True), strict=True)
+    }
+    return EvalReport(rows, systems, cand_reports, probs, len(test), seqs, inference_ms,
+                      decision_us)
+
+
+def _compare_logistic(
+    m: str, test: PairTable, y: np.ndarray, fired: np.ndarray, decision_us: float
+) -> CandidateReport:
+    s = binary_scores(y, fired)
+    return CandidateReport('logistic (model file)', m, s, s.precision, s.precision, s.recall,
+                           decision_us)
+
+
+def _compare(
+    fitted: FittedCandidate, test: PairTable, y: np.ndarray, fired: np.ndarray,
+    probs: np.ndarray,
+) -> CandidateReport:
+    Z = test.matrix(fitted.columns)
+    scores = fitted.score(Z)
+    thr = fitted.threshold.threshold if fitted.threshold else 0.5
+    own = binary_scores(y, scores >= thr)
+    base = binary_scores(y, fired)
+    z0 = np.where(np.isfinite(Z[0]), Z[0], 0.0)
+    one_us = time_call(lambda: fitted.score_one(z0), repeat=50 if 'hgb' in
+                       fitted.candidate.value else 500)
+    return CandidateReport(
+        fitted.candidate.value, fitted.model, own,
+        precision_at_recall(y, scores, base.recall) if base.recall > 0 else math.nan,
+        base.precision, base.recall, one_us * 4,  # four models per decision
+    )
+
+
+# ----------------------------------------------------------------------------- formatting
+def _f(v: float) -> str:
+    return '-' if v is None or (isinstance(v, float) and math.isnan(v)) else f'{v:.4f}'
+
+
+def results_markdown(report: EvalReport) -> str:
+    """The pair-level table (ours beside the paper's), Markdown."""
+    lines = [
+        '| classifier | label | accuracy | precision | recall | F1 | yes | positives '
+        '| paper acc. | paper prec. | paper rec. | paper F1 |',
+        '|---|---|---|---|---|---|---|---|---|---|---|---|',
+    ]
+    for r in report.rows:
+        s = r.scores
+        p = r.paper or (math.nan,) * 4
+        lines.append(
+            f'| {r.name} | {r.label} | {_f(s.accuracy)} | {_f(s.precision)} | {_f(s.recall)} '
+            f'| {_f(s.f1)} | {s.predicted} | {s.positives} | '
+            + ' | '.join(_f(v) for v in p) + ' |'
+        )
+    return '\n'.join(lines)
+
+
+def systems_markdown(report: EvalReport) -> str:
+    """The sequence-level table, Markdown."""
+    lines = [
+        '| rule | batches | batches with a yes | median frames to first yes '
+        '| first yes good | false yes on rotation pairs | yes rate on rotation/static seqs |',
+        '|---|---|---|---|---|---|---|',
+    ]
+    for s in report.systems:
+        named = ', '.join(f'{k}: {v:.3f}' for k, v in s.false_yes_named.items()) or '-'
+        lines.append(
+            f'| {s.name} | {s.batches} | {s.batches_with_yes} | '
+            f'{_f(s.median_frames_to_first_yes)} | {_f(s.first_yes_good)} | '
+            f'{_f(s.false_yes_rotation)} | {named} |'
+        )
+    return '\n'.join(lines)
+
+
+def candidates_markdown(report: EvalReport) -> str:
+    """Richer models vs the logistic model at equal recall, Markdown."""
+    if not report.candidates:
+        return ''
+    lines = [
+        '| model family | label | precision | recall | F1 | precision at logistic recall '
+        '| logistic precision | logistic recall | decision (4 models), us |',
+        '|---|---|---|---|---|---|---|---|---|',
+    ]
+    for c in report.candidates:
+        s = c.scores
+        lines.append(
+            f'| {c.candidate} | {c.model} | {_f(s.precision)} | {_f(s.recall)} | {_f(s.f1)} '
+            f'| {_f(c.precision_at_logistic_recall)} | {_f(c.logistic_precision)} '
+            f'| {_f(c.logistic_recall)} | {c.decision_us:.1f} |'
+        )
+    return '\n'.join(lines)
+
+
+def verdict(report: EvalReport, budget_us: float = 50.0) -> str:
+    """Which family wins on precision at equal recall within the decision budget."""
+    if not report.candidates:
+        return 'No richer models evaluated (pass --train to fit them).'
+    out = []
+    fams = sorted({c.candidate for c in report.candidates if c.candidate != 'logistic '
+                   '(model file)'})
+    for fam in fams:
+        rows = [c for c in report.candidates if c.candidate == fam]
+        wins = [c.model for c in rows
+                if np.isfinite(c.precision_at_logistic_recall)
+                and c.precision_at_logistic_recall > c.logistic_precision + 1e-9]
+        us = max(c.decision_us for c in rows)
+        within = us <= budget_us
+        out.append(
+            f'{fam}: higher precision at equal recall for {", ".join(wins) or "no model"} '
+            f'of {len(rows)}; {us:.0f} us per decision '
+            f'({"within" if within else "over"} the {budget_us:.0f} us budget)'
+        )
+    return '\n'.join(f'- {line}' for line in out)
+
+
+def report_markdown(report: EvalReport) -> str:
+    """The whole report, Markdown."""
+    seqs = ', '.join(f'{k} ({v})' for k, v in report.sequences.items())
+    parts = [
+        f'# Evaluation on {report.n_pairs} pairs: {seqs}',
+        '',
+        '## Pair level (paper numbers: fr3/structure_texture_near, 1,062 pairs)',
+        '',
+        results_markdown(report),
+        '',
+        f'Inference over all {report.n_pairs} pairs: {report.inference_ms_all_pairs:.2f} ms; '
+        f'one decision (4 models, one feature vector): {report.decision_us_logistic:.1f} us.',
+        '',
+        '## Sequence level (per batch; frames counted from the reference)',
+        '',
+        systems_markdown(report),
+    ]
+    if report.candidates:
+        parts += ['', '## Richer models (fitted in memory on the training pairs)', '',
+                  candidates_markdown(report), '', verdict(report)]
+    return '\n'.join(parts) + '\n'
+
+
+def results_csv_rows(report: EvalReport) -> list[dict[str, Any]]:
+    """Pair-level table as row dicts (for CSV)."""
+    out = []
+    for r in report.rows:
+        s = r.scores
+        p = r.paper or (math.nan,) * 4
+        out.append({
+            'classifier': r.name, 'group': r.group, 'label': r.label,
+            'accuracy': s.accuracy, 'precision': s.precision, 'recall': s.recall, 'f1': s.f1,
+            'predicted_yes': s.predicted, 'positives': s.positives, 'pairs': s.n,
+            'paper_accuracy': p[0], 'paper_precision': p[1], 'paper_recall': p[2],
+            'paper_f1': p[3], 'note': r.note,
+        })
+    for c in report.candidates:
+        s = c.scores
+        out.append({
+            'classifier': f'{c.candidate} {c.model}', 'group': 'candidate', 'label': c.model,
+            'accuracy': s.accuracy, 'precision': s.precision, 'recall': s.recall, 'f1': s.f1,
+            'predicted_yes': s.predicted, 'positives': s.positives, 'pairs': s.n,
+            'paper_accuracy': math.nan, 'paper_precision': math.nan, 'paper_recall': math.nan,
+            'paper_f1': math.nan,
+            'note': f'precision at logistic recall {c.precision_at_logistic_recall:.4f}; '
+                    f'{c.decision_us:.1f} us per decision',
+        })
+    for sl in report.systems:
+        out.append({
+            'classifier': f'sequence level: {sl.name}', 'group': 'system', 'label': '',
+            'accuracy': math.nan, 'precision': sl.first_yes_good, 'recall': math.nan,
+            'f1': math.nan, 'predicted_yes': sl.batches_with_yes, 'positives': math.nan,
+            'pairs': sl.batches, 'paper_accuracy': math.nan, 'paper_precision': math.nan,
+            'paper_recall': math.nan, 'paper_f1': math.nan,
+            'note': f'median frames to first yes {sl.median_frames_to_first_yes}; '
+                    f'false yes on rotation pairs {sl.false_yes_rotation:.4f}; '
+                    f'precision column = first yes good',
+        })
+    return out
+
+
+__all__ = [
+    'PAPER_RESULTS',
+    'CandidateReport',
+    'EvalReport',
+    'EvalRow',
+    'Rule',
+    'Scores',
+    'SystemLevel',
+    'baseline_rules',
+    'binary_scores',
+    'candidates_markdown',
+    'evaluate',
+    'model_rule',
+    'precision_at_recall',
+    'report_markdown',
+    'results_csv_rows',
+    'results_markdown',
+    'system_level',
+    'time_call',
+    'verdict',
+]
