@@ -1,0 +1,157 @@
+"""Camera trajectories (camera-to-world poses with timestamps) for the synthetic scenes.
+
+``near`` replays the real motion-capture trajectory of fr3/structure_texture_near at its 1099
+colour frame times (bundled in ``synth/data``); ``far`` is the same motion scaled by 2 about
+the point its optical axes converge to; the others are generated around the scene target.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+
+import numpy as np
+
+from initsel_ros.datasets.poses import pose_matrix
+from initsel_ros.datasets.tum import read_trajectory
+from initsel_ros.errors import ConfigError
+from initsel_ros.synth.scene import NEAR_CONVERGENCE, scene_target
+
+DATA_DIR = Path(__file__).resolve().parent / 'data'
+NEAR_FILE = DATA_DIR / 'structure_texture_near.txt'
+#: First colour frame time of the real near sequence (s); generated trajectories start here too.
+START_TIME = 1341839327.392692
+FRAME_RATE = 30.0
+
+
+class TrajectoryName(str, Enum):
+    """The trajectory kinds."""
+
+    NEAR = 'near'
+    FAR = 'far'
+    ROTATION = 'rotation'
+    FORWARD = 'forward'
+    STATIC = 'static'
+    RANDOM = 'random'
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
+    """(4, 4) camera-to-world pose at ``eye`` looking at ``target`` (x right, y down, z ahead).
+
+    Vectorized: eye and target (N, 3) give (N, 4, 4).
+    """
+    eye = np.asarray(eye, float)
+    target = np.asarray(target, float)
+    up = np.array([0.0, 0.0, 1.0]) if up is None else np.asarray(up, float)
+    z = target - eye
+    z = z / np.linalg.norm(z, axis=-1, keepdims=True)
+    x = np.cross(z, up)
+    x = x / np.linalg.norm(x, axis=-1, keepdims=True)
+    y = np.cross(z, x)
+    T = np.zeros((*eye.shape[:-1], 4, 4))
+    T[..., :3, 0], T[..., :3, 1], T[..., :3, 2], T[..., :3, 3] = x, y, z, eye
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def _axis_rotation(axis: int, angles: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) rotations about camera axis 0 (x), 1 (y) or 2 (z) by ``angles`` radians."""
+    c, s = np.cos(angles), np.sin(angles)
+    R = np.tile(np.eye(3), (len(angles), 1, 1))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    R[:, i, i], R[:, i, j], R[:, j, i], R[:, j, j] = c, -s, s, c
+    return R
+
+
+def near_trajectory(path: Path = NEAR_FILE) -> tuple[np.ndarray, np.ndarray]:
+    """The real fr3/structure_texture_near trajectory at its colour frame times.
+
+    Returns:
+        ``(stamps (1099,) seconds, poses (1099, 4, 4) camera-to-world)``.
+    """
+    stamps, positions, quats = read_trajectory(path)
+    return stamps, pose_matrix(positions, quats)
+
+
+def nominal_eye(distance: float = 1.2) -> np.ndarray:
+    """(3,) a viewpoint ``distance`` metres from the scene target, where the real camera was."""
+    _, poses = near_trajectory()
+    mean_eye = poses[:, :3, 3].mean(axis=0)
+    target = scene_target()
+    d = mean_eye - target
+    return target + distance * d / np.linalg.norm(d)
+
+
+def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed: int = 0,
+                    target: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Timestamps and camera-to-world poses for a trajectory kind.
+
+    Args:
+        name: near, far, rotation, forward, static or random.
+        frames: number of frames (default: 1099, the length of the real near sequence).
+        seed: for ``random``.
+        target: (3,) world point the generated trajectories look at (default: scene target).
+
+    Returns:
+        ``(stamps (N,) seconds, poses (N, 4, 4) camera-to-world)``.
+    """
+    name = TrajectoryName(name)
+    if frames is not None and frames <= 0:
+        raise ConfigError(f'frames must be positive, got {frames}')
+    if name in (TrajectoryName.NEAR, TrajectoryName.FAR):
+        stamps, poses = near_trajectory()
+        if frames is not None:
+            if frames > len(stamps):
+                raise ConfigError(f'the {name.value} trajectory has {len(stamps)} frames, '
+                                  f'{frames} requested')
+            stamps, poses = stamps[:frames], poses[:frames]
+        if name is TrajectoryName.FAR:
+            poses = poses.copy()
+            poses[:, :3, 3] = NEAR_CONVERGENCE + 2.0 * (poses[:, :3, 3] - NEAR_CONVERGENCE)
+        return stamps, poses
+    n = 1099 if frames is None else frames
+    t = np.arange(n) / FRAME_RATE
+    stamps = START_TIME + t
+    target = scene_target() if target is None else np.asarray(target, float)
+    eye = nominal_eye(1.2)
+    base = look_at(eye, target)
+    if name is TrajectoryName.STATIC:
+        return stamps, np.repeat(base[None], n, axis=0)
+    if name is TrajectoryName.ROTATION:
+        # pan (about camera y) and tilt (about camera x) about the optical centre
+        yaw = np.deg2rad(15.0) * np.sin(2 * np.pi * 0.2 * t)
+        pitch = np.deg2rad(6.0) * np.sin(2 * np.pi * 0.13 * t + 0.5)
+        R = base[:3, :3] @ _axis_rotation(1, yaw) @ _axis_rotation(0, pitch)
+        poses = np.repeat(base[None], n, axis=0)
+        poses[:, :3, :3] = R
+        return stamps, poses
+    if name is TrajectoryName.FORWARD:
+        # along the optical axis, between 1.6 m and 0.8 m from the target, 0.1 s^-1 cycle
+        direction = (eye - target) / np.linalg.norm(eye - target)
+        dist = 1.2 + 0.4 * np.cos(2 * np.pi * 0.05 * t)
+        poses = np.repeat(base[None], n, axis=0)
+        poses[:, :3, 3] = target + dist[:, None] * direction
+        return stamps, poses
+    # RANDOM: smooth sums of sinusoids for the eye, the looked-at point and roll
+    rng = np.random.default_rng(seed)
+
+    def smooth(amplitude: float, dims: int) -> np.ndarray:
+        freqs = rng.uniform(0.03, 0.35, (3, dims))
+        phases = rng.uniform(0, 2 * np.pi, (3, dims))
+        amps = rng.uniform(0.3, 1.0, (3, dims))
+        wave = np.sum(amps[None] * np.sin(2 * np.pi * freqs[None] * t[:, None, None]
+                                          + phases[None]), axis=1)
+        return amplitude * wave / amps.sum(axis=0)
+
+    distance = rng.uniform(0.9, 2.4)
+    eyes = nominal_eye(distance) + smooth(0.5, 3) * [1.0, 1.0, 0.4]
+    eyes[:, 2] = np.maximum(eyes[:, 2], 0.3)
+    looks = target + smooth(0.25, 3)
+    poses = look_at(eyes, looks)
+    roll = np.deg2rad(6.0) * smooth(1.0, 1)[:, 0]
+    poses[:, :3, :3] = poses[:, :3, :3] @ _axis_rotation(2, roll)
+    return stamps, poses
+
+
+__all__ = ['NEAR_FILE', 'START_TIME', 'TrajectoryName', 'look_at', 'make_trajectory',
+           'near_trajectory', 'nominal_eye']

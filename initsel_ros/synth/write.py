@@ -1,0 +1,213 @@
+"""Render a whole sequence into a TUM folder (and optionally bags)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.datasets.poses import matrix_to_pose
+from initsel_ros.datasets.tum import DEPTH_SCALE, write_listing, write_trajectory
+from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.synth.render import Distorter, Effects, exposure_gains, render_frame
+from initsel_ros.synth.scene import build_scene
+from initsel_ros.synth.trajectories import make_trajectory
+
+_LOG = logging.getLogger(__name__)
+_NOISE_BANK = 8
+
+
+@dataclass(frozen=True)
+class SynthResult:
+    """What :func:`render` produced.
+
+    Attributes:
+        path: the TUM folder.
+        frames: number of frames written.
+        seconds: wall time of rendering and writing (bags excluded), seconds.
+        bags: bag paths written.
+    """
+
+    path: Path
+    frames: int
+    seconds: float
+    bags: tuple[Path, ...] = ()
+
+    @property
+    def fps(self) -> float:
+        """Frames per second, rendering plus PNG writing."""
+        return self.frames / self.seconds if self.seconds > 0 else float('inf')
+
+
+class _Progress:
+    """A one-line progress bar on stderr."""
+
+    def __init__(self, total: int, enabled: bool) -> None:
+        self.total, self.enabled, self.start = total, enabled, time.perf_counter()
+        self.last = 0.0
+
+    def update(self, done: int) -> None:
+        now = time.perf_counter()
+        if not self.enabled or (now - self.last < 0.2 and done < self.total):
+            return
+        self.last = now
+        width = 30
+        filled = int(width * done / max(self.total, 1))
+        fps = done / max(now - self.start, 1e-9)
+        sys.stderr.write(f'\r[{"#" * filled}{"." * (width - filled)}] {done}/{self.total} '
+                         f'{fps:5.1f} frames/s')
+        if done >= self.total:
+            sys.stderr.write('\n')
+        sys.stderr.flush()
+
+
+def _camera(width: int | None, height: int | None, intrinsics: Intrinsics | None,
+            distortion: tuple[float, ...]) -> Intrinsics:
+    cam = intrinsics or Intrinsics.tum_fr3()
+    if width or height:
+        w = width or round((height or cam.height) * cam.width / cam.height)
+        h = height or round(w * cam.height / cam.width)
+        cam = cam.scaled(int(w), int(h))
+    if distortion:
+        cam = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height,
+                         tuple(float(d) for d in distortion))
+    return cam
+
+
+def render(
+    out_dir: Path | str,
+    scene: str = 'structure_texture',
+    trajectory: str = 'near',
+    frames: int | None = None,
+    seed: int = 0,
+    *,
+    width: int | None = None,
+    height: int | None = None,
+    intrinsics: Intrinsics | None = None,
+    distortion: tuple[float, ...] = (),
+    effects: Effects | None = None,
+    bags: tuple[str, ...] = (),
+    png_compression: int = 1,
+    workers: int = 2,
+    progress: bool = False,
+) -> SynthResult:
+    """Render a sequence as a TUM folder with exact ground truth.
+
+    Args:
+        out_dir: output folder (created; existing files of the same names are replaced).
+        scene: structure_texture, floor, zigzag or low_texture.
+        trajectory: near, far, rotation, forward, static or random.
+        frames: number of frames (the first N of the trajectory; default all, 1099).
+        seed: seeds textures, noise, exposure and the random trajectory.
+        width, height: image size in pixels (intrinsics scaled from TUM fr3 or ``intrinsics``).
+        intrinsics: camera (default TUM fr3).
+        distortion: OpenCV coefficients (k1, k2, p1, p2[, k3]); images and depth are distorted
+            and ``intrinsics.yaml`` carries them.
+        effects: noise/blur/exposure (default ``Effects()``: noise 1.5 grey levels).
+        bags: also write 'ros1' and/or 'ros2' bags next to the folder's files.
+        png_compression: zlib level 0-9 for the colour PNGs (depth always uses 1).
+        workers: PNG writer threads.
+        progress: draw a progress bar on stderr.
+
+    Returns:
+        A :class:`SynthResult`.
+    """
+    out = Path(out_dir)
+    effects = Effects() if effects is None else effects
+    for b in bags:
+        if b not in ('ros1', 'ros2'):
+            raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {b!r}")
+    cam = _camera(width, height, intrinsics, distortion)
+    stamps, poses = make_trajectory(trajectory, frames, seed)
+    world = build_scene(scene, seed)
+    try:
+        (out / 'rgb').mkdir(parents=True, exist_ok=True)
+        (out / 'depth').mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DatasetError(f'{out}: cannot create output folder: {exc}') from exc
+
+    rng = np.random.default_rng(seed + 1)
+    bank = None
+    if effects.noise > 0:
+        bank = [np.round(rng.standard_normal((cam.height, cam.width, 3), dtype=np.float32)
+                         * effects.noise).astype(np.int16) for _ in range(_NOISE_BANK)]
+    gains = exposure_gains(len(stamps), effects.exposure, rng)
+    distorter = Distorter(cam) if cam.has_distortion else None
+    ideal = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
+    names = [f'{s:.6f}.png' for s in stamps]
+    rgb_params = [cv2.IMWRITE_PNG_COMPRESSION, int(png_compression)]
+    depth_params = [cv2.IMWRITE_PNG_COMPRESSION, 1]
+
+    def write(path: Path, img: np.ndarray, params: list[int]) -> None:
+        if not cv2.imwrite(str(path), img, params):
+            raise DatasetError(f'{path}: cannot write image')
+
+    bar = _Progress(len(stamps), progress)
+    start = time.perf_counter()
+    pending: deque[Future[None]] = deque()
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        for i, T in enumerate(poses):
+            image, depth = render_frame(world, ideal, T)
+            if distorter is not None:
+                image, depth = distorter(image, depth)
+            if effects.blur > 0:
+                image = cv2.GaussianBlur(image, (0, 0), effects.blur)
+            if gains[i] != 1.0:
+                image = cv2.convertScaleAbs(image, alpha=float(gains[i]))
+            if bank is not None:
+                noise = bank[int(rng.integers(_NOISE_BANK))]
+                flip = int(rng.integers(-1, 3))
+                if flip < 2:
+                    noise = cv2.flip(noise, flip)
+                image = cv2.add(image, noise, dtype=cv2.CV_8U)
+            depth_png = np.clip(np.round(depth * DEPTH_SCALE), 0, 65535).astype(np.uint16)
+            pending.append(pool.submit(write, out / 'rgb' / names[i], image, rgb_params))
+            pending.append(pool.submit(write, out / 'depth' / names[i], depth_png,
+                                       depth_params))
+            while len(pending) > 4 * max(1, workers):
+                pending.popleft().result()
+            bar.update(i + 1)
+        for f in pending:
+            f.result()
+    seconds = time.perf_counter() - start
+
+    write_listing(out / 'rgb.txt', stamps, [f'rgb/{n}' for n in names],
+                  f'color images (initsel synth: scene {scene}, trajectory {trajectory}, '
+                  f'seed {seed})')
+    write_listing(out / 'depth.txt', stamps, [f'depth/{n}' for n in names], 'depth maps')
+    t, q = matrix_to_pose(poses)
+    write_trajectory(out / 'groundtruth.txt', stamps, t, q,
+                     'ground truth trajectory (camera-to-world, exact)')
+    cam.save_yaml(out / 'intrinsics.yaml')
+
+    written: list[Path] = []
+    if bags:
+        from initsel_ros.datasets import bags as bagio
+        from initsel_ros.datasets.tum import TumSequence
+
+        seq = TumSequence(out)
+        for fmt in dict.fromkeys(bags):
+            target = out / ('sequence.bag' if fmt == 'ros1' else 'sequence_ros2')
+            bagio.write_bag(seq, target, fmt)
+            written.append(target)
+    result = SynthResult(out, len(stamps), seconds, tuple(written))
+    _LOG.info('%s: %d frames in %.1f s (%.1f frames/s)', out, result.frames, seconds, result.fps)
+    return result
+
+
+def render_sequence(out_dir: Path | str, scene: str = 'structure_texture',
+                    trajectory: str = 'near', frames: int | None = None, seed: int = 0,
+                    **options: object) -> Path:
+    """Render a TUM folder (see :func:`render` for the options) and return its path."""
+    return render(out_dir, scene, trajectory, frames, seed, **options).path  # type: ignore[arg-type]
+
+
+__all__ = ['SynthResult', 'render', 'render_sequence']
