@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from enum import Enum
+from functools import lru_cache
 
 import numpy as np
 
@@ -50,7 +51,7 @@ class Scaling(str, Enum):
 
 
 def _as_points(p: np.ndarray, name: str) -> np.ndarray:
-    arr = np.asarray(p, dtype=np.float64)
+    arr = np.asarray(p)
     if arr.size == 0:
         return arr.reshape(0, 2)
     if arr.ndim == 3 and arr.shape[1] == 1:
@@ -95,16 +96,48 @@ def raw_features(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
     n = p0.shape[0]
     if n == 0:
         return out
-    disparity = np.hypot(*(p1 - p0).T)
-    both = np.concatenate([p0, p1], axis=1)  # columns x0 y0 x1 y1
-    lo, hi = both.min(axis=0), both.max(axis=0)
+    # Few, whole-array numpy calls on contiguous rows: this runs once per camera frame.
+    rows = np.empty((4, n))  # x0, y0, x1, y1
+    rows[:2] = p0.T
+    rows[2:] = p1.T
+    d = rows[2:] - rows[:2]
+    disparity = np.sqrt(d[0] * d[0] + d[1] * d[1])
+    lo, hi = rows.min(axis=1), rows.max(axis=1)
     out[0] = n
-    out[1] = disparity.mean()
-    out[2] = disparity.std()
-    out[3:11] = np.stack([lo, hi], axis=1).ravel()  # x0min x0max y0min y0max ...
+    mean = disparity.mean()
+    out[1] = mean
+    out[2] = np.sqrt(max(np.dot(disparity, disparity) / n - mean * mean, 0.0))
+    out[3:11:2] = lo  # x0min, y0min, x1min, y1min
+    out[4:11:2] = hi
     out[11:15] = hi - lo
-    out[_BINS] = direction_bins(p0, p1)
+    angle = np.arctan2(-d[1], d[0])
+    bins = np.rint(angle * (4 / np.pi)).astype(np.int64) & 7
+    out[_BINS] = np.bincount(bins, minlength=8)
     return out
+
+
+def feature_divisors(
+    width: int = 640, height: int = 480, scaling: Scaling | str = Scaling.RESOLUTION_FREE
+) -> np.ndarray:
+    """(23,) divisors that scale raw features (the direction bins' are 1: see scale_features)."""
+    return _divisors(int(width), int(height), Scaling(scaling))
+
+
+@lru_cache(maxsize=32)
+def _divisors(width: int, height: int, scaling: Scaling) -> np.ndarray:
+    if scaling is Scaling.PAPER:
+        sx, sy, sd = _PAPER_WIDTH, _PAPER_HEIGHT, _PAPER_DISPARITY
+    else:
+        if width <= 0 or height <= 0:
+            raise GeometryError(f'image size must be positive, got {width}x{height}')
+        sx, sy, sd = float(width), float(height), float(np.hypot(width, height))
+    div = np.ones(N_FEATURES)
+    div[0] = COUNT_SCALE
+    div[_DISPARITY] = sd
+    div[_X] = sx
+    div[_Y] = sy
+    div.flags.writeable = False
+    return div
 
 
 def scale_features(
@@ -124,22 +157,12 @@ def scale_features(
     Returns:
         (..., 23) float64 scaled features.
     """
-    scaling = Scaling(scaling)
-    x = np.array(raw, dtype=np.float64, copy=True)
-    if x.shape[-1] != N_FEATURES:
-        raise GeometryError(f'expected {N_FEATURES} features, got shape {x.shape}')
-    if scaling is Scaling.PAPER:
-        sx, sy, sd = _PAPER_WIDTH, _PAPER_HEIGHT, _PAPER_DISPARITY
-    else:
-        if width <= 0 or height <= 0:
-            raise GeometryError(f'image size must be positive, got {width}x{height}')
-        sx, sy, sd = float(width), float(height), float(np.hypot(width, height))
-    x[..., 0] /= COUNT_SCALE
-    x[..., _DISPARITY] /= sd
-    x[..., _X] /= sx
-    x[..., _Y] /= sy
+    raw = np.asarray(raw, dtype=np.float64)
+    if raw.shape[-1] != N_FEATURES:
+        raise GeometryError(f'expected {N_FEATURES} features, got shape {raw.shape}')
+    x = raw / feature_divisors(width, height, scaling)
     bins = x[..., _BINS]
-    norm = np.linalg.norm(bins, axis=-1, keepdims=True)
+    norm = np.sqrt(np.einsum('...i,...i->...', bins, bins))[..., None]
     x[..., _BINS] = np.divide(bins, norm, out=np.zeros_like(bins), where=norm > 0)
     return x
 

@@ -158,7 +158,8 @@ class ModelSet:
 
     def predict_proba(self, x: np.ndarray) -> dict[str, float]:
         """Probabilities of one (23,) feature vector, by model name."""
-        p = _sigmoid(self._W @ np.asarray(x, dtype=np.float64) + self._b)  # type: ignore[attr-defined]
+        z = self._W @ x + self._b  # type: ignore[attr-defined]
+        p = 1.0 / (1.0 + np.exp(-np.clip(z, -500.0, 500.0)))
         return dict(zip(self._names, p.tolist(), strict=True))  # type: ignore[attr-defined]
 
     def predict_proba_batch(self, X: np.ndarray) -> dict[str, np.ndarray]:
