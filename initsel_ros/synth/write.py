@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import shutil
 import sys
 import time
 from collections import deque
@@ -196,6 +197,10 @@ def render(
         seq = TumSequence(out)
         for fmt in dict.fromkeys(bags):
             target = out / ('sequence.bag' if fmt == 'ros1' else 'sequence_ros2')
+            if target.is_dir():
+                shutil.rmtree(target)  # our own output of an earlier run
+            elif target.exists():
+                target.unlink()
             bagio.write_bag(seq, target, fmt)
             written.append(target)
     result = SynthResult(out, len(stamps), seconds, tuple(written))

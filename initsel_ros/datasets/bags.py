@@ -1,0 +1,387 @@
+"""ROS 1 and ROS 2 bags as sequences (read with rosbags' AnyReader), and bag writers.
+
+Reading: the colour topic (rgb8/bgr8/mono8/... ``sensor_msgs/Image``), an optional depth topic
+(32FC1 metres or 16UC1 millimetres), an optional ``CameraInfo`` topic for the intrinsics, and
+ground truth from, in this order: a ``groundtruth`` file given, a ``geometry_msgs/PoseStamped``
+topic (camera-to-world), a ``groundtruth.txt`` beside the bag, or ``/tf`` (the transform
+``tf_parent`` -> ``tf_child``; TUM's bags publish /world -> /kinect, which is the mocap body
+and not exactly the optical centre, so prefer the groundtruth.txt when you have it).
+Images load lazily: the first pass records only timestamps.
+
+Writing (used by ``initsel synth --bag``): ``/camera/rgb/image_color`` (rgb8),
+``/camera/rgb/camera_info``, ``/camera/depth/image`` (32FC1, metres) and ``/groundtruth/pose``
+(PoseStamped, camera-to-world, frame ``world``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import struct
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.datasets.poses import (
+    DEFAULT_MAX_GAP,
+    interpolate_pose_matrices,
+    matrix_to_pose,
+)
+from initsel_ros.datasets.sequence import Frame, Sequence
+from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
+from initsel_ros.errors import ConfigError, DatasetError
+
+_LOG = logging.getLogger(__name__)
+
+IMAGE_TOPIC = '/camera/rgb/image_color'
+DEPTH_TOPIC = '/camera/depth/image'
+INFO_TOPIC = '/camera/rgb/camera_info'
+POSE_TOPIC = '/groundtruth/pose'
+TF_TOPIC = '/tf'
+CAMERA_FRAME = 'camera_rgb_optical_frame'
+WORLD_FRAME = 'world'
+
+
+def _read_errors() -> tuple[type[BaseException], ...]:
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as Ros1ReaderError
+    from rosbags.rosbag2 import ReaderError as Ros2ReaderError
+
+    return (AnyReaderError, Ros1ReaderError, Ros2ReaderError, OSError, ValueError, KeyError,
+            IndexError, EOFError, struct.error, AssertionError)
+
+
+def _stamp(header: Any) -> float:
+    return float(header.stamp.sec) + 1e-9 * float(header.stamp.nanosec)
+
+
+def image_from_msg(msg: Any) -> np.ndarray:
+    """A ``sensor_msgs/Image`` as numpy: colour -> (H, W, 3) uint8 BGR, mono -> (H, W),
+    depth encodings -> (H, W) float32 metres (NaN -> 0).
+
+    Raises:
+        DatasetError: unsupported encoding or a data size that does not match.
+    """
+    enc = str(msg.encoding).lower()
+    h, w, step = int(msg.height), int(msg.width), int(msg.step)
+    layouts = {
+        'rgb8': (np.uint8, 3), 'bgr8': (np.uint8, 3), 'rgba8': (np.uint8, 4),
+        'bgra8': (np.uint8, 4), 'mono8': (np.uint8, 1), '8uc1': (np.uint8, 1),
+        '8uc3': (np.uint8, 3), 'mono16': (np.uint16, 1), '16uc1': (np.uint16, 1),
+        '32fc1': (np.float32, 1),
+    }
+    if enc not in layouts:
+        raise DatasetError(f'unsupported image encoding {msg.encoding!r}')
+    dtype, channels = layouts[enc]
+    dt = np.dtype(dtype).newbyteorder('>' if msg.is_bigendian else '<')
+    row = w * channels * dt.itemsize
+    data = np.asarray(msg.data, dtype=np.uint8)
+    if h == 0 or w == 0 or step < row or data.size < step * h:
+        raise DatasetError(f'image data of {data.size} bytes does not fit {w}x{h} {enc} '
+                           f'(step {step})')
+    rows = data[: step * h].reshape(h, step)[:, :row]
+    img = np.ascontiguousarray(rows).view(dt).reshape(h, w, channels).astype(dtype)
+    if enc == '32fc1':
+        out = img[..., 0]
+        return np.where(np.isfinite(out), out, 0).astype(np.float32)
+    if enc in ('16uc1', 'mono16') and channels == 1:
+        return img[..., 0]
+    if channels == 1:
+        return img[..., 0]
+    if enc == 'rgb8':
+        return cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+    if enc == 'rgba8':
+        return cv2.cvtColor(img, cv2.COLOR_RGBA2BGR)
+    if enc == 'bgra8':
+        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
+    return img
+
+
+class BagSequence(Sequence):
+    """A ROS 1 (``.bag``) or ROS 2 (folder, sqlite3 or mcap) bag as a :class:`Sequence`.
+
+    Args:
+        path: the bag.
+        image_topic, depth_topic, info_topic: camera topics (depth/info optional in the bag).
+        pose_topic: PoseStamped ground truth (camera-to-world), used when present.
+        tf_parent, tf_child: frames of the /tf ground truth (leading '/' ignored).
+        groundtruth: a TUM trajectory file that overrides the bag's ground truth.
+        intrinsics: overrides CameraInfo (default: CameraInfo, else TUM fr3).
+        max_gap, nearest_tolerance: ground-truth interpolation (see ``interpolate_poses``).
+        max_association_diff: colour/depth association tolerance, seconds.
+    """
+
+    def __init__(
+        self,
+        path: Path | str,
+        *,
+        image_topic: str = IMAGE_TOPIC,
+        depth_topic: str = DEPTH_TOPIC,
+        info_topic: str = INFO_TOPIC,
+        pose_topic: str = POSE_TOPIC,
+        tf_topic: str = TF_TOPIC,
+        tf_parent: str = '/world',
+        tf_child: str = '/kinect',
+        groundtruth: Path | str | None = None,
+        intrinsics: Intrinsics | None = None,
+        max_gap: float = DEFAULT_MAX_GAP,
+        nearest_tolerance: float = 0.0,
+        max_association_diff: float = MAX_ASSOCIATION_DIFF,
+    ) -> None:
+        from rosbags.highlevel import AnyReader
+        from rosbags.typesys import Stores, get_typestore
+
+        path = Path(path)
+        if not path.exists():
+            raise DatasetError(f'{path}: bag not found')
+        errors = _read_errors()
+        self._reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY))
+        try:
+            self._reader.open()
+        except errors as exc:
+            raise DatasetError(f'{path}: cannot open bag (truncated or corrupt?): {exc}') from exc
+        try:
+            scan = self._scan(image_topic, depth_topic, info_topic, pose_topic, tf_topic,
+                              tf_parent.lstrip('/'), tf_child.lstrip('/'))
+        except errors as exc:
+            self.close()
+            raise DatasetError(f'{path}: cannot read bag (truncated or corrupt?): {exc}') from exc
+        except DatasetError as exc:
+            self.close()
+            raise DatasetError(f'{path}: {exc}') from exc
+        img_times, img_stamps, depth_times, depth_stamps, info, gt_bag, gt_source = scan
+        if not img_stamps:
+            self.close()
+            topics = sorted({c.topic for c in self._reader.connections})
+            raise DatasetError(f'{path}: no messages on image topic {image_topic!r} '
+                               f'(topics: {", ".join(topics)})')
+        order = np.argsort(img_stamps, kind='stable')
+        stamps = np.asarray(img_stamps)[order]
+        self._img_times = np.asarray(img_times)[order]
+        self._depth_times = np.asarray(depth_times, dtype=np.int64)
+        depth_stamps_arr = np.asarray(depth_stamps, dtype=np.float64)
+        match = associate(stamps, depth_stamps_arr, max_association_diff)
+        self._depth_match = match
+
+        beside = path.parent / 'groundtruth.txt' if path.is_file() else path / 'groundtruth.txt'
+        if groundtruth is not None:
+            gt = read_trajectory(Path(groundtruth))
+            gt_source = str(groundtruth)
+        elif gt_source == 'pose':
+            gt = gt_bag
+        elif beside.is_file():
+            gt = read_trajectory(beside)
+            gt_source = str(beside)
+        else:
+            gt = gt_bag
+        poses: list[np.ndarray | None] = [None] * len(stamps)
+        if gt is not None and len(gt[0]):
+            poses = interpolate_pose_matrices(stamps, *gt, max_gap, nearest_tolerance)
+            missing = sum(p is None for p in poses)
+            if missing:
+                _LOG.warning('%s: %d of %d frames have no ground-truth pose (from %s)',
+                             path, missing, len(poses), gt_source)
+        else:
+            _LOG.info('%s: no ground truth found', path)
+        self.groundtruth_source = gt_source if gt is not None else None
+        if intrinsics is None:
+            intrinsics = info if info is not None else Intrinsics.tum_fr3()
+        frames = [Frame(i, float(s), poses[i],
+                        float(depth_stamps_arr[match[i]]) if match[i] >= 0 else None)
+                  for i, s in enumerate(stamps)]
+        name = path.stem if path.is_file() else path.name
+        super().__init__(name, intrinsics, frames, path)
+        self._image_topic, self._depth_topic = image_topic, depth_topic
+
+    def _scan(self, image_topic: str, depth_topic: str, info_topic: str, pose_topic: str,
+              tf_topic: str, tf_parent: str, tf_child: str) -> tuple[Any, ...]:
+        reader = self._reader
+        conns = [c for c in reader.connections
+                 if c.topic in (image_topic, depth_topic, info_topic, pose_topic, tf_topic)]
+        self._img_conns = [c for c in conns if c.topic == image_topic]
+        self._depth_conns = [c for c in conns if c.topic == depth_topic]
+        img_times, img_stamps, depth_times, depth_stamps = [], [], [], []
+        info: Intrinsics | None = None
+        pose_rows: list[list[float]] = []
+        tf_rows: list[list[float]] = []
+        for conn, t_ns, raw in reader.messages(connections=conns):
+            topic = conn.topic
+            if topic in (image_topic, depth_topic):
+                header = reader.deserialize(raw, conn.msgtype).header
+                if topic == image_topic:
+                    img_times.append(t_ns)
+                    img_stamps.append(_stamp(header))
+                else:
+                    depth_times.append(t_ns)
+                    depth_stamps.append(_stamp(header))
+            elif topic == info_topic and info is None:
+                msg = reader.deserialize(raw, conn.msgtype)
+                k = np.asarray(getattr(msg, 'k', None) if hasattr(msg, 'k') else msg.K, float)
+                d = np.asarray(getattr(msg, 'd', None) if hasattr(msg, 'd') else msg.D, float)
+                if k.size == 9 and k[0] > 0:
+                    try:
+                        info = Intrinsics.from_matrix(k.reshape(3, 3), int(msg.width),
+                                                      int(msg.height),
+                                                      tuple(d.tolist()) if d.any() else ())
+                    except ConfigError as exc:
+                        raise DatasetError(f'bad CameraInfo: {exc}') from exc
+            elif topic == pose_topic:
+                msg = reader.deserialize(raw, conn.msgtype)
+                p, o = msg.pose.position, msg.pose.orientation
+                pose_rows.append([_stamp(msg.header), p.x, p.y, p.z, o.x, o.y, o.z, o.w])
+            elif topic == tf_topic:
+                msg = reader.deserialize(raw, conn.msgtype)
+                for tr in msg.transforms:
+                    if (tr.header.frame_id.lstrip('/') == tf_parent
+                            and tr.child_frame_id.lstrip('/') == tf_child):
+                        p, o = tr.transform.translation, tr.transform.rotation
+                        tf_rows.append([_stamp(tr.header), p.x, p.y, p.z, o.x, o.y, o.z, o.w])
+        gt, source = None, None
+        for rows, name in ((pose_rows, 'pose'), (tf_rows, 'tf')):
+            if rows:
+                data = np.array(rows)
+                data = data[np.argsort(data[:, 0], kind='stable')]
+                gt, source = (data[:, 0], data[:, 1:4], data[:, 4:8]), name
+                break
+        return img_times, img_stamps, depth_times, depth_stamps, info, gt, source
+
+    def _message(self, conns: list[Any], t_ns: int) -> Any:
+        try:
+            for conn, _, raw in self._reader.messages(connections=conns, start=int(t_ns),
+                                                      stop=int(t_ns) + 1):
+                return self._reader.deserialize(raw, conn.msgtype)
+        except _read_errors() as exc:
+            raise DatasetError(f'{self.path}: cannot read message at {t_ns} ns: {exc}') from exc
+        raise DatasetError(f'{self.path}: message at {t_ns} ns disappeared')
+
+    def _load_image(self, i: int) -> np.ndarray:
+        img = image_from_msg(self._message(self._img_conns, self._img_times[i]))
+        if img.dtype == np.uint16:
+            img = (img >> 8).astype(np.uint8)
+        if img.ndim == 2:
+            img = cv2.cvtColor(img.astype(np.uint8), cv2.COLOR_GRAY2BGR)
+        return img
+
+    def _load_depth(self, i: int) -> np.ndarray | None:
+        j = self._depth_match[i]
+        if j < 0:
+            return None
+        msg = self._message(self._depth_conns, self._depth_times[j])
+        depth = image_from_msg(msg)
+        if depth.dtype == np.uint16:  # 16UC1: millimetres
+            depth = depth.astype(np.float32) / np.float32(1000.0)
+        return depth.astype(np.float32)
+
+    def close(self) -> None:
+        """Close the bag file."""
+        reader = getattr(self, '_reader', None)
+        if reader is not None and getattr(reader, 'isopen', False):
+            reader.close()
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):  # never raise from a finalizer
+            self.close()
+
+
+def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
+              storage: str = 'sqlite3', image_topic: str = IMAGE_TOPIC,
+              depth_topic: str = DEPTH_TOPIC, info_topic: str = INFO_TOPIC,
+              pose_topic: str = POSE_TOPIC) -> Path:
+    """Write a sequence to a ROS 1 bag file (``fmt='ros1'``) or a ROS 2 bag folder.
+
+    Args:
+        sequence: frames with images, optional depth and poses.
+        path: output ``.bag`` file (ros1) or folder (ros2); must not exist.
+        fmt: 'ros1' or 'ros2'.
+        storage: ROS 2 storage plugin, 'sqlite3' or 'mcap'.
+
+    Returns:
+        ``path``.
+    """
+    from rosbags.typesys import Stores, get_typestore
+
+    path = Path(path)
+    if fmt not in ('ros1', 'ros2'):
+        raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {fmt!r}")
+    if path.exists():
+        raise DatasetError(f'{path}: already exists')
+    if fmt == 'ros1':
+        from rosbags.rosbag1 import Writer as Ros1Writer
+
+        store = get_typestore(Stores.ROS1_NOETIC)
+        writer: Any = Ros1Writer(path)
+        serialize = store.serialize_ros1
+    else:
+        from rosbags.rosbag2 import StoragePlugin
+        from rosbags.rosbag2 import Writer as Ros2Writer
+
+        plugins = {'sqlite3': StoragePlugin.SQLITE3, 'mcap': StoragePlugin.MCAP}
+        if storage not in plugins:
+            raise ConfigError(f"storage must be 'sqlite3' or 'mcap', got {storage!r}")
+        store = get_typestore(Stores.ROS2_JAZZY)
+        writer = Ros2Writer(path, version=9, storage_plugin=plugins[storage])
+        serialize = store.serialize_cdr
+    T = store.types
+    Image, Info = T['sensor_msgs/msg/Image'], T['sensor_msgs/msg/CameraInfo']
+    Header, Time = T['std_msgs/msg/Header'], T['builtin_interfaces/msg/Time']
+    Pose, PoseStamped = T['geometry_msgs/msg/Pose'], T['geometry_msgs/msg/PoseStamped']
+    Point, Quat = T['geometry_msgs/msg/Point'], T['geometry_msgs/msg/Quaternion']
+    Roi = T['sensor_msgs/msg/RegionOfInterest']
+    ros1 = fmt == 'ros1'
+
+    def header(stamp: float, frame: str, seq: int) -> Any:
+        sec = int(np.floor(stamp))
+        t = Time(sec=sec, nanosec=min(round((stamp - sec) * 1e9), 999_999_999))
+        return Header(seq=seq, stamp=t, frame_id=frame) if ros1 else Header(stamp=t,
+                                                                           frame_id=frame)
+
+    cam = sequence.intrinsics
+    K = cam.K.reshape(-1)
+    P = np.array([[cam.fx, 0, cam.cx, 0], [0, cam.fy, cam.cy, 0], [0, 0, 1, 0]]).reshape(-1)
+    dist = np.array(cam.distortion, dtype=np.float64)
+    model = 'plumb_bob' if len(dist) in (0, 5) else 'rational_polynomial'
+    if len(dist) == 0:
+        dist = np.zeros(5)
+    try:
+        writer.open()
+        c_img = writer.add_connection(image_topic, Image.__msgtype__, typestore=store)
+        c_info = writer.add_connection(info_topic, Info.__msgtype__, typestore=store)
+        c_depth = writer.add_connection(depth_topic, Image.__msgtype__, typestore=store)
+        c_pose = writer.add_connection(pose_topic, PoseStamped.__msgtype__, typestore=store)
+        for f in sequence.frames:
+            t_ns = round(f.stamp * 1e9)
+            rgb = cv2.cvtColor(sequence.image(f.index), cv2.COLOR_BGR2RGB)
+            h, w = rgb.shape[:2]
+            hd = header(f.stamp, CAMERA_FRAME, f.index)
+            msg = Image(header=hd, height=h, width=w, encoding='rgb8', is_bigendian=0,
+                        step=w * 3, data=rgb.reshape(-1))
+            writer.write(c_img, t_ns, serialize(msg, Image.__msgtype__))
+            roi = Roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+            mats = {'D' if ros1 else 'd': dist, 'K' if ros1 else 'k': K,
+                    'R' if ros1 else 'r': np.eye(3).reshape(-1),
+                    'P' if ros1 else 'p': P}
+            info = Info(header=hd, height=h, width=w, distortion_model=model, binning_x=0,
+                        binning_y=0, roi=roi, **mats)
+            writer.write(c_info, t_ns, serialize(info, Info.__msgtype__))
+            depth = sequence.depth(f.index)
+            if depth is not None:
+                d_ns = round(f.depth_stamp * 1e9)
+                dmsg = Image(header=header(f.depth_stamp, CAMERA_FRAME, f.index), height=h,
+                             width=w, encoding='32FC1', is_bigendian=0, step=w * 4,
+                             data=np.ascontiguousarray(depth, '<f4').view(np.uint8).reshape(-1))
+                writer.write(c_depth, d_ns, serialize(dmsg, Image.__msgtype__))
+            if f.pose is not None:
+                t, q = matrix_to_pose(f.pose)
+                pose = Pose(position=Point(x=t[0], y=t[1], z=t[2]),
+                            orientation=Quat(x=q[0], y=q[1], z=q[2], w=q[3]))
+                pmsg = PoseStamped(header=header(f.stamp, WORLD_FRAME, f.index), pose=pose)
+                writer.write(c_pose, t_ns, serialize(pmsg, PoseStamped.__msgtype__))
+    finally:
+        writer.close()
+    return path
+
+
+__all__ = ['BagSequence', 'image_from_msg', 'write_bag']
