@@ -214,9 +214,24 @@ def _normalize(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _null_vectors(A: np.ndarray) -> np.ndarray:
-    """(B, M, 9) design matrices -> (B, 3, 3) unit null vectors (least-squares, via A^T A)."""
-    _, vecs = np.linalg.eigh(A.transpose(0, 2, 1) @ A)
-    return vecs[:, :, 0].reshape(-1, 3, 3)
+    """(B, M, 9) design matrices -> (B, 3, 3) least-squares null vectors.
+
+    Solves with the last entry fixed to 1 (batched 8x8 solves, fast); falls back to the
+    smallest eigenvector of A^T A when a system is singular.
+    """
+    try:
+        if A.shape[1] == 8:
+            x = np.linalg.solve(A[:, :, :8], -A[:, :, 8:])
+        else:
+            M = A.transpose(0, 2, 1) @ A
+            x = np.linalg.solve(M[:, :8, :8], -M[:, :8, 8:])
+        v = np.concatenate((x[..., 0], np.ones((len(A), 1))), axis=1)
+        if not np.all(np.isfinite(v)):
+            raise np.linalg.LinAlgError('non-finite solution')
+    except np.linalg.LinAlgError:
+        _, vecs = np.linalg.eigh(A.transpose(0, 2, 1) @ A)
+        v = vecs[:, :, 0]
+    return v.reshape(-1, 3, 3)
 
 
 def _homographies(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:

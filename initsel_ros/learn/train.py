@@ -37,6 +37,8 @@ LOG = logging.getLogger(__name__)
 
 #: Bias of a model whose training data held a single class (it always or never fires).
 CONSTANT_LOGIT = 12.0
+#: Thresholds stay within [margin, 1 - margin].
+THRESHOLD_MARGIN = 1e-4
 
 
 class ClassWeight(str, Enum):
@@ -213,7 +215,8 @@ def choose_threshold(
         i = int(np.argmax(fbeta))
         rule = f'precision {target_precision:g} unreachable: max F0.5'
         reached = False
-    t = float(min(max(thr[i], 0.0), 1.0))
+    # keep away from 0 and 1: out-of-fold probabilities saturate in float64
+    t = float(min(max(thr[i], THRESHOLD_MARGIN), 1.0 - THRESHOLD_MARGIN))
     return _summarize(y, scores >= t, t, reached, rule)
 
 
@@ -497,6 +500,7 @@ def describe_inputs(paths: Sequence[str]) -> dict[str, Any]:
 
 __all__ = [
     'CONSTANT_LOGIT',
+    'THRESHOLD_MARGIN',
     'Candidate',
     'ClassWeight',
     'FittedCandidate',

@@ -1,0 +1,130 @@
+"""Labels on constructed two-view cases with exact ground truth."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from initsel_ros.learn.labels import LabelConfig, ScaleRule, backproject, label_pair, relabel
+
+K = np.array([[535.4, 0.0, 320.1], [0.0, 539.2, 247.6], [0.0, 0.0, 1.0]])
+W, H = 640, 480
+
+
+def _blocky_depth(rng: np.random.Generator, block: int = 40) -> np.ndarray:
+    """A non-planar scene: depth constant over 40 px blocks, 1.5 .. 4 m."""
+    coarse = rng.uniform(1.5, 4.0, (H // block, W // block)).astype(np.float32)
+    return np.kron(coarse, np.ones((block, block), np.float32))
+
+
+def _pose(R: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = centre
+    return T
+
+
+def _rot_y(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _correspondences(rng, depth, T_w_cur, n=250, noise=0.2):
+    """Reference pixels inside blocks (away from depth edges) and their exact projections."""
+    bx = rng.integers(0, W // 40, n) * 40 + rng.uniform(8, 32, n)
+    by = rng.integers(0, H // 40, n) * 40 + rng.uniform(8, 32, n)
+    p0 = np.column_stack((bx, by))
+    X, valid = backproject(p0, depth, K)
+    assert valid.all()
+    T_cur_w = np.linalg.inv(T_w_cur)
+    Xc = X @ T_cur_w[:3, :3].T + T_cur_w[:3, 3]
+    x = Xc @ K.T
+    p1 = x[:, :2] / x[:, 2:3] + rng.normal(0, noise, (n, 2))
+    keep = (p1[:, 0] > 0) & (p1[:, 0] < W) & (p1[:, 1] > 0) & (p1[:, 1] < H)
+    return p0[keep].astype(np.float32), p1[keep].astype(np.float32)
+
+
+def test_clean_translation_pair_gets_e_label_and_small_errors():
+    rng = np.random.default_rng(0)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(_rot_y(0.03), np.array([0.25, 0.02, 0.05]))
+    p0, p1 = _correspondences(rng, depth, T_cur)
+    labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur)
+    assert labels.baseline_m == pytest.approx(np.linalg.norm([0.25, 0.02, 0.05]))
+    assert labels.rotation_deg == pytest.approx(math.degrees(0.03), abs=1e-6)
+    assert labels.r_label == 0
+    e = labels.outcomes['E']
+    assert e.ok
+    assert e.et < 0.1
+    assert e.er_median < 0.2 and e.er_first_two < 0.3  # metres, scene at 1.5-4 m
+    assert labels.label('E') == 1
+    assert e.n_gt_points == e.n_points > 50
+
+
+def test_pure_rotation_gets_r_label_and_no_pose_label():
+    rng = np.random.default_rng(1)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(_rot_y(0.08), np.zeros(3))
+    p0, p1 = _correspondences(rng, depth, T_cur)
+    labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur)
+    assert labels.baseline_m == pytest.approx(0.0, abs=1e-12)
+    assert labels.r_label == 1
+    for m in ('F', 'E', 'H'):
+        assert labels.label(m) == 0  # no translation direction to get right
+        assert math.isnan(labels.outcomes[m].et)
+
+
+def test_small_baseline_just_below_the_rotation_threshold_is_r():
+    labels_config = LabelConfig(rotation_baseline_m=0.05)
+    rng = np.random.default_rng(2)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(np.eye(3), np.array([0.049, 0.0, 0.0]))
+    p0, p1 = _correspondences(rng, depth, T_cur)
+    assert label_pair(p0, p1, K, depth, np.eye(4), T_cur, labels_config).r_label == 1
+    T_cur = _pose(np.eye(3), np.array([0.051, 0.0, 0.0]))
+    assert label_pair(p0, p1, K, depth, np.eye(4), T_cur, labels_config).r_label == 0
+
+
+def test_backproject_skips_pixels_without_depth():
+    depth = np.zeros((H, W), np.float32)
+    depth[:, 320:] = 2.0
+    pixels = np.array([[100.0, 100.0], [400.0, 100.0], [-5.0, 10.0], [700.0, 10.0]])
+    X, valid = backproject(pixels, depth, K)
+    assert valid.tolist() == [False, True, False, False]
+    assert np.all(np.isnan(X[~valid]))
+    assert X[1, 2] == 2.0
+    assert X[1, 0] == pytest.approx((400.0 - 320.1) / 535.4 * 2.0)
+
+
+def test_failed_estimate_is_label_zero_with_a_reason():
+    rng = np.random.default_rng(3)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(np.eye(3), np.array([0.2, 0.0, 0.0]))
+    p0, p1 = _correspondences(rng, depth, T_cur, n=6)  # too few for F (8) and H's 8 points
+    labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur)
+    f = labels.outcomes['F']
+    assert not f.ok and f.reason
+    assert math.isnan(f.et) and labels.label('F') == 0
+
+
+def test_relabel_applies_new_thresholds_to_stored_errors():
+    columns = {
+        'gt_baseline_m': np.array([0.01, 0.2, 0.3]),
+        'scale_rule': np.array(['median'] * 3, dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        columns[f'{m}_ok'] = np.array([1, 1, 0])
+        columns[f'{m}_et'] = np.array([0.1, 0.5, np.nan])
+        columns[f'{m}_er_median'] = np.array([0.2, 0.2, np.nan])
+        columns[f'{m}_er_first_two'] = np.array([2.0, 0.2, np.nan])
+    strict = relabel(columns, LabelConfig(et_max=0.3))
+    assert strict['E_label'].tolist() == [1, 0, 0]
+    first_two = relabel(columns, LabelConfig(scale_rule=ScaleRule.FIRST_TWO))
+    assert first_two['E_label'].tolist() == [0, 1, 0]
+    assert first_two['scale_rule'][0] == 'first_two'
+    assert relabel(columns, LabelConfig(rotation_baseline_m=0.25))['R_label'].tolist() == [
+        1, 1, 0,
+    ]
+    assert columns['scale_rule'][0] == 'median'  # input untouched
