@@ -213,10 +213,11 @@ def draw_overlay(
     init = initialization if initialization is not None else result.initialization
     s = min(w / 640.0, h / 480.0)  # layout scale, 1 at 640x480
     thick = max(1, round(s))
+    line_thick = max(1, round(1.5 * s))
     ref = np.asarray(tracks_ref, np.float32).reshape(-1, 2)
     cur = np.asarray(tracks_cur, np.float32).reshape(-1, 2)
     n = min(len(ref), len(cur))
-    _draw_tracks(canvas, ref[:n], cur[:n], thick)
+    _draw_tracks(canvas, ref[:n], cur[:n], line_thick)
     if init is not None:
         _draw_inliers(canvas, init.pixels_cur, max(2, round(3 * s)))
 
@@ -254,8 +255,8 @@ def draw_overlay(
         cv2.putText(canvas, tag, (bar_x + bar_w + pad, base), _FONT, font, _WHITE, 1, cv2.LINE_AA)
         y += line
     y += line
-    stats = (f'tracks {d.n_tracks}  disp {d.mean_disparity:.1f} px  '
-             f'ref +{result.frames_since_reference}')
+    stats = (f'tracks {d.n_tracks}  disparity {d.mean_disparity:.1f} px  '
+             f'+{result.frames_since_reference} frames')
     cv2.putText(canvas, stats, (label_x, y), _FONT, font, _WHITE, 1, cv2.LINE_AA)
     for text, colour in lines:
         y += line

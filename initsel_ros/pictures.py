@@ -37,7 +37,7 @@ README_IMAGES = Path(__file__).resolve().parent.parent / 'docs' / 'images'
 MAX_PNG_BYTES = 300_000
 VIDEO_SUFFIXES = ('.mp4', '.avi', '.mov', '.mkv')
 #: Frames kept in the README figure after the initialization.
-AFTER_INIT_FRAMES = 20
+AFTER_INIT_FRAMES = 12
 
 _MODEL_COLOURS = {'F': 'tab:blue', 'E': 'tab:green', 'H': 'tab:orange', 'R': 'tab:red'}
 
@@ -257,7 +257,7 @@ def plot_probabilities(
         [r.frame_index for r in results] if indices is None else indices, np.float64
     )
     thresholds = dict(thresholds or {})
-    fig, ax = plt.subplots(figsize=(8, 4), dpi=100)
+    fig, ax = plt.subplots(figsize=(8, 4.4), dpi=100)
     try:
         for name in METHODS:
             p = np.array([r.decision.probabilities.get(name, np.nan) for r in results], float)
@@ -267,7 +267,11 @@ def plot_probabilities(
         rotation = np.array([r.decision.reason is Reason.ROTATION for r in results])
         if rotation.any():
             ax.fill_between(x, 0, 1, where=rotation, step='mid', color='tab:red', alpha=0.08,
-                            lw=0, label='R veto / rotation')
+                            lw=0, label='reason: rotation (R fired)')
+        done = np.array([r.decision.reason is Reason.DONE for r in results])
+        if done.any():
+            ax.fill_between(x, 0, 1, where=done, step='mid', color='0.5', alpha=0.15, lw=0,
+                            label="initialized (mode 'once')")
         new_ref = [xi for xi, r in zip(x, results, strict=True) if r.new_reference]
         for xi in new_ref:
             ax.axvline(xi, color='0.6', lw=0.6, ls=':')
@@ -288,10 +292,12 @@ def plot_probabilities(
             handles.append(line)
             labels.append('true baseline to reference (m)')
             if r_baseline_m is not None:
-                ax2.axhline(r_baseline_m, color='k', lw=0.6, ls=':', alpha=0.7)
+                handles.append(ax2.axhline(r_baseline_m, color='k', lw=0.8, ls=':', alpha=0.7))
+                labels.append(f'R label limit ({r_baseline_m:g} m)')
             ax2.set_ylabel('baseline, metres')
             ax2.set_ylim(0, max(float(np.nanmax(groundtruth_baselines)) * 1.1, 0.1))
-        ax.legend(handles, labels, loc='upper left', fontsize=7, ncol=3, framealpha=0.85)
+        ax.legend(handles, labels, loc='upper center', bbox_to_anchor=(0.5, -0.16), fontsize=7,
+                  ncol=5, frameon=False)
         if title:
             ax.set_title(title, fontsize=10, pad=14)
         fig.tight_layout()
