@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import sqlite3
 import struct
 from pathlib import Path
 from typing import Any
@@ -51,7 +52,7 @@ def _read_errors() -> tuple[type[BaseException], ...]:
     from rosbags.rosbag2 import ReaderError as Ros2ReaderError
 
     return (AnyReaderError, Ros1ReaderError, Ros2ReaderError, OSError, ValueError, KeyError,
-            IndexError, EOFError, struct.error, AssertionError)
+            IndexError, EOFError, struct.error, AssertionError, sqlite3.Error)
 
 
 def _stamp(header: Any) -> float:

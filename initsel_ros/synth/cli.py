@@ -26,6 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--trajectory', choices=TRAJECTORIES, default='near')
     parser.add_argument('--frames', type=int, default=None,
                         help='number of frames (default: all 1099 of the near trajectory)')
+    parser.add_argument('--start', type=int, default=0,
+                        help='skip the first N frames of the trajectory')
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--bag', action='append', choices=('ros1', 'ros2'), default=[],
                         help='also write a bag (may be given twice)')
@@ -54,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         width=args.width, height=args.height, distortion=tuple(args.distortion),
         effects=Effects(noise=args.noise, blur=args.blur, exposure=args.exposure),
         bags=tuple(args.bag), png_compression=args.png_compression, workers=args.workers,
-        progress=not args.no_progress,
+        progress=not args.no_progress, start=args.start,
     )
     print(f'{result.path}: {result.frames} frames, {result.seconds:.1f} s, '
           f'{result.fps:.1f} frames/s (rendering + PNG writing)')

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
+from functools import lru_cache
 
 import numpy as np
 
@@ -178,6 +179,8 @@ def build_scene(name: str | SceneName = SceneName.STRUCTURE_TEXTURE, seed: int =
                 ppm: float = tx.PIXELS_PER_METRE) -> Scene:
     """Build a scene variant; the textures are a pure function of ``seed``.
 
+    Scenes are cached (a few are kept): treat them as read-only.
+
     Args:
         name: 'structure_texture' (sheets, zig-zag poster, room), 'floor' (sheets on the floor
             only: every visible point on z = 0, the homography case), 'zigzag' (poster only),
@@ -185,7 +188,11 @@ def build_scene(name: str | SceneName = SceneName.STRUCTURE_TEXTURE, seed: int =
         seed: texture seed.
         ppm: texture resolution of sheets and poster, pixels per metre.
     """
-    name = SceneName(name)
+    return _build_scene(SceneName(name), int(seed), float(ppm))
+
+
+@lru_cache(maxsize=4)
+def _build_scene(name: SceneName, seed: int, ppm: float) -> Scene:
     rng = np.random.default_rng(seed)
     target = scene_target()
     if name is SceneName.STRUCTURE_TEXTURE:

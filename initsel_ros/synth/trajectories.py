@@ -83,7 +83,8 @@ def nominal_eye(distance: float = 1.2) -> np.ndarray:
 
 
 def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed: int = 0,
-                    target: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    target: np.ndarray | None = None, start: int = 0,
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Timestamps and camera-to-world poses for a trajectory kind.
 
     Args:
@@ -91,6 +92,8 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
         frames: number of frames (default: 1099, the length of the real near sequence).
         seed: for ``random``.
         target: (3,) world point the generated trajectories look at (default: scene target).
+        start: skip this many frames first (e.g. the near trajectory barely moves in its first
+            40 frames; from frame 80 it moves 0.22 m in 30 frames).
 
     Returns:
         ``(stamps (N,) seconds, poses (N, 4, 4) camera-to-world)``.
@@ -98,19 +101,21 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
     name = TrajectoryName(name)
     if frames is not None and frames <= 0:
         raise ConfigError(f'frames must be positive, got {frames}')
+    if start < 0:
+        raise ConfigError(f'start must be >= 0, got {start}')
     if name in (TrajectoryName.NEAR, TrajectoryName.FAR):
         stamps, poses = near_trajectory()
-        if frames is not None:
-            if frames > len(stamps):
-                raise ConfigError(f'the {name.value} trajectory has {len(stamps)} frames, '
-                                  f'{frames} requested')
-            stamps, poses = stamps[:frames], poses[:frames]
+        stop = len(stamps) if frames is None else start + frames
+        if stop > len(stamps) or start >= len(stamps):
+            raise ConfigError(f'the {name.value} trajectory has {len(stamps)} frames, '
+                              f'frames {start}..{stop - 1} requested')
+        stamps, poses = stamps[start:stop], poses[start:stop]
         if name is TrajectoryName.FAR:
             poses = poses.copy()
             poses[:, :3, 3] = NEAR_CONVERGENCE + 2.0 * (poses[:, :3, 3] - NEAR_CONVERGENCE)
         return stamps, poses
     n = 1099 if frames is None else frames
-    t = np.arange(n) / FRAME_RATE
+    t = (start + np.arange(n)) / FRAME_RATE
     stamps = START_TIME + t
     target = scene_target() if target is None else np.asarray(target, float)
     eye = nominal_eye(1.2)

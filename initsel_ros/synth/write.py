@@ -99,6 +99,7 @@ def render(
     png_compression: int = 1,
     workers: int = 2,
     progress: bool = False,
+    start: int = 0,
 ) -> SynthResult:
     """Render a sequence as a TUM folder with exact ground truth.
 
@@ -117,6 +118,7 @@ def render(
         png_compression: zlib level 0-9 for the colour PNGs (depth always uses 1).
         workers: PNG writer threads.
         progress: draw a progress bar on stderr.
+        start: skip the first ``start`` frames of the trajectory.
 
     Returns:
         A :class:`SynthResult`.
@@ -127,7 +129,7 @@ def render(
         if b not in ('ros1', 'ros2'):
             raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {b!r}")
     cam = _camera(width, height, intrinsics, distortion)
-    stamps, poses = make_trajectory(trajectory, frames, seed)
+    stamps, poses = make_trajectory(trajectory, frames, seed, start=start)
     world = build_scene(scene, seed)
     try:
         (out / 'rgb').mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,70 @@
+"""Session fixtures: rendered sequences (each rendered once, lazily, on first use).
+
+Every fixture returns a Path: a TUM folder (``rgb/``, ``depth/``, ``rgb.txt``, ``depth.txt``,
+``groundtruth.txt``, ``intrinsics.yaml``) or a bag. Treat them as read-only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+
+def _render(factory: pytest.TempPathFactory, name: str, **kwargs: object) -> Path:
+    from initsel_ros.synth import render
+
+    out = factory.mktemp(name)
+    return render(out, **kwargs).path  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope='session')
+def near_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Default scene, real near trajectory frames 80-139 (2 s; 0.22 m baseline after 30 frames,
+    0.39 m after 60); noise 1.5."""
+    return _render(tmp_path_factory, 'near', trajectory='near', frames=60, start=80)
+
+
+@pytest.fixture(scope='session')
+def far_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Default scene, the near motion (frames 80-139) at twice the distance."""
+    return _render(tmp_path_factory, 'far', trajectory='far', frames=60, start=80)
+
+
+@pytest.fixture(scope='session')
+def rotation_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Pure pan and tilt about the optical centre (zero baseline), 60 frames."""
+    return _render(tmp_path_factory, 'rotation', trajectory='rotation', frames=60)
+
+
+@pytest.fixture(scope='session')
+def static_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A camera that does not move, 30 frames (only the noise changes)."""
+    return _render(tmp_path_factory, 'static', trajectory='static', frames=30)
+
+
+@pytest.fixture(scope='session')
+def floor_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Sheets on the floor only (every visible point on z = 0), near frames 80-139."""
+    return _render(tmp_path_factory, 'floor', scene='floor', trajectory='near', frames=60,
+                   start=80)
+
+
+@pytest.fixture(scope='session')
+def near_bag_ros1(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``near_sequence`` as a ROS 1 bag file."""
+    from initsel_ros.datasets.bags import write_bag
+    from initsel_ros.datasets.tum import TumSequence
+
+    return write_bag(TumSequence(near_sequence), tmp_path_factory.mktemp('bag1') / 'near.bag',
+                     'ros1')
+
+
+@pytest.fixture(scope='session')
+def near_bag_ros2(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``near_sequence`` as a ROS 2 bag folder (sqlite3)."""
+    from initsel_ros.datasets.bags import write_bag
+    from initsel_ros.datasets.tum import TumSequence
+
+    return write_bag(TumSequence(near_sequence), tmp_path_factory.mktemp('bag2') / 'near',
+                     'ros2')
