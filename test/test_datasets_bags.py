@@ -1,0 +1,88 @@
+"""ROS 1 and ROS 2 bags: written from a TUM folder, read back through bags.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from initsel_ros.datasets import open_sequence
+from initsel_ros.datasets.bags import BagSequence, write_bag
+from initsel_ros.datasets.tum import TumSequence
+from initsel_ros.errors import DatasetError
+
+
+def _assert_same(folder, bag, indices=(0, 17, 59)):
+    assert len(bag) == len(folder)
+    assert np.allclose(bag.stamps, folder.stamps, atol=1e-6)
+    assert bag.intrinsics == folder.intrinsics
+    assert np.allclose(bag.poses(), folder.poses(), atol=1e-9)
+    for i in indices:
+        assert np.array_equal(bag.image(i), folder.image(i))
+        assert np.array_equal(bag.depth(i), folder.depth(i))
+
+
+def test_ros1_bag_reads_back_to_the_same_frames_depth_and_poses(near_sequence, near_bag_ros1):
+    bag = open_sequence(near_bag_ros1)
+    assert isinstance(bag, BagSequence) and bag.groundtruth_source == 'pose'
+    _assert_same(TumSequence(near_sequence), bag)
+
+
+def test_ros2_bag_reads_back_to_the_same_frames_depth_and_poses(near_sequence, near_bag_ros2):
+    bag = open_sequence(near_bag_ros2)
+    assert isinstance(bag, BagSequence)
+    _assert_same(TumSequence(near_sequence), bag)
+
+
+def test_ros2_mcap_storage_round_trips(static_sequence, tmp_path):
+    folder = TumSequence(static_sequence)
+    path = write_bag(folder, tmp_path / 'mcap_bag', 'ros2', storage='mcap')
+    assert list(path.glob('*.mcap'))
+    _assert_same(folder, open_sequence(path), indices=(0, 29))
+
+
+def test_groundtruth_file_overrides_the_pose_topic(near_sequence, near_bag_ros1, tmp_path):
+    shifted = tmp_path / 'gt.txt'
+    lines = []
+    for line in (near_sequence / 'groundtruth.txt').read_text().splitlines():
+        if line.startswith('#'):
+            continue
+        v = line.split()
+        v[1] = f'{float(v[1]) + 1.0:.9f}'
+        lines.append(' '.join(v))
+    shifted.write_text('\n'.join(lines) + '\n')
+    bag = BagSequence(near_bag_ros1, groundtruth=shifted)
+    folder = TumSequence(near_sequence)
+    assert np.allclose(bag.poses()[:, 0, 3], folder.poses()[:, 0, 3] + 1.0, atol=1e-6)
+
+
+def test_missing_image_topic_names_the_topics_found(near_bag_ros1):
+    with pytest.raises(DatasetError, match=r'no messages on image topic .*image_color'):
+        BagSequence(near_bag_ros1, image_topic='/nope')
+
+
+def test_truncated_ros1_bag_raises_dataset_error_naming_the_file(near_bag_ros1, tmp_path):
+    data = near_bag_ros1.read_bytes()
+    broken = tmp_path / 'broken.bag'
+    broken.write_bytes(data[: len(data) // 3])
+    with pytest.raises(DatasetError, match=r'broken\.bag'):
+        seq = BagSequence(broken)
+        for i in range(len(seq)):
+            seq.image(i)
+
+
+def test_corrupt_ros2_bag_raises_dataset_error_naming_the_file(near_bag_ros2, tmp_path):
+    import shutil
+
+    copy = tmp_path / 'corrupt'
+    shutil.copytree(near_bag_ros2, copy)
+    db = next(copy.glob('*.db3'))
+    db.write_bytes(b'not a database' * 100)
+    with pytest.raises(DatasetError, match='corrupt'):
+        BagSequence(copy)
+
+
+def test_writing_over_an_existing_bag_is_refused(static_sequence, tmp_path):
+    target = tmp_path / 'exists.bag'
+    target.write_bytes(b'')
+    with pytest.raises(DatasetError, match='already exists'):
+        write_bag(TumSequence(static_sequence), target, 'ros1')
