@@ -345,6 +345,7 @@ def make_readme_pictures(
     models: ModelSet | None = None,
     frames: int = 240,
     max_bytes: int = MAX_PNG_BYTES,
+    rotation_frames: int = 90,
 ) -> list[Path]:
     """Regenerate the README pictures from rendered sequences.
 
@@ -360,6 +361,7 @@ def make_readme_pictures(
         models: the models (default: the packaged ``config/models.json``).
         frames: frames of the ``near`` run.
         max_bytes: largest PNG size, bytes (colours are posterized until it fits).
+        rotation_frames: frames of the ``rotation`` run the veto frame is chosen from.
 
     Returns:
         The paths written.
@@ -379,8 +381,8 @@ def make_readme_pictures(
     work_dir = Path(work_dir)
     try:
         written = []
-        rot = _rendered(work_dir, 'rotation', 90)
-        overlay, result = _rotation_frame(rot, models, 90)
+        rot = _rendered(work_dir, 'rotation', rotation_frames)
+        overlay, result = _rotation_frame(rot, models, rotation_frames)
         log.info('rotation frame %d: %s', result.frame_index, result.decision.reason.value)
         written.append(write_png(out_dir / 'rotation_veto.png', overlay, max_bytes))
 

@@ -9,11 +9,14 @@ import numpy as np
 import pytest
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets import Frame, Sequence
+from initsel_ros.datasets import Frame, Sequence, open_sequence
 from initsel_ros.features import N_FEATURES
 from initsel_ros.models import METHODS, LogisticModel, ModelSet
 from initsel_ros.pictures import (
     groundtruth_baselines,
+    iter_overlays,
+    main,
+    make_readme_pictures,
     plot_probabilities,
     write_overlay_video,
     write_png,
@@ -124,3 +127,41 @@ def test_probability_figure_without_ground_truth_or_results(tmp_path):
     pytest.importorskip('matplotlib', reason='the figure needs the optional matplotlib (plot)')
     out = plot_probabilities([], None, tmp_path / 'empty.png')
     assert cv2.imread(str(out)) is not None
+
+
+def test_command_draws_a_rendered_rotation_sequence(rotation_sequence, tmp_path):
+    pytest.importorskip('matplotlib', reason='the figure needs the optional matplotlib (plot)')
+    model_file = tmp_path / 'models.json'
+    constant_models(E=0.9, R=0.9).save(model_file)
+    video, figure = tmp_path / 'rot.mp4', tmp_path / 'rot.png'
+    code = main(['--source', str(rotation_sequence), '--video', str(video), '--plot',
+                 str(figure), '--models', str(model_file), '--frames', '15'])
+    assert code == 0
+    cap = cv2.VideoCapture(str(video))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 15
+    cap.release()
+    assert cv2.imread(str(figure)) is not None
+
+
+def test_command_without_an_output_is_one_error_line(rotation_sequence, tmp_path, capsys):
+    model_file = tmp_path / 'models.json'
+    constant_models().save(model_file)
+    assert main(['--source', str(rotation_sequence), '--models', str(model_file)]) == 1
+    assert 'needs --video' in capsys.readouterr().err
+
+
+def test_rotation_sequence_has_no_baseline(rotation_sequence):
+    seq = open_sequence(rotation_sequence)
+    run = list(iter_overlays(seq, constant_models(), stop=10))
+    base = groundtruth_baselines(seq, [r for _, r, _, _ in run], [i for i, _, _, _ in run])
+    assert np.nanmax(base) < 1e-6
+
+
+def test_readme_pictures_are_small_pngs(tmp_path):
+    pytest.importorskip('matplotlib', reason='the figure needs the optional matplotlib (plot)')
+    paths = make_readme_pictures(tmp_path / 'images', tmp_path / 'work',
+                                 constant_models(E=0.9, R=0.2), frames=12, rotation_frames=6)
+    names = {p.name for p in paths}
+    assert {'rotation_veto.png', 'probabilities.png'} <= names
+    for p in paths:
+        assert 0 < p.stat().st_size < 300_000 and cv2.imread(str(p)) is not None
