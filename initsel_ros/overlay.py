@@ -283,7 +283,13 @@ def draw_selector_overlay(
 ) -> np.ndarray:
     """:func:`draw_overlay` with the tracks and thresholds taken from ``selector``.
 
-    Call it right after ``result = selector.process(image, stamp)``.
+    Call it right after ``result = selector.process(image, stamp)``. When that frame
+    initialized and the tracker already started over (mode 'continuous'), the initialization's
+    own correspondences are drawn instead of the fresh, zero-length tracks.
     """
     tracks = selector.tracker.tracks()
-    return draw_overlay(image, result, tracks.ref, tracks.cur, selector.thresholds)
+    ref, cur = tracks.ref, tracks.cur
+    init = result.initialization
+    if init is not None and (len(ref) == 0 or np.array_equal(ref, cur)):
+        ref, cur = init.pixels_ref, init.pixels_cur
+    return draw_overlay(image, result, ref, cur, selector.thresholds)

@@ -104,3 +104,23 @@ def test_initialization_inliers_are_marked_in_yellow():
     yellow = (around[:, 0] < 80) & (around[:, 1] > 200) & (around[:, 2] > 200)
     assert yellow.any()
     assert not math.isnan(float(out.mean()))
+
+
+def test_selector_overlay_draws_the_initializing_pairs_after_a_continuous_reset():
+    from types import SimpleNamespace
+
+    from initsel_ros.overlay import draw_selector_overlay
+    from initsel_ros.tracking import Tracks
+
+    fresh = np.array([[100, 300], [500, 400]], np.float32)  # tracker restarted: ref == cur
+    tracker = SimpleNamespace(tracks=lambda: Tracks(fresh, fresh.copy(), np.arange(2)))
+    selector = SimpleNamespace(tracker=tracker, thresholds=THRESHOLDS)
+    pixels = np.array([[300, 300]], np.float32)
+    init = Initialization(
+        method=Method.H, R=np.eye(3), t=np.array([0.1, 0, 0]), points=np.ones((1, 3)),
+        pixels_ref=pixels - [40, 0], pixels_cur=pixels, reference_stamp=0.5, stamp=1.0,
+        frames_since_reference=3, probabilities={'H': 0.9}, parallax_deg=2.0,
+    )
+    res = FrameResult(7, 1.0, 0.5, Decision(Reason.INITIALIZED, detail='H'), init)
+    out = draw_selector_overlay(np.zeros((480, 640, 3), np.uint8), selector, res)
+    assert out[300, 280].sum() > 150  # the middle of the reference -> current segment
