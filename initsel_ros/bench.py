@@ -1,0 +1,393 @@
+"""``initsel bench``: what a decision, a frame and the node cost, against the baselines.
+
+One run renders a short 640x480 sequence, tracks 300 features on it and times, on the same
+correspondences: the decision (23 features, four models, policy), ORB-SLAM-style H/F selection
+and the F/E/H estimators; the whole per-frame path from an Image message; the node end to end
+at 30 and 60 Hz; memory over many frames; and labelled pairs per second for the dataset.
+It prints a Markdown table (``--json`` saves the figures). Other modes:
+
+* ``--flood``: a 200 Hz publisher of 1920x1080 images against the node (``--seconds 30``).
+* ``--fuzz N``: property-based fuzzing of image conversion and the node's image path.
+
+Heavy modules (rclpy, scikit-learn, hypothesis) are imported inside :func:`run`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import platform
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from initsel_ros.errors import InitselError
+
+log = logging.getLogger(__name__)
+
+#: Targets from the task (seconds, or a ratio).
+DECISION_TARGET_S = 50e-6
+BASELINE_RATIO_TARGET = 20.0
+FRAME_MEDIAN_TARGET_S = 5e-3
+FRAME_P99_TARGET_S = 15e-3
+MEMORY_TARGET_BYTES = 5 * 2**20
+SECTIONS = ('decision', 'frame', 'node', 'memory', 'dataset')
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``initsel bench``."""
+    parser.add_argument('--work', type=Path, default=None,
+                        help='folder for the rendered sequence (default: temporary; reused '
+                        'when it already holds enough frames)')
+    parser.add_argument('--frames', type=int, default=90,
+                        help='frames to render (default 90)')
+    parser.add_argument('--models', type=Path, default=None,
+                        help='model file (default: config/models.json, else models fitted '
+                        'on random features)')
+    parser.add_argument('--repeat', type=int, default=2000,
+                        help='timed repetitions of the decision (default 2000; the baselines '
+                        'use a tenth)')
+    parser.add_argument('--node-frames', type=int, default=150,
+                        help='frames per node replay (default 150)')
+    parser.add_argument('--rates', type=float, nargs='+', default=[30.0, 60.0],
+                        help='node replay rates, Hz (default 30 60)')
+    parser.add_argument('--long', action='store_true',
+                        help='memory over 10,000 frames instead of 1,000')
+    parser.add_argument('--memory-frames', type=int, default=None,
+                        help='frames for the memory run (overrides --long)')
+    parser.add_argument('--skip', nargs='+', choices=SECTIONS, default=[],
+                        help='leave out these sections')
+    parser.add_argument('--json', type=Path, default=None, metavar='PATH',
+                        help='also save every figure as JSON')
+    parser.add_argument('--profile', action='store_true',
+                        help='profile the per-frame path with pyinstrument and print it')
+    mode = parser.add_argument_group('other modes')
+    mode.add_argument('--flood', action='store_true',
+                      help='flood the node with large images instead of the benchmarks')
+    mode.add_argument('--seconds', type=float, default=30.0,
+                      help='flood duration, seconds (default 30)')
+    mode.add_argument('--flood-rate', type=float, default=200.0,
+                      help='flood publishing rate, Hz (default 200)')
+    mode.add_argument('--flood-size', default='1920x1080', metavar='WxH',
+                      help='flood image size (default 1920x1080)')
+    mode.add_argument('--flood-encoding', choices=('bgr8', 'mono8'), default='bgr8',
+                      help='flood image encoding (default bgr8)')
+    mode.add_argument('--fuzz', type=int, default=None, metavar='N',
+                      help='fuzz image conversion and the node callbacks with N examples each '
+                      'instead of the benchmarks')
+    mode.add_argument('--fuzz-extreme', action='store_true',
+                      help='with --fuzz: also send CameraInfo with any finite value '
+                      '(1e306, 5e-324, ...)')
+
+
+# ------------------------------------------------------------------------------- formatting
+def machine() -> dict[str, Any]:
+    """The machine and library versions the figures come from."""
+    import cv2
+    import numpy as np
+
+    cpu = platform.processor() or ''
+    try:
+        for line in Path('/proc/cpuinfo').read_text().splitlines():
+            if line.startswith('model name'):
+                cpu = line.split(':', 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        'cpu': cpu, 'cores': os.cpu_count(), 'python': platform.python_version(),
+        'numpy': np.__version__, 'opencv': cv2.__version__, 'platform': platform.platform(),
+        'date': time.strftime('%Y-%m-%d'),
+        'load_average_1min': os.getloadavg()[0],
+    }
+
+
+def _us(seconds: float) -> str:
+    return f'{seconds * 1e6:.1f} µs'
+
+
+def _ms(seconds: float) -> str:
+    return f'{seconds * 1e3:.2f} ms'
+
+
+def _verdict(ok: bool) -> str:
+    return 'met' if ok else '**missed**'
+
+
+class Table:
+    """A Markdown table built row by row."""
+
+    def __init__(self, *columns: str) -> None:
+        self.columns = columns
+        self.rows: list[tuple[str, ...]] = []
+
+    def add(self, *cells: Any) -> None:
+        """Append a row (missing trailing cells are empty)."""
+        cells = tuple(str(c) for c in cells) + ('',) * (len(self.columns) - len(cells))
+        self.rows.append(cells)
+
+    def render(self) -> str:
+        """The table as Markdown."""
+        lines = ['| ' + ' | '.join(self.columns) + ' |',
+                 '|' + '|'.join('---' for _ in self.columns) + '|']
+        lines += ['| ' + ' | '.join(r) + ' |' for r in self.rows]
+        return '\n'.join(lines)
+
+
+# ---------------------------------------------------------------------------------- sections
+def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
+    import numpy as np
+
+    from initsel_ros.benchmarks import micro
+    from initsel_ros.benchmarks.common import (
+        HEIGHT,
+        WIDTH,
+        bench_models,
+        correspondence_sets,
+        render_bench_sequence,
+    )
+
+    results: dict[str, Any] = {'machine': machine()}
+    models, model_path, model_note = bench_models(args.models)
+    results['models'] = model_note
+    info = results['machine']
+    print(f'machine: {info["cpu"]}, {info["cores"]} cores, load average '
+          f'{info["load_average_1min"]:.1f} (timings are only comparable on an idle machine)')
+    print(f'models: {model_note}')
+    seq = render_bench_sequence(work / 'bench_sequence', args.frames)
+    print(f'sequence: {seq} in {seq.path}')
+    intrinsics = seq.intrinsics
+    pairs = correspondence_sets(seq, 16)
+    n_tracks = int(np.median([len(p0) for p0, _ in pairs]))
+    results['correspondences'] = {'sets': len(pairs), 'median_tracks': n_tracks}
+    print(f'correspondences: {len(pairs)} sets, median {n_tracks} tracks '
+          f'({WIDTH}x{HEIGHT}, 12 frames apart)\n')
+    table = Table('measurement', 'median', 'p99', 'target', 'result')
+
+    if 'decision' not in args.skip:
+        decision = micro.time_decision(models, pairs, args.repeat, WIDTH, HEIGHT)
+        parts = micro.time_decision_parts(models, pairs, args.repeat, WIDTH, HEIGHT)
+        base_repeat = max(20, args.repeat // 10)
+        orb = micro.time_orbslam(pairs, base_repeat)
+        estimators = micro.time_estimators(pairs, intrinsics.K, base_repeat)
+        d = decision.median
+        table.add('decision: 23 features + 4 models + policy',
+                  _us(d), _us(decision.percentile(99)), '≤ 50 µs median',
+                  _verdict(d <= DECISION_TARGET_S))
+        for part in parts:
+            table.add(part.name, _us(part.median), _us(part.percentile(99)))
+        ratio = orb.median / d
+        table.add(orb.name, _ms(orb.median), _ms(orb.percentile(99)),
+                  'decision ≥ 20x cheaper',
+                  f'{ratio:.0f}x: {_verdict(ratio >= BASELINE_RATIO_TARGET)}')
+        for est in estimators:
+            table.add(est.name, _ms(est.median), _ms(est.percentile(99)), '',
+                      f'decision {est.median / d:.0f}x cheaper')
+        results['decision'] = {
+            'decision': decision.to_dict(),
+            'parts': {p.name.strip(): p.to_dict() for p in parts},
+            'orbslam': orb.to_dict(), 'orbslam_ratio': ratio,
+            'estimators': {e.name: e.to_dict() for e in estimators},
+        }
+
+    if 'frame' not in args.skip or 'memory' not in args.skip:
+        frames = micro.image_messages(seq, len(seq))
+    if 'frame' not in args.skip:
+        path = micro.time_frame_path(models, intrinsics, frames)
+        total = path.total
+        table.add('per-frame path: Image -> numpy, tracking, features, decision (+ pose when '
+                  'it fires)', _ms(total.median), _ms(total.percentile(99)),
+                  '≤ 5 ms median, p99 < 15 ms',
+                  _verdict(total.median <= FRAME_MEDIAN_TARGET_S
+                           and total.percentile(99) < FRAME_P99_TARGET_S))
+        for part in path.parts:
+            table.add(part.name, _ms(part.median), _ms(part.percentile(99)))
+        results['frame'] = {'total': total.to_dict(),
+                            'parts': {p.name.strip(): p.to_dict() for p in path.parts},
+                            'reasons': path.reasons}
+        if args.profile:
+            _profile(models, intrinsics, frames)
+
+    if 'memory' not in args.skip:
+        n = args.memory_frames or (10_000 if args.long else 1_000)
+        images = [seq.image(i) for i in range(len(seq))]
+        mem = micro.memory_growth(models, intrinsics, images, n)
+        growth = max(mem.traced_growth_bytes, mem.rss_growth_bytes)
+        table.add(f'memory over {mem.frames} frames (after {mem.warmup} warm-up; '
+                  f'{"--long" if n >= 10_000 else "use --long for 10,000"})',
+                  f'traced {mem.traced_growth_bytes / 2**20:+.2f} MiB',
+                  f'RSS {mem.rss_growth_bytes / 2**20:+.2f} MiB', '< 5 MB growth',
+                  _verdict(growth < MEMORY_TARGET_BYTES))
+        results['memory'] = mem.__dict__ | {'target_bytes': MEMORY_TARGET_BYTES}
+
+    if 'node' not in args.skip:
+        results['node'] = _node_rows(table, seq, models, model_path, work, args)
+
+    if 'dataset' not in args.skip:
+        results['dataset'] = _dataset_rows(table, seq.path)
+
+    results['load_average_1min_end'] = os.getloadavg()[0]
+    print(table.render())
+    print(f'\nload average at the end: {results["load_average_1min_end"]:.1f}')
+    results['table'] = table.render()
+    return results
+
+
+def _node_rows(table: Table, seq: Any, models: Any, model_path: Path | None, work: Path,
+               args: argparse.Namespace) -> list[dict[str, Any]]:
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        table.add('node end to end', 'skipped: rclpy not importable')
+        return []
+    from initsel_ros.benchmarks.live import replay
+
+    if model_path is None:
+        model_path = work / 'bench_models.json'
+        models.save(model_path)
+    images = [seq.image(i) for i in range(len(seq))]
+    out = []
+    for rate in args.rates:
+        run = replay(images, seq.intrinsics, model_path, rate, args.node_frames)
+        lat = run.latency
+        table.add(f'{run.label}: {run.published} published ({run.publish_rate_hz:.1f} Hz), '
+                  f'{run.processed} processed, {run.dropped} dropped, '
+                  f'newest processed: {"yes" if run.newest_processed else "NO"}',
+                  f'{lat["median_ms"]:.1f} ms', f'{lat["p99_ms"]:.1f} ms',
+                  'latency: publish -> status', f'max {lat["max_ms"]:.1f} ms')
+        out.append(run.to_dict())
+    return out
+
+
+def _dataset_rows(table: Table, folder: Path) -> list[dict[str, Any]]:
+    try:
+        import initsel_ros.learn.pairs  # noqa: F401
+        from initsel_ros.benchmarks.micro import dataset_speed
+    except ImportError as exc:
+        table.add('dataset building', f'skipped: {exc}')
+        return []
+    out = []
+    for jobs in (1, 2):
+        res = dataset_speed(folder, jobs)
+        table.add(f'dataset building, {jobs} core{"s" if jobs > 1 else ""} '
+                  f'({res.pairs} labelled pairs, batches of 30)',
+                  f'{res.pairs_per_second:.0f} pairs/s', '', '',
+                  f'{res.seconds:.1f} s')
+        out.append({'jobs': jobs, 'pairs': res.pairs, 'seconds': res.seconds,
+                    'pairs_per_second': res.pairs_per_second})
+    return out
+
+
+def _profile(models: Any, intrinsics: Any, frames: Any) -> None:
+    try:
+        from pyinstrument import Profiler
+    except ImportError:
+        print('pyinstrument is not installed: pip install pyinstrument')
+        return
+    from initsel_ros.benchmarks.micro import time_frame_path
+
+    profiler = Profiler(interval=0.0005)
+    profiler.start()
+    time_frame_path(models, intrinsics, frames, passes=3)
+    profiler.stop()
+    print(profiler.output_text(unicode=True, color=False, show_all=False))
+
+
+def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
+    from initsel_ros.benchmarks.common import bench_models
+    from initsel_ros.benchmarks.live import flood
+
+    try:
+        width, height = (int(v) for v in args.flood_size.lower().split('x'))
+    except ValueError as exc:
+        raise InitselError(f'--flood-size must be WxH, got {args.flood_size!r}') from exc
+    models, model_path, note = bench_models(args.models)
+    if model_path is None:
+        model_path = work / 'bench_models.json'
+        models.save(model_path)
+    print(f'models: {note}')
+    print(f'flooding the node with {width}x{height} {args.flood_encoding} at '
+          f'{args.flood_rate:g} Hz for {args.seconds:g} s ...')
+    run = flood(model_path, args.seconds, args.flood_rate, width, height, args.flood_encoding)
+    table = Table('flood', 'value')
+    lat = run.latency
+    for name, value in (
+        ('published', f'{run.published} ({run.publish_rate_hz:.1f} Hz achieved)'),
+        ('received by the node', run.received),
+        ('processed (statuses)', f'{run.processed} ({run.processed / run.seconds:.1f} Hz)'),
+        ('dropped (node count)', run.dropped),
+        ('lost in transport', max(0, run.published - run.received)),
+        ('newest frame processed', 'yes' if run.newest_processed else '**NO**'),
+        ('latency stamp -> status, median / p99 / max',
+         f'{lat["median_ms"]:.1f} / {lat["p99_ms"]:.1f} / {lat["max_ms"]:.1f} ms'),
+        ('RSS start / mid-run / max / end',
+         f'{run.rss_start_mb:.0f} / {run.rss_mid_mb:.0f} / {run.rss_max_mb:.0f} / '
+         f'{run.rss_end_mb:.0f} MiB'),
+    ):
+        table.add(name, value)
+    print(table.render())
+    return {'machine': machine(), 'models': note, 'flood': run.to_dict(),
+            'table': table.render()}
+
+
+def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
+    from initsel_ros.benchmarks.common import bench_models
+    from initsel_ros.benchmarks.fuzz import run_conversion_fuzz, run_node_fuzz
+
+    n = args.fuzz
+    start = time.perf_counter()
+    conversion = run_conversion_fuzz(n)
+    print(f'image conversion: {n} examples passed {conversion} '
+          f'({time.perf_counter() - start:.0f} s)')
+    out: dict[str, Any] = {'conversion': conversion}
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        print('node callbacks: skipped (rclpy not importable)')
+        return out
+    models, model_path, _ = bench_models(args.models)
+    if model_path is None:
+        model_path = work / 'bench_models.json'
+        models.save(model_path)
+    start = time.perf_counter()
+    node = run_node_fuzz(str(model_path), n, extreme=args.fuzz_extreme)
+    print(f'node callbacks{" (extreme CameraInfo)" if args.fuzz_extreme else ""}: {n} '
+          f'examples passed {node} ({time.perf_counter() - start:.0f} s)')
+    out['node'] = node
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmarks (or the flood, or the fuzzers); 0 when done."""
+    work = args.work
+    temporary = work is None
+    work = Path(tempfile.mkdtemp(prefix='initsel-bench-')) if temporary else Path(work)
+    work.mkdir(parents=True, exist_ok=True)
+    try:
+        if args.fuzz is not None:
+            results = _fuzz(args, work)
+        elif args.flood:
+            results = _flood(args, work)
+        else:
+            results = _bench(args, work)
+        results['command'] = 'initsel bench ' + ' '.join(sys.argv[2:])
+        if args.json is not None:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps(results, indent=2, default=_plain) + '\n')
+            print(f'\nfigures saved to {args.json}')
+        return 0
+    finally:
+        if temporary:
+            shutil.rmtree(work, ignore_errors=True)
+
+
+def _plain(value: Any) -> Any:
+    """JSON fallback for numpy scalars and arrays, paths."""
+    if hasattr(value, 'tolist'):
+        return value.tolist()
+    return str(value)

@@ -1,0 +1,190 @@
+"""Shared pieces of the benchmarks: timing statistics, memory, models and test data."""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from initsel_ros.errors import InitselError
+
+log = logging.getLogger(__name__)
+
+#: Size of the benchmark images and number of tracks, as the task specifies.
+WIDTH, HEIGHT, TRACKS = 640, 480, 300
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Wall-clock samples of one operation.
+
+    Attributes:
+        name: what was timed.
+        seconds: (N,) float64 samples, seconds.
+    """
+
+    name: str
+    seconds: np.ndarray
+
+    @property
+    def median(self) -> float:
+        """Median, seconds."""
+        return float(np.median(self.seconds))
+
+    def percentile(self, q: float) -> float:
+        """The ``q``-th percentile, seconds."""
+        return float(np.percentile(self.seconds, q))
+
+    def to_dict(self) -> dict[str, float]:
+        """Median, p90, p99, min and max in microseconds, and the sample count."""
+        s = self.seconds * 1e6
+        return {
+            'n': int(s.size), 'median_us': float(np.median(s)),
+            'p90_us': float(np.percentile(s, 90)), 'p99_us': float(np.percentile(s, 99)),
+            'min_us': float(s.min()), 'max_us': float(s.max()),
+        }
+
+
+def time_calls(fn: Callable[[int], Any], repeat: int, warmup: int = 3) -> np.ndarray:
+    """Time ``fn(i)`` for i in range(repeat) after ``warmup`` untimed calls.
+
+    Returns:
+        (repeat,) float64 seconds per call.
+    """
+    for i in range(warmup):
+        fn(i)
+    out = np.empty(repeat, dtype=np.float64)
+    clock = time.perf_counter
+    for i in range(repeat):
+        t0 = clock()
+        fn(i)
+        out[i] = clock() - t0
+    return out
+
+
+def rss_bytes(pid: int | None = None) -> int:
+    """Resident set size of a process (default: this one), bytes; 0 when unknown."""
+    path = Path(f'/proc/{pid or os.getpid()}/statm')
+    try:
+        pages = int(path.read_text().split()[1])
+    except (OSError, IndexError, ValueError):
+        return 0
+    return pages * os.sysconf('SC_PAGE_SIZE')
+
+
+def random_models(seed: int = 0) -> Any:
+    """A ModelSet fitted with scikit-learn on random features and labels.
+
+    Only the shapes matter for timing; the probabilities mean nothing.
+    """
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.preprocessing import StandardScaler
+
+    from initsel_ros.features import N_FEATURES, Scaling
+    from initsel_ros.models import METHODS, LogisticModel, ModelSet
+
+    rng = np.random.default_rng(seed)
+    X = rng.uniform(0.0, 1.0, size=(2000, N_FEATURES))
+    scaler = StandardScaler().fit(X)
+    Xs = scaler.transform(X)
+    models = {}
+    for k, name in enumerate(METHODS):
+        y = (Xs[:, k] + rng.normal(scale=1.0, size=len(X)) > 0).astype(int)
+        fit = LogisticRegression(max_iter=500).fit(Xs, y)
+        models[name] = LogisticModel(
+            name, fit.coef_[0], float(fit.intercept_[0]), 0.5, scaler.mean_, scaler.scale_,
+            {'note': 'random features, benchmark only'},
+        )
+    return ModelSet(models, Scaling.RESOLUTION_FREE,
+                    metadata={'trained_on': 'random features (initsel bench)'})
+
+
+def bench_models(path: Path | None) -> tuple[Any, Path | None, str]:
+    """The model file to benchmark with, else models fitted on random features.
+
+    Returns:
+        (ModelSet, path of the file or None, a one-line description for the output).
+    """
+    from initsel_ros.models import ModelSet, default_model_path
+
+    if path is None:
+        try:
+            path = default_model_path()
+        except InitselError:
+            path = None
+    if path is not None and Path(path).is_file():
+        return ModelSet.load(path), Path(path), f'model file {path}'
+    return (random_models(), None,
+            'no model file found: models fitted with scikit-learn on random features '
+            '(realistic shapes, meaningless probabilities)')
+
+
+def render_bench_sequence(folder: Path, frames: int, seed: int = 0) -> Any:
+    """Render (or reuse) a 640x480 synthetic sequence and open it.
+
+    Raises:
+        InitselError: when the renderer is not available in this installation.
+    """
+    from initsel_ros.datasets import open_sequence
+
+    folder = Path(folder)
+    if (folder / 'rgb.txt').is_file():
+        seq = open_sequence(folder)
+        if len(seq) >= frames:
+            return seq
+    try:
+        from initsel_ros.synth import render_sequence
+    except ImportError as exc:
+        raise InitselError(f'the renderer (initsel_ros.synth.render_sequence) is missing: {exc}'
+                           ) from exc
+    log.info('rendering %d frames into %s', frames, folder)
+    render_sequence(folder, scene='structure_texture', trajectory='near', frames=frames,
+                    seed=seed)
+    return open_sequence(folder)
+
+
+def correspondence_sets(seq: Any, n_sets: int, span: int = 12,
+                        max_features: int = TRACKS) -> list[tuple[np.ndarray, np.ndarray]]:
+    """KLT correspondences between frames ``span`` apart, from several references.
+
+    Returns:
+        Up to ``n_sets`` pairs of (N, 2) float32 pixel arrays (N close to ``max_features``).
+    """
+    from initsel_ros.tracking import KltTracker, TrackerConfig
+
+    tracker = KltTracker(TrackerConfig(max_features=max_features))
+    out = []
+    n = len(seq)
+    step = max(1, (n - span - 1) // max(n_sets, 1))
+    for ref in range(0, max(n - span, 1), step):
+        tracker.reset(seq.gray(ref))
+        tracks = None
+        for i in range(ref + 1, min(ref + span + 1, n)):
+            tracks = tracker.track(seq.gray(i))
+        if tracks is not None and len(tracks) >= 8:
+            out.append((tracks.ref.copy(), tracks.cur.copy()))
+        if len(out) >= n_sets:
+            break
+    if not out:
+        raise InitselError(f'no correspondences could be tracked in {seq}')
+    return out
+
+
+__all__ = [
+    'HEIGHT',
+    'TRACKS',
+    'WIDTH',
+    'Timing',
+    'bench_models',
+    'correspondence_sets',
+    'random_models',
+    'render_bench_sequence',
+    'rss_bytes',
+    'time_calls',
+]

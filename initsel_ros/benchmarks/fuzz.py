@@ -1,0 +1,305 @@
+"""Property-based fuzzing (hypothesis) of image conversion and the node's image path.
+
+Two properties, shared by ``test/test_fuzz.py`` (a few hundred examples in CI) and
+``initsel bench --fuzz N`` (any number):
+
+* :func:`check_conversion`: ``image_to_numpy`` / ``image_to_cv`` either return an array of the
+  documented shape and type or raise :class:`ImageConversionError`, for any encoding, size
+  (0 and 1 pixel included), step, byte length and endianness.
+* :func:`check_node_callbacks`: the ``selector`` node fed a random CameraInfo (NaN or zero
+  intrinsics, zero size) and a random Image through its own callbacks never raises, never
+  reports an internal error, and processes the next good frame.
+
+hypothesis and rclpy are imported inside the functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+#: Encodings tried besides the supported ones (unknown, odd, empty).
+FOREIGN_ENCODINGS = ('', '8UC3', 'rgb16', 'yuv422', '32FC1', 'MONO8', 'bgr8 ', 'jpeg\x00')
+#: Reasons the node may report for a fuzzed frame (anything but an internal error).
+INTERNAL_ERROR_REASON = 'internal error'
+#: Largest side of fuzzed images, pixels (kept small so thousands of cases run quickly).
+MAX_SIDE = 48
+UINT32_MAX = 2**32 - 1
+
+
+@dataclass(frozen=True)
+class ImageCase:
+    """The fields of one fuzzed ``sensor_msgs/Image``."""
+
+    encoding: str
+    height: int
+    width: int
+    step: int
+    n_bytes: int
+    is_bigendian: bool
+    seed: int
+
+    def message(self) -> Any:
+        """The Image message (data: ``n_bytes`` seeded random bytes)."""
+        from sensor_msgs.msg import Image
+
+        msg = Image()
+        msg.encoding = self.encoding
+        msg.height, msg.width, msg.step = self.height, self.width, self.step
+        msg.is_bigendian = int(self.is_bigendian)
+        msg.data = np.random.default_rng(self.seed).integers(
+            0, 256, self.n_bytes, dtype=np.uint8).tobytes()
+        return msg
+
+
+def _bytes_per_pixel(encoding: str) -> int:
+    from initsel_ros.ros.conversions import ENCODINGS
+
+    info = ENCODINGS.get(encoding)
+    return 1 if info is None else info.channels * np.dtype(info.dtype).itemsize
+
+
+def image_cases() -> Any:
+    """hypothesis strategy of :class:`ImageCase` (mostly plausible, sometimes absurd)."""
+    from hypothesis import strategies as st
+
+    from initsel_ros.ros.conversions import ENCODINGS
+
+    side = st.one_of(st.integers(0, 2), st.integers(0, MAX_SIDE),
+                     st.sampled_from([0, 1, 2**16, 2**31, UINT32_MAX]))
+
+    @st.composite
+    def anything(draw: Callable[[Any], Any]) -> ImageCase:
+        encoding = draw(st.one_of(st.sampled_from(sorted(ENCODINGS)),
+                                  st.sampled_from(FOREIGN_ENCODINGS), st.text(max_size=8)))
+        height, width = draw(side), draw(side)
+        row = width * _bytes_per_pixel(encoding)
+        step = draw(st.one_of(
+            st.just(row), st.integers(row, row + 9), st.integers(0, max(row, 1) * 2),
+            st.sampled_from([0, 1, UINT32_MAX]),
+        ).filter(lambda s: 0 <= s <= UINT32_MAX))
+        full = min(step * height, 4 * MAX_SIDE * MAX_SIDE * 4)
+        n_bytes = draw(st.one_of(
+            st.just(full), st.integers(0, full + 16), st.integers(max(0, full - 8), full),
+            st.integers(0, 64),
+        ))
+        return ImageCase(encoding, height, width, step, n_bytes, draw(st.booleans()),
+                         draw(st.integers(0, 2**32 - 1)))
+
+    @st.composite
+    def plausible(draw: Callable[[Any], Any]) -> ImageCase:
+        """A supported encoding, 1..MAX_SIDE pixels a side, maybe padded rows or extra bytes."""
+        encoding = draw(st.sampled_from(sorted(ENCODINGS)))
+        height, width = draw(st.integers(1, MAX_SIDE)), draw(st.integers(1, MAX_SIDE))
+        step = width * _bytes_per_pixel(encoding) + draw(st.sampled_from([0, 0, 1, 3, 8]))
+        n_bytes = step * height + draw(st.sampled_from([0, 0, 0, 1, 100]))
+        return ImageCase(encoding, height, width, step, n_bytes, draw(st.booleans()),
+                         draw(st.integers(0, 2**32 - 1)))
+
+    return st.one_of(plausible(), anything())
+
+
+def check_conversion(case: ImageCase) -> str:
+    """Convert one fuzzed message; returns 'ok' or 'rejected' and asserts the contract."""
+    from initsel_ros.errors import ImageConversionError
+    from initsel_ros.ros.conversions import ENCODINGS, image_to_cv, image_to_numpy
+
+    msg = case.message()
+    try:
+        raw = image_to_numpy(msg)
+    except ImageConversionError:
+        raw = None
+    try:
+        cv = image_to_cv(msg)
+    except ImageConversionError:
+        assert raw is None, f'image_to_cv rejected what image_to_numpy accepted: {case}'
+        return 'rejected'
+    assert raw is not None, f'image_to_numpy rejected what image_to_cv accepted: {case}'
+    info = ENCODINGS[case.encoding]
+    assert raw.shape[:2] == (case.height, case.width), (raw.shape, case)
+    assert raw.dtype == np.dtype(info.dtype), (raw.dtype, case)
+    assert cv.dtype == np.uint8, (cv.dtype, case)
+    assert cv.shape[:2] == (case.height, case.width), (cv.shape, case)
+    assert cv.ndim == 2 or (cv.ndim == 3 and cv.shape[2] == 3), (cv.shape, case)
+    return 'ok'
+
+
+@dataclass(frozen=True)
+class InfoCase:
+    """A fuzzed CameraInfo: K entries, size and distortion (None = send none)."""
+
+    k: tuple[float, ...]
+    width: int
+    height: int
+    distortion: tuple[float, ...]
+    model: str
+
+
+def info_cases(extreme: bool = False) -> Any:
+    """hypothesis strategy of :class:`InfoCase` or None.
+
+    Args:
+        extreme: also draw any finite float (1e306, 5e-324, ...), not only NaN, infinities,
+            zero, negatives and plausible values.
+    """
+    from hypothesis import strategies as st
+
+    plain = st.sampled_from([float('nan'), float('inf'), float('-inf'), 0.0, -0.0, -1.0,
+                             1.0, 320.0, 240.0, 525.0])
+    number = st.one_of(plain, st.floats(allow_nan=True, allow_infinity=True)) if extreme \
+        else plain
+    case = st.builds(
+        InfoCase,
+        k=st.tuples(*[number] * 9),
+        width=st.sampled_from([0, 1, 64, 640, UINT32_MAX]),
+        height=st.sampled_from([0, 1, 48, 480, UINT32_MAX]),
+        distortion=st.one_of(st.just(()), st.tuples(*[number] * 5)),
+        model=st.sampled_from(['plumb_bob', 'rational_polynomial', 'equidistant', '']),
+    )
+    return st.one_of(st.none(), case)
+
+
+class NodeProbe:
+    """A SelectorNode in a private context whose callbacks are called directly (no spinning).
+
+    Records the (reason, detail) of every status the node publishes.
+    """
+
+    def __init__(self, model_path: str, good_size: tuple[int, int] = (160, 120)) -> None:
+        import rclpy
+        from rclpy.parameter import Parameter
+
+        from initsel_ros.benchmarks.live import configure_ros_environment, textured_frames
+        from initsel_ros.ros import conversions as conv
+        from initsel_ros.ros.node import SelectorNode
+
+        configure_ros_environment()
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = SelectorNode(
+            context=self.context, namespace='/initsel_fuzz',
+            parameter_overrides=[Parameter('model_file', value=model_path),
+                                 Parameter('mode', value='continuous')])
+        self.reasons: list[tuple[str, str]] = []
+        original = self.node._publish_status
+
+        def record(stamp: float, result: Any, dropped: int, reason: str, detail: str) -> None:
+            self.reasons.append((reason, detail))
+            original(stamp, result, dropped, reason, detail)
+
+        self.node._publish_status = record  # type: ignore[method-assign]
+        self._good = [conv.numpy_to_image(f, 'bgr8')
+                      for f in textured_frames(good_size[0], good_size[1], 4)]
+        self._stamp = 1.0
+        self._conv = conv
+
+    def _next_stamp(self) -> Any:
+        self._stamp += 0.033
+        return self._conv.seconds_to_stamp(self._stamp)
+
+    def restart(self) -> None:
+        """Back to the parameter intrinsics and no reference, so examples are independent."""
+        node = self.node
+        with node._lock:
+            node._pending = node._pending_intrinsics = None
+        node._selector.set_intrinsics(node._settings.intrinsics)
+        node._intrinsics_source = 'parameters'
+        node._selector.reset()
+
+    def feed(self, image: Any, info: InfoCase | None) -> tuple[str, str]:
+        """Camera info (optional) then the image through the callbacks; the frame's status."""
+        if info is not None:
+            from sensor_msgs.msg import CameraInfo
+
+            msg = CameraInfo()
+            msg.k = [float(v) for v in info.k]
+            msg.width, msg.height = info.width, info.height
+            msg.d = [float(v) for v in info.distortion]
+            msg.distortion_model = info.model
+            self.node._on_camera_info(msg)
+        image.header.stamp = self._next_stamp()
+        before = len(self.reasons)
+        self.node._on_image(image)
+        self.node._work()
+        assert len(self.reasons) == before + 1, 'one status per frame'
+        return self.reasons[-1]
+
+    def feed_good(self) -> tuple[str, str]:
+        """A good textured frame; its status."""
+        msg = self._good[int(self._stamp * 100) % len(self._good)]
+        return self.feed(msg, None)
+
+    def close(self) -> None:
+        import rclpy
+
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def check_node_callbacks(probe: NodeProbe, image: ImageCase, info: InfoCase | None) -> str:
+    """One fuzzed camera_info + image, then a good frame; asserts the node's contract."""
+    from initsel_ros.ros.node import SKIPPED_IMAGE
+
+    probe.restart()
+    reason, detail = probe.feed(image.message(), info)
+    assert reason != INTERNAL_ERROR_REASON, f'internal error on {image} / {info}: {detail}'
+    good_reason, good_detail = probe.feed_good()
+    assert good_reason not in (INTERNAL_ERROR_REASON, SKIPPED_IMAGE), (
+        f'the good frame after {image} / {info} was not processed: {good_reason}: '
+        f'{good_detail}')
+    return 'skipped' if reason == SKIPPED_IMAGE else 'processed'
+
+
+def run_conversion_fuzz(max_examples: int, seed: int | None = None) -> dict[str, int]:
+    """Run :func:`check_conversion` on ``max_examples`` cases; counts of outcomes."""
+    from hypothesis import HealthCheck, given, settings
+
+    counts: dict[str, int] = {}
+
+    @settings(max_examples=max_examples, deadline=None, database=None,
+              suppress_health_check=list(HealthCheck), derandomize=seed is not None)
+    @given(image_cases())
+    def prop(case: ImageCase) -> None:
+        outcome = check_conversion(case)
+        counts[outcome] = counts.get(outcome, 0) + 1
+
+    prop()
+    return counts
+
+
+def run_node_fuzz(model_path: str, max_examples: int, seed: int | None = None,
+                  extreme: bool = False) -> dict[str, int]:
+    """Run :func:`check_node_callbacks` on ``max_examples`` cases; counts of outcomes."""
+    from hypothesis import HealthCheck, given, settings
+
+    counts: dict[str, int] = {}
+    probe = NodeProbe(model_path)
+    try:
+        @settings(max_examples=max_examples, deadline=None, database=None,
+                  suppress_health_check=list(HealthCheck), derandomize=seed is not None)
+        @given(image_cases(), info_cases(extreme))
+        def prop(case: ImageCase, info: InfoCase | None) -> None:
+            outcome = check_node_callbacks(probe, case, info)
+            counts[outcome] = counts.get(outcome, 0) + 1
+
+        prop()
+    finally:
+        probe.close()
+    return counts
+
+
+__all__ = [
+    'FOREIGN_ENCODINGS',
+    'ImageCase',
+    'InfoCase',
+    'NodeProbe',
+    'check_conversion',
+    'check_node_callbacks',
+    'image_cases',
+    'info_cases',
+    'run_conversion_fuzz',
+    'run_node_fuzz',
+]

@@ -1,0 +1,272 @@
+"""In-process timings without ROS: the decision, the baselines, the per-frame path, memory.
+
+Every function returns plain results; :mod:`initsel_ros.bench` prints and saves them.
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+import time
+import tracemalloc
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from initsel_ros.benchmarks.common import Timing, rss_bytes, time_calls
+
+log = logging.getLogger(__name__)
+
+Pairs = list[tuple[np.ndarray, np.ndarray]]
+
+
+def decision_fn(models: Any, width: int, height: int) -> Callable[[np.ndarray, np.ndarray], Any]:
+    """The selector's per-pair decision: 23 features, four models, policy."""
+    from initsel_ros.features import mean_disparity, pair_features
+    from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
+
+    config = PolicyConfig()
+    thresholds = effective_thresholds(models.thresholds, config)
+    scaling = models.scaling
+
+    def run(p0: np.ndarray, p1: np.ndarray) -> Any:
+        x = pair_features(p0, p1, width, height, scaling)
+        return decide(models.predict_proba(x), thresholds, len(p0), mean_disparity(p0, p1),
+                      config)
+
+    return run
+
+
+def time_decision(models: Any, pairs: Pairs, repeat: int, width: int, height: int) -> Timing:
+    """Decision time per correspondence set."""
+    fn = decision_fn(models, width, height)
+    return Timing('decision', time_calls(lambda i: fn(*pairs[i % len(pairs)]), repeat))
+
+
+def time_decision_parts(models: Any, pairs: Pairs, repeat: int, width: int,
+                        height: int) -> list[Timing]:
+    """The decision split into features, model scores and policy."""
+    from initsel_ros.features import mean_disparity, pair_features
+    from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
+
+    config = PolicyConfig()
+    thresholds = effective_thresholds(models.thresholds, config)
+    x = pair_features(*pairs[0], width, height, models.scaling)
+    probs = models.predict_proba(x)
+    p0, p1 = pairs[0]
+    return [
+        Timing('  23 features', time_calls(
+            lambda i: pair_features(*pairs[i % len(pairs)], width, height, models.scaling),
+            repeat)),
+        Timing('  four models', time_calls(lambda i: models.predict_proba(x), repeat)),
+        Timing('  policy (incl. mean disparity)', time_calls(
+            lambda i: decide(probs, thresholds, len(p0), mean_disparity(p0, p1), config),
+            repeat)),
+    ]
+
+
+def time_orbslam(pairs: Pairs, repeat: int, iterations: int = 200) -> Timing:
+    """ORB-SLAM-style H/F selection (learn.baselines): both RANSACs and the ratio choice."""
+    from initsel_ros.learn.baselines import orbslam_choice, orbslam_scores
+
+    rng = np.random.default_rng(0)
+
+    def run(i: int) -> None:
+        p0, p1 = pairs[i % len(pairs)]
+        scores = orbslam_scores(p0, p1, iterations=iterations, rng=rng)
+        orbslam_choice(np.array([scores.ratio]))
+
+    return Timing(f'ORB-SLAM H/F selection ({iterations} iterations each)',
+                  time_calls(run, repeat, warmup=1))
+
+
+def time_estimators(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
+    """estimate_pose for F, E and H, each, and all three together."""
+    from initsel_ros.geometry import Method, estimate_pose
+
+    out = []
+    for method in (Method.F, Method.E, Method.H):
+        out.append(Timing(f'estimate_pose {method.value}', time_calls(
+            lambda i, m=method: estimate_pose(m, *pairs[i % len(pairs)], K), repeat,
+            warmup=1)))
+    out.append(Timing('F + E + H outright',
+                      np.sum([t.seconds for t in out], axis=0)))
+    return out
+
+
+@dataclass(frozen=True)
+class FrameMessages:
+    """Image messages and their stamps to replay through the per-frame path."""
+
+    messages: list[Any]
+    stamps: np.ndarray
+
+
+def image_messages(seq: Any, n: int, encoding: str = 'rgb8') -> FrameMessages:
+    """The first ``n`` frames as ``sensor_msgs/Image`` (rgb8 as a camera driver sends)."""
+    from initsel_ros.ros import conversions as conv
+
+    msgs = []
+    stamps = seq.stamps[:n]
+    for i in range(min(n, len(seq))):
+        image = seq.image(i)
+        if encoding == 'rgb8':
+            image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+        msgs.append(conv.numpy_to_image(image, encoding,
+                                        stamp=conv.seconds_to_stamp(float(stamps[i]))))
+    return FrameMessages(msgs, np.asarray(stamps, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class FramePathResult:
+    """Per-frame path timings and what the selector said."""
+
+    total: Timing
+    parts: list[Timing]
+    reasons: dict[str, int]
+
+
+def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
+                    passes: int = 2) -> FramePathResult:
+    """Image message -> numpy -> Selector.process (tracking, features, decision, pose when it
+    fires), in continuous mode, over ``passes`` passes of the frames.
+
+    The parts are timed on the same frames: conversion, conversion to grey, tracking.
+    """
+    from initsel_ros.ros import conversions as conv
+    from initsel_ros.selector import Selector, SelectorConfig, to_gray
+    from initsel_ros.tracking import KltTracker
+
+    selector = Selector(models, intrinsics, SelectorConfig(mode='continuous'))
+    n = len(frames.messages)
+    period = float(np.median(np.diff(frames.stamps))) if n > 1 else 1 / 30
+    reasons: dict[str, int] = {}
+    samples = []
+    clock = time.perf_counter
+    for k in range(passes * n):
+        msg = frames.messages[k % n]
+        if k % n == 0:
+            selector.reset()  # the sequence starts over: a new reference, as after a bag loop
+        stamp = float(frames.stamps[0]) + k * period
+        t0 = clock()
+        result = selector.process(conv.image_to_cv(msg), stamp)
+        samples.append(clock() - t0)
+        reason = result.decision.reason.value
+        reasons[reason] = reasons.get(reason, 0) + 1
+
+    images = [conv.image_to_cv(m) for m in frames.messages]
+    grays = [to_gray(img) for img in images]
+    tracker = KltTracker(selector.config.tracker)
+
+    def track(i: int) -> None:
+        if i % 30 == 0:
+            tracker.reset(grays[i % n])
+        else:
+            tracker.track(grays[i % n])
+
+    parts = [
+        Timing('  Image -> numpy (image_to_cv)',
+               time_calls(lambda i: conv.image_to_cv(frames.messages[i % n]), n)),
+        Timing('  BGR -> grey', time_calls(lambda i: to_gray(images[i % n]), n)),
+        Timing('  KLT tracking (incl. re-detection every 30 frames)',
+               time_calls(track, n, warmup=0)),
+    ]
+    return FramePathResult(Timing('per-frame path', np.array(samples)), parts, reasons)
+
+
+@dataclass(frozen=True)
+class MemoryResult:
+    """Memory use of a Selector fed frames in a loop.
+
+    Attributes:
+        frames: frames processed.
+        warmup: frames before the baseline measurement.
+        traced_growth_bytes: growth of Python-allocated memory (tracemalloc) after warm-up.
+        rss_growth_bytes: growth of the resident set size after warm-up.
+        rss_end_bytes: resident set size at the end.
+        seconds: wall-clock time of the run.
+    """
+
+    frames: int
+    warmup: int
+    traced_growth_bytes: int
+    rss_growth_bytes: int
+    rss_end_bytes: int
+    seconds: float
+
+
+def memory_growth(models: Any, intrinsics: Any, images: list[np.ndarray], frames: int,
+                  warmup: int = 100) -> MemoryResult:
+    """Feed ``frames`` frames (the images cycled, stamps increasing) to one Selector."""
+    from initsel_ros.selector import Selector, SelectorConfig
+
+    selector = Selector(models, intrinsics, SelectorConfig(mode='continuous'))
+    n = len(images)
+    start = time.perf_counter()
+    gc.collect()
+    tracemalloc.start()
+    traced0 = rss0 = 0
+    try:
+        for k in range(frames):
+            if k == warmup:
+                gc.collect()
+                traced0 = tracemalloc.get_traced_memory()[0]
+                rss0 = rss_bytes()
+            # Play forwards then backwards so the motion stays continuous.
+            cycle = k % (2 * n - 2) if n > 1 else 0
+            i = cycle if cycle < n else 2 * n - 2 - cycle
+            selector.process(images[i], k / 30.0)
+        gc.collect()
+        traced1 = tracemalloc.get_traced_memory()[0]
+    finally:
+        tracemalloc.stop()
+    rss1 = rss_bytes()
+    return MemoryResult(frames, warmup, traced1 - traced0, rss1 - rss0, rss1,
+                        time.perf_counter() - start)
+
+
+@dataclass(frozen=True)
+class DatasetResult:
+    """Labelled pairs per second of ``build_table`` with ``jobs`` worker processes."""
+
+    jobs: int
+    pairs: int
+    seconds: float
+
+    @property
+    def pairs_per_second(self) -> float:
+        """Labelled pairs per wall-clock second."""
+        return self.pairs / self.seconds if self.seconds > 0 else float('nan')
+
+
+def dataset_speed(folder: Path, jobs: int, batch: int = 30) -> DatasetResult:
+    """Build the pair table of one sequence with ``jobs`` processes (learn.pairs)."""
+    from initsel_ros.learn.pairs import DatasetConfig, build_table
+
+    stats: list[Any] = []
+    start = time.perf_counter()
+    table = build_table([folder], DatasetConfig(batch=batch, jobs=jobs), progress=False,
+                        on_stats=stats.append)
+    seconds = stats[0].seconds if stats else time.perf_counter() - start
+    return DatasetResult(jobs, len(table), seconds)
+
+
+__all__ = [
+    'DatasetResult',
+    'FrameMessages',
+    'FramePathResult',
+    'MemoryResult',
+    'dataset_speed',
+    'decision_fn',
+    'image_messages',
+    'memory_growth',
+    'time_decision',
+    'time_decision_parts',
+    'time_estimators',
+    'time_frame_path',
+    'time_orbslam',
+]
