@@ -27,6 +27,8 @@ from ros_helpers import DOMAIN_ID, ROOT, ros_environment, stop_process
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import String
 
+from initsel_ros.errors import ModelFileError
+from initsel_ros.models import default_model_path
 from initsel_ros.ros.node import LATCHED_QOS
 
 TIMEOUT_S = 60.0
@@ -59,12 +61,15 @@ def listener_context():
 @pytest.mark.parametrize(
     ('bag_fixture', 'stop_signal'),
     [('near_bag_ros2', signal.SIGTERM), ('near_bag_ros1', signal.SIGINT)],
+    ids=['ros2_bag-sigterm', 'ros1_bag-sigint'],
 )
 def test_replayed_bag_initializes_the_installed_selector(
     request, listener_context, tmp_path, bag_fixture, stop_signal
 ):
-    if not (ROOT / 'config' / 'models.json').is_file():
-        pytest.skip('config/models.json (trained model) is not in the source tree')
+    try:
+        default_model_path()
+    except ModelFileError as exc:
+        pytest.skip(f'no trained model file: {exc}')
     bag = Path(request.getfixturevalue(bag_fixture))
     selector_exe, initsel_exe = _executable('initsel-selector'), _executable('initsel')
     ns = f'/proc{next(_namespaces)}'
