@@ -127,7 +127,12 @@ def image_to_cv(msg: Image) -> np.ndarray:
     if pixels.dtype == np.uint16:
         return (pixels >> 8).astype(np.uint8)
     if info.to_bgr is not None:
-        return cv2.cvtColor(np.ascontiguousarray(pixels), info.to_bgr)
+        try:
+            return cv2.cvtColor(np.ascontiguousarray(pixels), info.to_bgr)
+        except cv2.error as exc:
+            raise ImageConversionError(
+                f'{msg.encoding} image {msg.width}x{msg.height}: cannot convert to BGR: {exc}'
+            ) from exc
     return pixels
 
 
