@@ -1,0 +1,375 @@
+"""Faults: broken bags, TUM folders and model files each give one clear error naming the file.
+
+Also: the dataset builder never leaves a half-written table, the node refuses to start on a
+bad model file with one line (no traceback), and a short flood leaves the node responsive with
+bounded memory and the newest frame processed.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from initsel_ros.errors import DatasetError, ModelFileError
+
+ROOT = Path(__file__).resolve().parent.parent
+TIMEOUT_S = 120
+
+
+def _read_everything(path: Path) -> None:
+    """Open a sequence and decode every image and depth map (lazy readers fail late)."""
+    from initsel_ros.datasets import open_sequence
+
+    seq = open_sequence(path)
+    for i in range(len(seq)):
+        seq.image(i)
+        seq.depth(i)
+
+
+def _assert_clean_failure_or_success(path: Path, name: str) -> str:
+    """Reading either works or raises DatasetError naming ``name``; anything else fails."""
+    try:
+        _read_everything(path)
+    except DatasetError as exc:
+        assert name in str(exc), f'the error does not name {name}: {exc}'
+        return 'error'
+    return 'ok'
+
+
+# ------------------------------------------------------------------------------------ bags
+@pytest.fixture(scope='module')
+def small_bags(static_sequence, tmp_path_factory):
+    """ROS 1 and ROS 2 (sqlite3 and mcap) bags of the static sequence's first 6 frames."""
+    pytest.importorskip('rosbags')
+    from initsel_ros.datasets import TumSequence
+    from initsel_ros.datasets.bags import write_bag
+
+    seq = TumSequence(static_sequence)
+    seq.frames = seq.frames[:6]
+    out = tmp_path_factory.mktemp('fault_bags')
+    return {
+        'ros1': write_bag(seq, out / 'small.bag', 'ros1'),
+        'ros2': write_bag(seq, out / 'small_ros2', 'ros2'),
+        'mcap': write_bag(seq, out / 'small_mcap', 'ros2', storage='mcap'),
+    }
+
+
+@pytest.mark.parametrize('fraction', [0.0, 0.02, 0.3, 0.6, 0.95, 0.999])
+def test_truncated_ros1_bag_fails_with_dataset_error_naming_it(small_bags, tmp_path, fraction):
+    data = small_bags['ros1'].read_bytes()
+    broken = tmp_path / 'cut.bag'
+    broken.write_bytes(data[: int(len(data) * fraction)])
+    assert _assert_clean_failure_or_success(broken, 'cut.bag') == 'error'
+
+
+@pytest.mark.parametrize('kind', ['ros2', 'mcap'])
+@pytest.mark.parametrize('fraction', [0.0, 0.1, 0.5, 0.9])
+def test_truncated_ros2_storage_fails_with_dataset_error_naming_the_bag(
+    small_bags, tmp_path, kind, fraction
+):
+    copy = tmp_path / 'cut_bag'
+    shutil.copytree(small_bags[kind], copy)
+    storage = next(p for p in copy.iterdir() if p.suffix in ('.db3', '.mcap'))
+    data = storage.read_bytes()
+    storage.write_bytes(data[: int(len(data) * fraction)])
+    assert _assert_clean_failure_or_success(copy, 'cut_bag') == 'error'
+
+
+@pytest.mark.parametrize('kind', ['ros1', 'ros2', 'mcap'])
+def test_bag_with_garbage_in_the_middle_reads_or_fails_cleanly(small_bags, tmp_path, kind):
+    source = small_bags[kind]
+    rng = np.random.default_rng(3)
+    if source.is_dir():
+        copy = tmp_path / 'garbled'
+        shutil.copytree(source, copy)
+        target = next(p for p in copy.iterdir() if p.suffix in ('.db3', '.mcap'))
+    else:
+        copy = target = tmp_path / 'garbled.bag'
+        shutil.copy(source, copy)
+    data = bytearray(target.read_bytes())
+    for start in np.linspace(len(data) * 0.2, len(data) * 0.8, 4).astype(int):
+        data[start: start + 512] = rng.integers(0, 256, 512, dtype=np.uint8).tobytes()
+    target.write_bytes(bytes(data))
+    _assert_clean_failure_or_success(copy, 'garbled')
+
+
+@pytest.mark.parametrize('text', ['', 'not: [valid yaml', 'rosbag2_bagfile_information: 3\n',
+                                  '!!python/object/apply:os.system ["true"]\n'])
+def test_ros2_bag_with_bad_metadata_fails_naming_the_bag(small_bags, tmp_path, text):
+    copy = tmp_path / 'bad_meta'
+    shutil.copytree(small_bags['ros2'], copy)
+    (copy / 'metadata.yaml').write_text(text)
+    assert _assert_clean_failure_or_success(copy, 'bad_meta') == 'error'
+
+
+# ----------------------------------------------------------------------------- TUM folders
+def _tum_folder(path: Path, n: int = 3) -> Path:
+    """A tiny TUM folder: n 64x48 textured PNGs, depth, ground truth."""
+    from initsel_ros.datasets.tum import write_listing, write_trajectory
+
+    rng = np.random.default_rng(0)
+    (path / 'rgb').mkdir(parents=True)
+    (path / 'depth').mkdir()
+    stamps = 1.0 + np.arange(n) / 30
+    for i in range(n):
+        cv2.imwrite(str(path / 'rgb' / f'{i}.png'),
+                    rng.integers(0, 256, (48, 64, 3), dtype=np.uint8))
+        cv2.imwrite(str(path / 'depth' / f'{i}.png'), np.full((48, 64), 5000, np.uint16))
+    write_listing(path / 'rgb.txt', stamps, [f'rgb/{i}.png' for i in range(n)], 'color images')
+    write_listing(path / 'depth.txt', stamps, [f'depth/{i}.png' for i in range(n)], 'depth')
+    write_trajectory(path / 'groundtruth.txt', stamps, np.zeros((n, 3)),
+                     np.tile([0, 0, 0, 1.0], (n, 1)))
+    return path
+
+
+def test_a_healthy_tiny_tum_folder_reads(tmp_path):
+    assert _assert_clean_failure_or_success(_tum_folder(tmp_path / 'ok'), 'ok') == 'ok'
+
+
+def _break_empty_image(p: Path) -> str:
+    (p / 'rgb' / '1.png').write_bytes(b'')
+    return '1.png'
+
+
+def _break_truncated_image(p: Path) -> str:
+    data = (p / 'rgb' / '2.png').read_bytes()
+    (p / 'rgb' / '2.png').write_bytes(data[: len(data) // 2])
+    return '2.png'
+
+
+def _break_missing_image(p: Path) -> str:
+    (p / 'rgb' / '0.png').unlink()
+    return '0.png'
+
+
+def _break_image_is_a_folder(p: Path) -> str:
+    (p / 'rgb' / '1.png').unlink()
+    (p / 'rgb' / '1.png').mkdir()
+    return '1.png'
+
+
+def _break_empty_depth(p: Path) -> str:
+    (p / 'depth' / '1.png').write_bytes(b'')
+    return '1.png'
+
+
+def _break_colour_depth(p: Path) -> str:
+    cv2.imwrite(str(p / 'depth' / '2.png'), np.zeros((48, 64, 3), np.uint8))
+    return '2.png'
+
+
+def _break_rgb_three_columns(p: Path) -> str:
+    with (p / 'rgb.txt').open('a') as f:
+        f.write('1.5 rgb/0.png extra\n')
+    return 'rgb.txt:'
+
+
+def _break_rgb_nan_stamp(p: Path) -> str:
+    with (p / 'rgb.txt').open('a') as f:
+        f.write('nan rgb/0.png\n')
+    return 'rgb.txt:'
+
+
+def _break_depth_listing(p: Path) -> str:
+    (p / 'depth.txt').write_text('# depth\n1.0\n')
+    return 'depth.txt:'
+
+
+def _break_groundtruth_short_line(p: Path) -> str:
+    with (p / 'groundtruth.txt').open('a') as f:
+        f.write('2.0 0 0 0 0 0 0\n')
+    return 'groundtruth.txt:'
+
+
+def _break_groundtruth_binary(p: Path) -> str:
+    (p / 'groundtruth.txt').write_bytes(b'\x80\x81\xfe\xff' * 10)
+    return 'groundtruth.txt'
+
+
+def _break_intrinsics_yaml(p: Path) -> str:
+    (p / 'intrinsics.yaml').write_text('fx: [1, 2\n')
+    return 'intrinsics.yaml'
+
+
+def _break_intrinsics_values(p: Path) -> str:
+    (p / 'intrinsics.yaml').write_text('fx: .nan\nfy: 1\ncx: 1\ncy: 1\nwidth: 64\nheight: 48\n')
+    return 'intrinsics'
+
+
+def _break_rgb_txt_missing(p: Path) -> str:
+    (p / 'rgb.txt').unlink()
+    return 'rgb.txt'
+
+
+def _break_rgb_txt_empty(p: Path) -> str:
+    (p / 'rgb.txt').write_text('# nothing\n')
+    return 'rgb.txt'
+
+
+TUM_FAULTS = [
+    _break_empty_image, _break_truncated_image, _break_missing_image, _break_image_is_a_folder,
+    _break_empty_depth, _break_colour_depth, _break_rgb_three_columns, _break_rgb_nan_stamp,
+    _break_depth_listing, _break_groundtruth_short_line, _break_groundtruth_binary,
+    _break_intrinsics_yaml, _break_intrinsics_values, _break_rgb_txt_missing,
+    _break_rgb_txt_empty,
+]
+
+
+@pytest.mark.parametrize('fault', TUM_FAULTS, ids=lambda f: f.__name__[len('_break_'):])
+def test_broken_tum_folder_gives_one_dataset_error_naming_the_file(tmp_path, fault):
+    folder = _tum_folder(tmp_path / 'seq')
+    name = fault(folder)
+    if fault is _break_rgb_txt_missing:
+        from initsel_ros.datasets import TumSequence
+
+        with pytest.raises(DatasetError, match='rgb.txt'):
+            TumSequence(folder)
+        return
+    with pytest.raises(DatasetError) as info:
+        _read_everything(folder)
+    assert name in str(info.value)
+
+
+# ------------------------------------------------------------------- the dataset builder
+def test_dataset_command_on_a_broken_source_writes_nothing_and_keeps_the_old_table(
+    tmp_path, capsys
+):
+    from initsel_ros.cli import main
+
+    folder = _tum_folder(tmp_path / 'seq', n=4)
+    _break_truncated_image(folder)
+    out = tmp_path / 'tables' / 'pairs.csv'
+    out.parent.mkdir()
+    out.write_text('previous table\n')
+    status = main(['dataset', str(folder), '--out', str(out), '--batch', '4', '--jobs', '1',
+                   '--quiet', '--no-orbslam'])
+    err = capsys.readouterr().err
+    assert status == 1
+    assert '2.png' in err and 'Traceback' not in err
+    assert len(err.strip().splitlines()) == 1
+    assert out.read_text() == 'previous table\n'
+    assert sorted(p.name for p in out.parent.iterdir()) == ['pairs.csv']
+
+
+def test_table_writer_interrupted_midway_leaves_no_partial_file(tmp_path, monkeypatch):
+    from initsel_ros.learn import table as table_module
+
+    rows = table_module.PairTable.from_rows([])
+    out = tmp_path / 'pairs.csv'
+
+    def explode(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(table_module.csv, 'writer', explode)
+    with pytest.raises(KeyboardInterrupt):
+        table_module.write_table(rows, out)
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------ model files
+def _valid_model_dict() -> dict:
+    from initsel_ros.benchmarks.common import random_models
+
+    return random_models().to_dict()
+
+
+#: Known failure, reported to the lead: remove when ModelSet.load handles binary files.
+BINARY_MODEL_FILE_BUG = pytest.mark.xfail(
+    strict=True,
+    reason='models.ModelSet.load reads with read_text() and lets UnicodeDecodeError escape on '
+    'binary files; it should raise ModelFileError naming the file',
+)
+
+
+@BINARY_MODEL_FILE_BUG
+def test_model_file_holding_a_pickle_is_rejected_cleanly(tmp_path):
+    path = tmp_path / 'models.json'
+    path.write_bytes(pickle.dumps(_valid_model_dict(), protocol=pickle.HIGHEST_PROTOCOL))
+    with pytest.raises(ModelFileError, match='models.json'):
+        from initsel_ros.models import ModelSet
+
+        ModelSet.load(path)
+
+
+def test_model_file_holding_a_protocol_0_pickle_is_rejected_cleanly(tmp_path):
+    path = tmp_path / 'models.json'
+    path.write_bytes(pickle.dumps({'format': 'initsel_ros/models'}, protocol=0))
+    with pytest.raises(ModelFileError, match='models.json'):
+        from initsel_ros.models import ModelSet
+
+        ModelSet.load(path)
+
+
+@pytest.mark.parametrize('text', [
+    '!!python/object/apply:os.system ["touch {marker}"]\n',
+    '--- !!python/object/new:initsel_ros.models.ModelSet {{}}\n',
+    'format: initsel_ros/models\nversion: 1\nmodels: !!python/name:os.system\n',
+])
+def test_model_file_with_yaml_tags_is_rejected_and_never_executed(tmp_path, text):
+    from initsel_ros.models import ModelSet
+
+    marker = tmp_path / 'executed'
+    path = tmp_path / 'models.yaml'
+    path.write_text(text.format(marker=marker))
+    with pytest.raises(ModelFileError, match='models.yaml'):
+        ModelSet.load(path)
+    assert not marker.exists()
+
+
+def _node_env() -> dict[str, str]:
+    from ros_helpers import ros_environment
+
+    env = ros_environment()
+    env['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)
+    return env
+
+
+@pytest.mark.parametrize('content', [
+    None, b'{"format": "initsel_ros/models", "version": 1}',
+    pytest.param(b'\x80\x04\x95', marks=BINARY_MODEL_FILE_BUG, id='pickle-header'),
+])
+def test_node_refuses_to_start_on_a_missing_or_malformed_model_file(tmp_path, content):
+    pytest.importorskip('rclpy')
+    path = tmp_path / 'bad_models.json'
+    if content is not None:
+        path.write_bytes(content)
+    proc = subprocess.run(
+        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p',
+         f'model_file:={path}'],
+        capture_output=True, text=True, timeout=TIMEOUT_S, env=_node_env(),
+    )
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 1, output
+    assert 'bad_models.json' in output
+    assert 'Traceback' not in output
+
+
+# ----------------------------------------------------------------------------------- flood
+def test_short_flood_keeps_memory_bounded_and_processes_the_newest_frame(tmp_path):
+    pytest.importorskip('rclpy')
+    from ros_helpers import configure_this_process
+
+    from initsel_ros.benchmarks.common import random_models
+    from initsel_ros.benchmarks.live import flood
+
+    configure_this_process()
+    os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)
+    model_path = tmp_path / 'models.json'
+    random_models().save(model_path)
+    run = flood(model_path, seconds=3.0, rate_hz=200.0, width=640, height=480, timeout=60.0)
+    assert run.published > 200, run
+    assert run.processed > 10, run
+    assert run.received <= run.published
+    assert run.dropped > 0, 'at 200 Hz the node must drop frames, and say so'
+    assert run.processed + run.dropped <= run.received + 1
+    assert run.newest_processed, run
+    assert run.rss_end_mb - run.rss_mid_mb < 50, run
+    assert run.reasons.get('internal error', 0) == 0, run.reasons
