@@ -230,7 +230,7 @@ def test_broken_tum_folder_gives_one_dataset_error_naming_the_file(tmp_path, fau
     if fault is _break_rgb_txt_missing:
         from initsel_ros.datasets import TumSequence
 
-        with pytest.raises(DatasetError, match='rgb.txt'):
+        with pytest.raises(DatasetError, match=r'rgb\.txt'):
             TumSequence(folder)
         return
     with pytest.raises(DatasetError) as info:
@@ -293,7 +293,7 @@ BINARY_MODEL_FILE_BUG = pytest.mark.xfail(
 def test_model_file_holding_a_pickle_is_rejected_cleanly(tmp_path):
     path = tmp_path / 'models.json'
     path.write_bytes(pickle.dumps(_valid_model_dict(), protocol=pickle.HIGHEST_PROTOCOL))
-    with pytest.raises(ModelFileError, match='models.json'):
+    with pytest.raises(ModelFileError, match=r'models\.json'):
         from initsel_ros.models import ModelSet
 
         ModelSet.load(path)
@@ -302,7 +302,7 @@ def test_model_file_holding_a_pickle_is_rejected_cleanly(tmp_path):
 def test_model_file_holding_a_protocol_0_pickle_is_rejected_cleanly(tmp_path):
     path = tmp_path / 'models.json'
     path.write_bytes(pickle.dumps({'format': 'initsel_ros/models'}, protocol=0))
-    with pytest.raises(ModelFileError, match='models.json'):
+    with pytest.raises(ModelFileError, match=r'models\.json'):
         from initsel_ros.models import ModelSet
 
         ModelSet.load(path)
@@ -319,7 +319,7 @@ def test_model_file_with_yaml_tags_is_rejected_and_never_executed(tmp_path, text
     marker = tmp_path / 'executed'
     path = tmp_path / 'models.yaml'
     path.write_text(text.format(marker=marker))
-    with pytest.raises(ModelFileError, match='models.yaml'):
+    with pytest.raises(ModelFileError, match=r'models\.yaml'):
         ModelSet.load(path)
     assert not marker.exists()
 
