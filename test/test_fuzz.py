@@ -1,0 +1,123 @@
+"""Property-based fuzzing of image conversion and the selector node's image path.
+
+CI runs the ``initsel-ci`` hypothesis profile (200 examples per property, derandomized).
+``INITSEL_FUZZ_PROFILE=initsel-long`` runs 10,000 per property; so does
+``initsel bench --fuzz 10000``.
+"""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+
+from initsel_ros.benchmarks.fuzz import (
+    INTERNAL_ERROR_REASON,
+    ImageCase,
+    InfoCase,
+    check_conversion,
+    check_node_callbacks,
+    image_cases,
+    info_cases,
+)
+
+pytest.importorskip('sensor_msgs.msg')
+
+_COMMON = {'deadline': None, 'database': None,
+           'suppress_health_check': [HealthCheck.too_slow, HealthCheck.data_too_large,
+                                     HealthCheck.filter_too_much]}
+settings.register_profile('initsel-ci', max_examples=200, derandomize=True, **_COMMON)
+settings.register_profile('initsel-long', max_examples=10_000, **_COMMON)
+PROFILE = settings.get_profile(os.environ.get('INITSEL_FUZZ_PROFILE', 'initsel-ci'))
+
+
+@PROFILE
+@given(image_cases())
+@example(ImageCase('mono8', 0, 0, 0, 0, False, 0))
+@example(ImageCase('mono8', 1, 1, 1, 1, False, 0))
+@example(ImageCase('rgb8', 1, 1, 3, 2, False, 0))  # one byte short
+@example(ImageCase('bgra8', 2, 2, 7, 14, False, 0))  # step shorter than a row
+@example(ImageCase('mono16', 1, 1, 2, 2, True, 0))
+@example(ImageCase('bayer_rggb8', 1, 1, 1, 1, False, 0))  # a 1-pixel mosaic
+@example(ImageCase('rgb8', 2**31, 2**31, 2**32 - 1, 16, False, 0))
+@example(ImageCase('16UC1', 4, 4, 8, 32, False, 0))
+def test_image_conversion_returns_the_documented_array_or_raises_image_conversion_error(
+    case: ImageCase,
+):
+    check_conversion(case)
+
+
+def test_conversion_check_catches_a_wrong_shape(monkeypatch):
+    """The property itself can fail: a converter returning the wrong shape is caught."""
+    import numpy as np
+
+    from initsel_ros.ros import conversions
+
+    monkeypatch.setattr(conversions, 'image_to_cv', lambda msg: np.zeros((1, 1), np.uint8))
+    with pytest.raises(AssertionError):
+        check_conversion(ImageCase('mono8', 4, 4, 4, 16, False, 0))
+
+
+@pytest.fixture(scope='module')
+def probe(tmp_path_factory):
+    pytest.importorskip('rclpy')
+    from ros_helpers import configure_this_process
+
+    from initsel_ros.benchmarks.common import random_models
+    from initsel_ros.benchmarks.fuzz import NodeProbe
+
+    configure_this_process()
+    os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)
+    path = tmp_path_factory.mktemp('fuzz_models') / 'models.json'
+    random_models().save(path)
+    p = NodeProbe(str(path))
+    yield p
+    p.close()
+
+
+NAN = float('nan')
+PLAUSIBLE_K = (525.0, 0.0, 320.0, 0.0, 525.0, 240.0, 0.0, 0.0, 1.0)
+
+
+@PROFILE
+@given(case=image_cases(), info=info_cases())
+@example(case=ImageCase('mono8', 0, 0, 0, 0, False, 0), info=None)
+@example(case=ImageCase('mono8', 1, 1, 1, 1, False, 0),
+         info=InfoCase((NAN,) * 9, 640, 480, (), 'plumb_bob'))
+@example(case=ImageCase('rgb8', 1, 1, 3, 3, False, 0),
+         info=InfoCase((0.0,) * 9, 640, 480, (), 'plumb_bob'))
+@example(case=ImageCase('bgr8', 3, 2, 6, 18, False, 0),
+         info=InfoCase(PLAUSIBLE_K, 0, 0, (), ''))
+@example(case=ImageCase('mono16', 5, 7, 14, 70, True, 1),
+         info=InfoCase(PLAUSIBLE_K, 640, 480, (NAN, 0, 0, 0, 0), 'plumb_bob'))
+def test_node_survives_any_image_and_camera_info_and_processes_the_next_good_frame(
+    probe, case: ImageCase, info: InfoCase | None,
+):
+    check_node_callbacks(probe, case, info)
+
+
+def test_node_check_catches_an_internal_error(probe, monkeypatch):
+    """The property itself can fail: a selector that raises shows up as an internal error."""
+
+    def broken(*args, **kwargs):
+        raise RuntimeError('boom')
+
+    monkeypatch.setattr(probe.node._selector, 'process', broken)
+    with pytest.raises(AssertionError, match=INTERNAL_ERROR_REASON):
+        check_node_callbacks(probe, ImageCase('mono8', 8, 8, 8, 64, False, 0), None)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason='conversions.camera_info_to_intrinsics accepts finite but absurd focal lengths '
+    '(1e306, 5e-324) and K[2,2] = 0; scaling them to the image size overflows to inf or '
+    'underflows to 0, Intrinsics raises ConfigError in node._match_image_size, and every '
+    'following frame is an internal error (reported to the lead)',
+)
+@pytest.mark.parametrize('info', [
+    InfoCase((1e307, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0), 1, 1, (), 'plumb_bob'),
+    InfoCase((1.0, 0.0, 0.0, 0.0, 5e-324, 0.0, 0.0, 0.0, 1.0), 1, 48, (), 'plumb_bob'),
+])
+def test_node_survives_camera_info_with_absurd_finite_focal_lengths(probe, info):
+    check_node_callbacks(probe, ImageCase('mono8', 1, 1, 1, 1, False, 0), info)
