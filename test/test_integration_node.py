@@ -32,7 +32,7 @@ from std_srvs.srv import Trigger
 from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.errors import ModelFileError
+from initsel_ros.errors import ConfigError, ModelFileError
 from initsel_ros.geometry import relative_pose, translation_chordal_error
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros.node import DIAGNOSTIC_NAME, LATCHED_QOS, SKIPPED_IMAGE, SelectorNode
@@ -326,3 +326,21 @@ def test_main_returns_1_on_a_bad_model_file(tmp_path, monkeypatch):
     monkeypatch.setenv('ROS_DOMAIN_ID', str(DOMAIN_ID))
     code = main(['selector', '--ros-args', '-p', f'model_file:={tmp_path / "none.json"}'])
     assert code == 1
+
+
+def test_parameter_of_the_wrong_type_is_a_config_error(context):
+    with pytest.raises(ConfigError, match='parameter max_features'):
+        SelectorNode(context=context, namespace='/badparam',
+                     parameter_overrides=[Parameter('max_features', value='many')])
+
+
+def test_empty_r_veto_from_a_params_file_disables_the_veto(context, tmp_path):
+    params = tmp_path / 'no_veto.yaml'
+    params.write_text(f'/**/selector:\n  ros__parameters:\n    r_veto: []\n'
+                      f'    model_file: {_double_model_file(tmp_path)}\n')
+    node = SelectorNode(context=context, namespace='/noveto',
+                        cli_args=['--ros-args', '--params-file', str(params)])
+    try:
+        assert node._selector.config.policy.r_veto == frozenset()
+    finally:
+        node.destroy_node()

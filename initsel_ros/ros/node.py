@@ -22,6 +22,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import (
@@ -89,12 +90,7 @@ class SelectorNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
-        for spec in PARAMETERS:
-            self.declare_parameter(
-                spec.name, spec.default, ParameterDescriptor(description=spec.description)
-            )
-        values = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
-        self._settings = NodeSettings.from_values(values)
+        self._settings = NodeSettings.from_values(self._declare_parameters())
         model_path = self._settings.model_path()
         models = ModelSet.load(model_path)
         self._selector = Selector(models, self._settings.intrinsics,
@@ -148,6 +144,28 @@ class SelectorNode(Node):
             + ('' if self._tf_pub or not self._settings.publish_tf
                else '; tf2_msgs not installed: no /tf')
         )
+
+    def _declare_parameters(self) -> dict[str, Any]:
+        """Declare every parameter of :data:`PARAMETERS`; their values by name.
+
+        Raises:
+            ConfigError: a value of the wrong type (e.g. ``-p max_features:=many``).
+        """
+        values: dict[str, Any] = {}
+        for spec in PARAMETERS:
+            try:
+                self.declare_parameter(
+                    spec.name, spec.default, ParameterDescriptor(description=spec.description)
+                )
+                values[spec.name] = self.get_parameter(spec.name).value
+            except ParameterUninitializedException:
+                # An empty list ('r_veto: []') has no type, so ROS leaves it unset.
+                values[spec.name] = []
+            except ParameterException as exc:
+                raise ConfigError(
+                    f'parameter {spec.name} (default {spec.default!r}): {exc}'
+                ) from exc
+        return values
 
     # ----------------------------------------------------------------------------- callbacks
     def _on_image(self, msg: Image) -> None:

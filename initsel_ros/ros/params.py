@@ -211,7 +211,7 @@ def load_params_file(path: Path) -> dict[str, Any]:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f'{path}: cannot read parameters: {exc}') from exc
-    for key in (NODE_NAME, f'/{NODE_NAME}', '/**'):
+    for key in (NODE_NAME, f'/{NODE_NAME}', f'/**/{NODE_NAME}', '/**'):
         section = (data or {}).get(key, {}) if isinstance(data, dict) else {}
         if isinstance(section, dict) and 'ros__parameters' in section:
             return _flatten(section['ros__parameters'] or {})
