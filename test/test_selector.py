@@ -115,3 +115,40 @@ def test_to_gray_accepts_the_documented_layouts():
 def test_invalid_mode_is_a_config_error():
     with pytest.raises(ConfigError, match='mode'):
         SelectorConfig(mode='sometimes')  # type: ignore[arg-type]
+
+
+def _run(path, mode='once'):
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import default_model_path
+
+    seq = open_sequence(path)
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics,
+                   SelectorConfig(mode=mode))
+    return seq, [sel.process(seq.image(i), f.stamp) for i, f in enumerate(seq.frames)]
+
+
+def test_default_models_initialize_on_the_rendered_near_sequence_with_the_true_direction(
+    near_sequence,
+):
+    from initsel_ros.geometry import relative_pose, translation_chordal_error
+
+    seq, results = _run(near_sequence)
+    inits = [(i, r.initialization) for i, r in enumerate(results) if r.initialization]
+    assert len(inits) == 1  # mode 'once'
+    index, init = inits[0]
+    assert init.method.value in ('F', 'E', 'H')
+    assert all(r.decision.reason is Reason.DONE for r in results[index + 1:])
+    ref = int(np.argmin(np.abs(seq.stamps - init.reference_stamp)))
+    _, t_gt = relative_pose(seq.frames[ref].pose, seq.frames[index].pose)
+    assert translation_chordal_error(t_gt, init.t) < 0.8
+    assert len(init.points) >= 50 and np.all(init.points[:, 2] > 0)
+    assert np.median(init.points[:, 2]) == pytest.approx(1.0)  # the scale convention
+    assert init.pixels_ref.shape == init.pixels_cur.shape == (len(init.points), 2)
+
+
+@pytest.mark.parametrize('fixture', ['rotation_sequence', 'static_sequence'])
+def test_default_models_never_initialize_on_rotation_or_a_static_camera(fixture, request):
+    _, results = _run(request.getfixturevalue(fixture), mode='continuous')
+    assert not any(r.initialization for r in results)
+    reasons = {r.decision.reason for r in results}
+    assert Reason.INITIALIZED not in reasons
