@@ -123,9 +123,20 @@ def image_messages(seq: Any, n: int, encoding: str = 'rgb8') -> FrameMessages:
 
 @dataclass(frozen=True)
 class FramePathResult:
-    """Per-frame path timings and what the selector said."""
+    """Per-frame path timings and what the selector said.
+
+    Attributes:
+        total: every frame.
+        decision_only: frames where no pose was estimated (no model fired, or a new
+            reference): conversion, tracking, features, decision.
+        with_pose: frames where a model fired and the pose was estimated and checked.
+        parts: conversion, grey conversion and tracking timed alone on the same frames.
+        reasons: status reason -> frames.
+    """
 
     total: Timing
+    decision_only: Timing
+    with_pose: Timing
     parts: list[Timing]
     reasons: dict[str, int]
 
@@ -137,9 +148,14 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
 
     The parts are timed on the same frames: conversion, conversion to grey, tracking.
     """
+    from initsel_ros.policy import Reason
     from initsel_ros.ros import conversions as conv
     from initsel_ros.selector import Selector, SelectorConfig, to_gray
     from initsel_ros.tracking import KltTracker
+
+    pose_reasons = {Reason.INITIALIZED, Reason.POSE_FAILED, Reason.TOO_FEW_POINTS,
+                    Reason.LOW_PARALLAX}
+    posed = []
 
     selector = Selector(models, intrinsics, SelectorConfig(mode='continuous'))
     n = len(frames.messages)
@@ -155,6 +171,7 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
         t0 = clock()
         result = selector.process(conv.image_to_cv(msg), stamp)
         samples.append(clock() - t0)
+        posed.append(result.decision.reason in pose_reasons)
         reason = result.decision.reason.value
         reasons[reason] = reasons.get(reason, 0) + 1
 
@@ -175,7 +192,14 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
         Timing('  KLT tracking (incl. re-detection every 30 frames)',
                time_calls(track, n, warmup=0)),
     ]
-    return FramePathResult(Timing('per-frame path', np.array(samples)), parts, reasons)
+    times, with_pose = np.array(samples), np.array(posed, dtype=bool)
+    return FramePathResult(
+        Timing('per-frame path', times),
+        Timing('per-frame path, no pose estimated', times[~with_pose]),
+        Timing('per-frame path, pose estimated (a model fired)',
+               times[with_pose] if with_pose.any() else np.full(1, np.nan)),
+        parts, reasons,
+    )
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,77 @@
+"""``initsel bench`` runs end to end at small sizes and saves its figures (no timing asserts)."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from initsel_ros.bench import Table
+from initsel_ros.cli import main
+
+
+def test_markdown_table_pads_missing_cells():
+    table = Table('a', 'b', 'c')
+    table.add('x', 1)
+    assert table.render().splitlines() == ['| a | b | c |', '|---|---|---|', '| x | 1 |  |']
+
+
+def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path, capsys):
+    pytest.importorskip('rclpy')
+    from ros_helpers import configure_this_process
+
+    configure_this_process()
+    os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)
+    (tmp_path / 'work').mkdir()
+    (tmp_path / 'work' / 'bench_sequence').symlink_to(near_sequence)
+    out = tmp_path / 'bench.json'
+    status = main(['bench', '--work', str(tmp_path / 'work'), '--frames', '30', '--repeat', '50',
+                   '--node-frames', '20', '--rates', '60', '--memory-frames', '150',
+                   '--skip', 'dataset', '--json', str(out)])
+    assert status == 0
+    printed = capsys.readouterr().out
+    assert '| decision: 23 features + 4 models + policy |' in printed
+    assert 'ORB-SLAM H/F selection' in printed and 'per-frame path' in printed
+    figures = json.loads(out.read_text())
+    assert figures['machine']['cores'] >= 1
+    assert figures['correspondences']['median_tracks'] > 100
+    decision = figures['decision']['decision']
+    assert decision['n'] == 50 and 0 < decision['median_us'] < 1e5
+    assert figures['decision']['orbslam_ratio'] > 1  # the RANSACs cost more than the decision
+    assert set(figures['decision']['estimators']) == {
+        'estimate_pose F', 'estimate_pose E', 'estimate_pose H', 'F + E + H outright'}
+    frames = figures['sequence']['frames']
+    assert sum(figures['frame']['reasons'].values()) == 2 * frames
+    assert figures['frame']['decision_only']['n'] + figures['frame']['with_pose']['n'] in (
+        2 * frames, 2 * frames + 1)
+    assert figures['memory']['frames'] == 150
+    (node,) = figures['node']
+    assert node['published'] == 20 and node['processed'] + node['dropped'] >= 19
+    assert node['newest_processed']
+    assert np.isfinite(node['latency']['median_ms'])
+
+
+def test_selector_memory_does_not_grow_over_300_frames(near_sequence):
+    from initsel_ros.benchmarks.common import random_models
+    from initsel_ros.benchmarks.micro import memory_growth
+    from initsel_ros.datasets import open_sequence
+
+    seq = open_sequence(near_sequence)
+    images = [seq.image(i) for i in range(20)]
+    result = memory_growth(random_models(), seq.intrinsics, images, frames=300, warmup=60)
+    assert result.traced_growth_bytes < 1 * 2**20, result
+
+
+def test_bench_fuzz_mode_runs_the_requested_number_of_examples(tmp_path, capsys):
+    pytest.importorskip('rclpy')
+    from ros_helpers import configure_this_process
+
+    configure_this_process()
+    os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)
+    out = tmp_path / 'fuzz.json'
+    assert main(['bench', '--fuzz', '30', '--json', str(out)]) == 0
+    figures = json.loads(out.read_text())
+    assert sum(figures['conversion'].values()) == 30
+    assert sum(figures['node'].values()) == 30
