@@ -30,6 +30,8 @@ class TrackerConfig:
         window_px: Lucas-Kanade window side, pixels.
         pyramid_levels: Lucas-Kanade pyramid levels above the base.
         fb_max_error_px: forward-backward error above which a track is dropped, pixels.
+        lk_iterations: Lucas-Kanade iterations per pyramid level (at most).
+        lk_epsilon_px: Lucas-Kanade stops when an update is smaller than this, pixels.
     """
 
     max_features: int = 300
@@ -41,6 +43,8 @@ class TrackerConfig:
     window_px: int = 21
     pyramid_levels: int = 3
     fb_max_error_px: float = 1.0
+    lk_iterations: int = 10
+    lk_epsilon_px: float = 0.03
 
 
 @dataclass(frozen=True)
@@ -110,7 +114,10 @@ class KltTracker:
 
     def __init__(self, config: TrackerConfig = TrackerConfig()) -> None:
         self.config = config
-        self._criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01)
+        self._criteria = (
+            cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iterations,
+            config.lk_epsilon_px,
+        )
         self._prev: np.ndarray | None = None
         self._ref = np.zeros((0, 2), np.float32)
         self._cur = np.zeros((0, 2), np.float32)
