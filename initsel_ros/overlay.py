@@ -137,7 +137,7 @@ def _draw_tracks(canvas: np.ndarray, ref: np.ndarray, cur: np.ndarray, thickness
         idx = order[bounds[k]:bounds[k + 1]]
         if len(idx) == 0:
             continue
-        cv2.polylines(canvas, list(seg[idx]), False, palette[k], thickness, cv2.LINE_AA, shift)
+        cv2.polylines(canvas, list(seg[idx]), False, palette[k], thickness, cv2.LINE_8, shift)
         cv2.polylines(canvas, list(dots[idx]), False, palette[k], thickness + 2, cv2.LINE_8,
                       shift)
 
