@@ -17,6 +17,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--train', type=Path, nargs='+', default=None, metavar='TRAIN_CSV',
                         help='training pairs: also fit richer models in memory (logistic + '
                              'extra features, gradient boosting, MLP) and compare')
+    parser.add_argument('--candidates', nargs='+', default=None, metavar='FAMILY',
+                        choices=('logistic+extra', 'hgb+extra', 'mlp+extra'),
+                        help='richer families to fit with --train (default: all three)')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG plots')
 
 
@@ -26,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
 
     from initsel_ros.learn.evaluate import evaluate, report_markdown, results_csv_rows
     from initsel_ros.learn.table import read_tables
-    from initsel_ros.learn.train import TrainConfig, prepare
+    from initsel_ros.learn.train import Candidate, TrainConfig, prepare
     from initsel_ros.models import ModelSet, default_model_path
 
     models = ModelSet.load(args.models or default_model_path())
@@ -38,7 +41,10 @@ def run(args: argparse.Namespace) -> int:
         config = TrainConfig(scaling=models.scaling, target_precision=float(target))
     if args.train:
         train = prepare(read_tables(args.train), config)
-    report = evaluate(test, models, train=train, train_config=config)
+    kwargs = {}
+    if args.candidates:
+        kwargs['candidates'] = tuple(Candidate(c) for c in args.candidates)
+    report = evaluate(test, models, train=train, train_config=config, **kwargs)
     text = report_markdown(report)
     print(text)
     if args.out_dir:

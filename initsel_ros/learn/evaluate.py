@@ -330,7 +330,8 @@ def evaluate(
                      f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg',
             ))
     # sequence level
-    rules = [model_rule('Models (R veto on F, E)', probs, thr)]
+    rules = [model_rule('Models (R veto on F, E)', probs, thr),
+             model_rule('Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'))]
     check = rules[0]
     pose_ok = _orb_accepts(test, check.method) | (
         (check.method == 'E')

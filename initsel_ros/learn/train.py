@@ -15,6 +15,7 @@ from __future__ import annotations
 import datetime as _dt
 import logging
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
@@ -441,6 +442,7 @@ def _fitter(candidate: Candidate, config: TrainConfig) -> Callable[..., Any]:
                 return float(clf.predict_proba(z.reshape(1, -1))[0, 1])
 
             return batch, one
+        from sklearn.exceptions import ConvergenceWarning
         from sklearn.neural_network import MLPClassifier
         from sklearn.preprocessing import StandardScaler
 
@@ -454,10 +456,11 @@ def _fitter(candidate: Candidate, config: TrainConfig) -> Callable[..., Any]:
             extra = rng.choice(minority, len(majority) - len(minority), replace=True)
             weights = np.r_[np.arange(len(y)), extra]
         idx = np.arange(len(y)) if weights is None else weights
-        clf = MLPClassifier(
-            hidden_layer_sizes=(32, 16), alpha=1e-3, max_iter=800, early_stopping=False,
-            random_state=seed,
-        ).fit(scaler.transform(X[idx]), y[idx])
+        with warnings.catch_warnings():  # a comparison model: a few unconverged runs are fine
+            warnings.simplefilter('ignore', ConvergenceWarning)
+            clf = MLPClassifier(
+                hidden_layer_sizes=(32, 16), alpha=1e-3, max_iter=500, random_state=seed,
+            ).fit(scaler.transform(X[idx]), y[idx])
         W = [np.asarray(c) for c in clf.coefs_]
         B = [np.asarray(c) for c in clf.intercepts_]
         mu, sd = scaler.mean_, scaler.scale_
