@@ -153,14 +153,14 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     )
 
     results: dict[str, Any] = {'machine': machine()}
-    models, model_path, model_note = bench_models(args.models)
-    results['models'] = model_note
     info = results['machine']
     print(f'machine: {info["cpu"]}, {info["cores"]} cores, load average '
           f'{info["load_average_1min"]:.1f} (timings are only comparable on an idle machine)')
-    print(f'models: {model_note}')
     seq = render_bench_sequence(work / 'bench_sequence', args.frames)
     print(f'sequence: {seq} in {seq.path}')
+    models, model_path, model_note = bench_models(args.models, seq)
+    results['models'] = model_note
+    print(f'models: {model_note}')
     intrinsics = seq.intrinsics
     pairs = correspondence_sets(seq, 16)
     n_tracks = int(np.median([len(p0) for p0, _ in pairs]))
@@ -263,7 +263,7 @@ def _node_rows(table: Table, seq: Any, models: Any, model_path: Path | None, wor
         run = replay(images, seq.intrinsics, model_path, rate, args.node_frames)
         lat = run.latency
         table.add(f'{run.label}: {run.published} published ({run.publish_rate_hz:.1f} Hz), '
-                  f'{run.processed} processed, {run.dropped} dropped, '
+                  f'{run.received} received, {run.processed} processed, {run.dropped} dropped, '
                   f'newest processed: {"yes" if run.newest_processed else "NO"}',
                   f'{lat["median_ms"]:.1f} ms', f'{lat["p99_ms"]:.1f} ms',
                   'latency: publish -> status', f'max {lat["max_ms"]:.1f} ms')

@@ -78,10 +78,13 @@ def rss_bytes(pid: int | None = None) -> int:
     return pages * os.sysconf('SC_PAGE_SIZE')
 
 
-def random_models(seed: int = 0) -> Any:
-    """A ModelSet fitted with scikit-learn on random features and labels.
+def random_models(seed: int = 0, features: np.ndarray | None = None,
+                  positive_rate: float = 0.5) -> Any:
+    """A ModelSet fitted with scikit-learn on random (or given) features and random labels.
 
-    Only the shapes matter for timing; the probabilities mean nothing.
+    Only the shapes matter for timing; the probabilities mean nothing. With ``features``
+    ((N, 23) rows computed from real correspondences) and a low ``positive_rate`` the models
+    fire about that often on similar pairs, as trained models do on most frames.
     """
     from sklearn.linear_model import LogisticRegression
     from sklearn.preprocessing import StandardScaler
@@ -90,23 +93,49 @@ def random_models(seed: int = 0) -> Any:
     from initsel_ros.models import METHODS, LogisticModel, ModelSet
 
     rng = np.random.default_rng(seed)
-    X = rng.uniform(0.0, 1.0, size=(2000, N_FEATURES))
+    X = rng.uniform(0.0, 1.0, size=(2000, N_FEATURES)) if features is None else features
     scaler = StandardScaler().fit(X)
-    Xs = scaler.transform(X)
+    scale = np.where(scaler.scale_ > 0, scaler.scale_, 1.0)
+    Xs = (X - scaler.mean_) / scale
     models = {}
-    for k, name in enumerate(METHODS):
-        y = (Xs[:, k] + rng.normal(scale=1.0, size=len(X)) > 0).astype(int)
-        fit = LogisticRegression(max_iter=500).fit(Xs, y)
+    for name in METHODS:
+        y = rng.random(len(X)) < positive_rate
+        y[:2] = (True, False)  # both classes present
+        fit = LogisticRegression(max_iter=500).fit(Xs, y.astype(int))
         models[name] = LogisticModel(
-            name, fit.coef_[0], float(fit.intercept_[0]), 0.5, scaler.mean_, scaler.scale_,
-            {'note': 'random features, benchmark only'},
+            name, fit.coef_[0], float(fit.intercept_[0]), 0.5, scaler.mean_, scale,
+            {'note': 'random labels, benchmark only'},
         )
+    source = 'random features' if features is None else f'{len(X)} feature rows'
     return ModelSet(models, Scaling.RESOLUTION_FREE,
-                    metadata={'trained_on': 'random features (initsel bench)'})
+                    metadata={'trained_on': f'{source} with random labels (initsel bench)'})
 
 
-def bench_models(path: Path | None) -> tuple[Any, Path | None, str]:
-    """The model file to benchmark with, else models fitted on random features.
+def sequence_features(seq: Any, span: int = 30, max_features: int = TRACKS) -> np.ndarray:
+    """(N, 23) features of every frame against a reference every ``span`` frames (KLT)."""
+    from initsel_ros.features import Scaling, pair_features
+    from initsel_ros.tracking import KltTracker, TrackerConfig
+
+    tracker = KltTracker(TrackerConfig(max_features=max_features))
+    intr = seq.intrinsics
+    rows = []
+    for i in range(len(seq)):
+        gray = seq.gray(i)
+        if i % span == 0:
+            tracker.reset(gray)
+            continue
+        tracks = tracker.track(gray)
+        if len(tracks) >= 8:
+            rows.append(pair_features(tracks.ref, tracks.cur, intr.width, intr.height,
+                                      Scaling.RESOLUTION_FREE))
+    return np.array(rows).reshape(-1, 23)
+
+
+def bench_models(path: Path | None, seq: Any = None) -> tuple[Any, Path | None, str]:
+    """The model file to benchmark with, else models fitted on the fly.
+
+    Without a model file, the models are fitted on the features of ``seq`` (when given) with
+    random labels, 5 % positive, so they fire on few frames; else on random features.
 
     Returns:
         (ModelSet, path of the file or None, a one-line description for the output).
@@ -120,9 +149,15 @@ def bench_models(path: Path | None) -> tuple[Any, Path | None, str]:
             path = None
     if path is not None and Path(path).is_file():
         return ModelSet.load(path), Path(path), f'model file {path}'
-    return (random_models(), None,
-            'no model file found: models fitted with scikit-learn on random features '
-            '(realistic shapes, meaningless probabilities)')
+    if seq is None:
+        return (random_models(), None,
+                'no model file found: models fitted with scikit-learn on random features '
+                '(realistic shapes, meaningless probabilities)')
+    features = sequence_features(seq)
+    return (random_models(features=features, positive_rate=0.05), None,
+            "no model file found: models fitted with scikit-learn on this sequence's "
+            f'{len(features)} feature rows with random labels (5 % positive): realistic '
+            'shapes, meaningless probabilities')
 
 
 def render_bench_sequence(folder: Path, frames: int, seed: int = 0) -> Any:
@@ -186,5 +221,6 @@ __all__ = [
     'random_models',
     'render_bench_sequence',
     'rss_bytes',
+    'sequence_features',
     'time_calls',
 ]
