@@ -23,6 +23,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'replay': ('initsel_ros.ros.replay', 'publish a TUM folder or bag as image topics'),
     'bench': ('initsel_ros.bench', 'measure decision, per-frame and baseline costs'),
     'demo': ('initsel_ros.demo', 'render a sequence and initialize on it, end to end'),
+    'pictures': ('initsel_ros.pictures', 'overlay videos, probability plots, README pictures'),
 }
 
 

@@ -344,3 +344,26 @@ def test_empty_r_veto_from_a_params_file_disables_the_veto(context, tmp_path):
         assert node._selector.config.policy.r_veto == frozenset()
     finally:
         node.destroy_node()
+
+
+def test_debug_image_is_drawn_only_while_someone_subscribes(harness_factory, near_sequence):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    images: list[Image] = []
+    h.send_array(sequence.image(0), sequence.frames[0].stamp)
+    h.send_array(sequence.image(1), sequence.frames[1].stamp)
+    assert not images  # nobody listened: nothing drawn
+    h.client.create_subscription(Image, 'selector/debug_image', images.append,
+                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+    h.spin_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
+                 what='debug image subscriber')
+    raw = sequence.image(2)
+    h.send_array(raw, sequence.frames[2].stamp)
+    h.spin_until(lambda: images, what='a debug image')
+    debug = conv.image_to_cv(images[-1])
+    assert images[-1].encoding == 'bgr8'
+    assert debug.shape == raw.shape
+    changed = np.any(debug != raw, axis=2).mean()
+    assert 0.01 < changed < 0.9  # tracks, bars and text drawn over the frame, not a blank
+    assert conv.stamp_to_seconds(images[-1].header.stamp) == pytest.approx(
+        sequence.frames[2].stamp, abs=1e-6)

@@ -39,6 +39,7 @@ from std_srvs.srv import Trigger
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
 from initsel_ros.models import ModelSet
+from initsel_ros.overlay import draw_selector_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros.params import NODE_NAME, PARAMETERS, Mode, NodeSettings
@@ -60,6 +61,11 @@ WARN_REASONS = frozenset({Reason.TOO_FEW_TRACKS.value, Reason.POSE_FAILED.value,
 #: Images: best effort (accepts best-effort and reliable publishers), newest two only.
 IMAGE_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=2, reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Debug image: newest only, for viewers.
+DEBUG_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
 #: init/*: late subscribers still get the last initialization.
@@ -114,6 +120,8 @@ class SelectorNode(Node):
         self._points_pub = self.create_publisher(PointCloud2, 'init/points', LATCHED_QOS)
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', STATUS_QOS)
         self._status_pub = self.create_publisher(String, '~/status', STATUS_QOS)
+        # Drawn only while someone subscribes, after the decision has been published.
+        self._debug_pub = self.create_publisher(Image, '~/debug_image', DEBUG_QOS)
         self._tf_pub = None
         if self._settings.publish_tf and TFMessage is not None:
             self._tf_pub = self.create_publisher(TFMessage, '/tf', TF_QOS)
@@ -250,6 +258,21 @@ class SelectorNode(Node):
                              result.decision.detail)
         if result.initialization is not None:
             self._publish_initialization(result.initialization, msg.header.frame_id)
+        if self._debug_pub.get_subscription_count() > 0:
+            self._publish_debug_image(image, result, msg)
+
+    def _publish_debug_image(self, image: np.ndarray, result: FrameResult, msg: Image) -> None:
+        """Tracks, probabilities and the reason drawn on the frame (see overlay.py)."""
+        try:
+            debug = draw_selector_overlay(image, self._selector, result)
+            self._debug_pub.publish(conv.numpy_to_image(
+                debug, 'bgr8', stamp=msg.header.stamp, frame_id=msg.header.frame_id
+            ))
+        except Exception as exc:  # a drawing problem must never stop the selector
+            self.get_logger().error(
+                f'debug image failed: {type(exc).__name__}: {exc}',
+                throttle_duration_sec=WARN_THROTTLE_S,
+            )
 
     def _match_image_size(self, width: int, height: int) -> None:
         """Rescale the intrinsics when the images are not the size they describe."""
