@@ -12,6 +12,11 @@ import numpy as np
 from initsel_ros.errors import ConfigError
 
 #: TUM RGB-D freiburg3 colour camera (no distortion), 640x480.
+#: Plausible focal lengths, as multiples of the image diagonal (fields of view of about
+#: 0.6 to 179 degrees).
+MIN_FOCAL_PER_DIAGONAL = 0.005
+MAX_FOCAL_PER_DIAGONAL = 100.0
+
 TUM_FR3 = {'fx': 535.4, 'fy': 539.2, 'cx': 320.1, 'cy': 247.6, 'width': 640, 'height': 480}
 
 
@@ -35,6 +40,14 @@ class Intrinsics:
             raise ConfigError(f'focal lengths must be positive, got fx={self.fx} fy={self.fy}')
         if self.width <= 0 or self.height <= 0:
             raise ConfigError(f'image size must be positive, got {self.width}x{self.height}')
+        diagonal = math.hypot(self.width, self.height)
+        for name, f in (('fx', self.fx), ('fy', self.fy)):
+            if not MIN_FOCAL_PER_DIAGONAL * diagonal <= f <= MAX_FOCAL_PER_DIAGONAL * diagonal:
+                raise ConfigError(
+                    f'{name}={f:g} px is implausible for a {self.width}x{self.height} image '
+                    f'(expected {MIN_FOCAL_PER_DIAGONAL:g} to {MAX_FOCAL_PER_DIAGONAL:g} '
+                    'times the diagonal)'
+                )
 
     @classmethod
     def tum_fr3(cls) -> Intrinsics:

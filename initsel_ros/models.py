@@ -219,9 +219,14 @@ class ModelSet:
         """Read and validate a model file; every problem is a ModelFileError naming it."""
         path = Path(path)
         try:
-            text = path.read_text()
+            text = path.read_text(encoding='utf-8')
         except OSError as exc:
             raise ModelFileError(f'{path}: cannot read model file: {exc.strerror or exc}') from exc
+        except UnicodeDecodeError as exc:
+            raise ModelFileError(
+                f'{path}: not a text model file (binary content at byte {exc.start}); '
+                'model files are plain JSON, never pickles'
+            ) from exc
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:

@@ -12,14 +12,14 @@ CORE = [
     'initsel_ros.policy', 'initsel_ros.selector', 'initsel_ros.cli',
 ]
 
-BLOCKER = '''
+BLOCKER = """
 import importlib.abc, sys
 class Block(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path=None, target=None):
         if name.split('.')[0] in {blocked!r}:
             raise ImportError('blocked for this test: ' + name)
 sys.meta_path.insert(0, Block())
-'''
+"""
 
 
 def test_core_modules_import_with_ros_packages_blocked():

@@ -281,15 +281,6 @@ def _valid_model_dict() -> dict:
     return random_models().to_dict()
 
 
-#: Known failure, reported to the lead: remove when ModelSet.load handles binary files.
-BINARY_MODEL_FILE_BUG = pytest.mark.xfail(
-    strict=True,
-    reason='models.ModelSet.load reads with read_text() and lets UnicodeDecodeError escape on '
-    'binary files; it should raise ModelFileError naming the file',
-)
-
-
-@BINARY_MODEL_FILE_BUG
 def test_model_file_holding_a_pickle_is_rejected_cleanly(tmp_path):
     path = tmp_path / 'models.json'
     path.write_bytes(pickle.dumps(_valid_model_dict(), protocol=pickle.HIGHEST_PROTOCOL))
@@ -334,7 +325,7 @@ def _node_env() -> dict[str, str]:
 
 @pytest.mark.parametrize('content', [
     None, b'{"format": "initsel_ros/models", "version": 1}',
-    pytest.param(b'\x80\x04\x95', marks=BINARY_MODEL_FILE_BUG, id='pickle-header'),
+    pytest.param(b'\x80\x04\x95', id='pickle-header'),
 ])
 def test_node_refuses_to_start_on_a_missing_or_malformed_model_file(tmp_path, content):
     pytest.importorskip('rclpy')

@@ -108,13 +108,6 @@ def test_node_check_catches_an_internal_error(probe, monkeypatch):
         check_node_callbacks(probe, ImageCase('mono8', 8, 8, 8, 64, False, 0), None)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason='conversions.camera_info_to_intrinsics accepts finite but absurd focal lengths '
-    '(1e306, 5e-324) and K[2,2] = 0; scaling them to the image size overflows to inf or '
-    'underflows to 0, Intrinsics raises ConfigError in node._match_image_size, and every '
-    'following frame is an internal error (reported to the lead)',
-)
 @pytest.mark.parametrize('info', [
     InfoCase((1e307, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0), 1, 1, (), 'plumb_bob'),
     InfoCase((1.0, 0.0, 0.0, 0.0, 5e-324, 0.0, 0.0, 0.0, 1.0), 1, 48, (), 'plumb_bob'),

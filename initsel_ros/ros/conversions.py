@@ -202,11 +202,13 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
     model or all-zero ``d`` means no distortion. ``binning`` and ``roi`` are ignored.
 
     Raises:
-        ConfigError: K not finite or with non-positive focal lengths, zero image size, or an
-            unsupported distortion model with non-zero coefficients.
+        ConfigError: K not finite, not of the form [fx 0 cx; 0 fy cy; 0 0 1], with focal
+            lengths implausible for the image size, zero image size, or an unsupported
+            distortion model with non-zero coefficients.
     """
     K = np.asarray(msg.k, dtype=float).reshape(3, 3)
-    if not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+    if (not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0
+            or not math.isclose(K[2, 2], 1.0) or np.any(K[2, :2] != 0)):
         raise ConfigError(f'camera_info has an invalid K {K.ravel().tolist()}')
     distortion = tuple(float(d) for d in msg.d)
     if not all(math.isfinite(d) for d in distortion):

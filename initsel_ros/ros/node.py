@@ -284,7 +284,12 @@ class SelectorNode(Node):
             f'{current.width}x{current.height}: scaling the intrinsics',
             throttle_duration_sec=WARN_THROTTLE_S,
         )
-        self._selector.set_intrinsics(current.scaled(width, height))
+        try:
+            self._selector.set_intrinsics(current.scaled(width, height))
+        except ConfigError as exc:
+            raise ImageConversionError(
+                f'a {width}x{height} image does not fit the intrinsics: {exc}'
+            ) from exc
 
     # ---------------------------------------------------------------------------- publishing
     def _publish_status(
