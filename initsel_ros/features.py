@@ -162,8 +162,8 @@ def scale_features(
         raise GeometryError(f'expected {N_FEATURES} features, got shape {raw.shape}')
     x = raw / feature_divisors(width, height, scaling)
     bins = x[..., _BINS]
-    norm = np.sqrt(np.einsum('...i,...i->...', bins, bins))[..., None]
-    x[..., _BINS] = np.divide(bins, norm, out=np.zeros_like(bins), where=norm > 0)
+    norm = np.sqrt((bins * bins).sum(axis=-1, keepdims=True))
+    x[..., _BINS] = bins / np.maximum(norm, 1.0)  # counts: a non-zero norm is at least 1
     return x
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
-from initsel_ros.features import mean_disparity, pair_features
+from initsel_ros.features import raw_features, scale_features
 from initsel_ros.geometry import Method, PoseEstimate, estimate_pose
 from initsel_ros.models import ModelSet
 from initsel_ros.policy import (
@@ -221,11 +221,12 @@ class Selector:
         tracks = self.tracker.track(gray)
         since = self.tracker.frames_since_reference
         ref, cur = self._undistort(tracks.ref), self._undistort(tracks.cur)
-        features = pair_features(ref, cur, w, h, self.models.scaling)
-        probabilities = self.models.predict_proba(features)
+        raw = raw_features(ref, cur)
+        probabilities = self.models.predict_proba(
+            scale_features(raw, w, h, self.models.scaling)
+        )
         decision = decide(
-            probabilities, self.thresholds, len(tracks), mean_disparity(ref, cur),
-            self.config.policy,
+            probabilities, self.thresholds, len(tracks), float(raw[1]), self.config.policy
         )
         if decision.reason is Reason.TOO_FEW_TRACKS:
             result = self._new_reference(gray, stamp, Reason.TOO_FEW_TRACKS, index, decision)

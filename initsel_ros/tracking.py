@@ -84,7 +84,7 @@ def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -
     if config.max_features <= 0 or h < 2 * config.block_size or w < 2 * config.block_size:
         return np.zeros((0, 2), np.float32)
     corners = cv2.goodFeaturesToTrack(
-        gray, maxCorners=4 * config.max_features, qualityLevel=config.quality_level,
+        gray, maxCorners=2 * config.max_features, qualityLevel=config.quality_level,
         minDistance=config.min_distance_px, blockSize=config.block_size,
     )
     if corners is None:
