@@ -352,11 +352,12 @@ def train_models(
             'sources': sorted(set(np.asarray(table['source']).astype(str))),
             'positives': positives,
         },
-        'labels': {
-            'et_max': labels.et_max if config.labels else 'from table',
-            'er_max': labels.er_max if config.labels else 'from table',
-            'rotation_baseline_m': labels.rotation_baseline_m if config.labels else 'from table',
+        'labels': {  # `initsel dataset` labels with the defaults unless relabelled here
+            'et_max': labels.et_max,
+            'er_max': labels.er_max,
+            'rotation_baseline_m': labels.rotation_baseline_m,
             'scale_rule': rules[0] if len(rules) == 1 else rules,
+            'relabelled_at_training': config.labels is not None,
         },
         'training': {
             'C': config.C,
