@@ -125,7 +125,7 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     from rclpy.executors import MultiThreadedExecutor
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import CameraInfo, Image
+    from sensor_msgs.msg import CameraInfo, Image, PointCloud2
     from std_msgs.msg import String
 
     from initsel_ros.ros import conversions as conv
@@ -140,6 +140,7 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     statuses: list[dict] = []
     methods: list[str] = []
     poses: list[PoseStamped] = []
+    clouds: list[PointCloud2] = []
     lock = threading.Lock()
     executor = MultiThreadedExecutor(num_threads=3, context=context)
     node = SelectorNode(parameter_overrides=overrides, context=context)
@@ -160,9 +161,14 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
         with lock:
             poses.append(msg)
 
+    def on_points(msg: PointCloud2) -> None:
+        with lock:
+            clouds.append(msg)
+
     player.create_subscription(String, '/selector/status', on_status, reliable)
     player.create_subscription(String, 'init/method', on_method, latched)
     player.create_subscription(PoseStamped, 'init/pose', on_pose, latched)
+    player.create_subscription(PointCloud2, 'init/points', on_points, latched)
     image_pub = player.create_publisher(Image, 'image_raw', reliable)
     info_pub = player.create_publisher(CameraInfo, 'camera_info', reliable)
     executor.add_node(node)
@@ -209,18 +215,19 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     reasons['(frames received)'] = len(statuses)
     reasons['(frames dropped)'] = dropped
     records = []
-    for method, pose in zip(methods, poses, strict=False):
+    for method, pose, cloud in zip(methods, poses, clouds, strict=False):
         stamp = conv.stamp_to_seconds(pose.header.stamp)
         i = int(np.argmin(np.abs(stamps - stamp)))
         status = by_stamp.get(round(stamp, 6), {})
-        since = status.get('frames_since_reference', 0)
-        ref = max(0, i - since)
+        # The cloud is stamped with the reference frame's time.
+        ref = int(np.argmin(np.abs(stamps - conv.stamp_to_seconds(cloud.header.stamp))))
         position = np.array([pose.pose.position.x, pose.pose.position.y, pose.pose.position.z])
         q = pose.pose.orientation
         R_ref_cur = conv.quaternion_to_rotation([q.x, q.y, q.z, q.w])
         t_est = -R_ref_cur.T @ position  # back to OpenCV's x_cur = R x_ref + t
         probabilities = {k: v for k, v in status.get('probabilities', {}).items() if v is not None}
-        records.append(judge(seq, i, ref, method, t_est, probabilities, -1))
+        n_points = int(cloud.width) * int(cloud.height)
+        records.append(judge(seq, i, ref, method, t_est, probabilities, n_points))
     return records, reasons
 
 
@@ -236,7 +243,7 @@ def _report(records: list[InitRecord], reasons: dict[str, int], frames: int) -> 
     print('  frame  ref  method   p_F   p_E   p_H   p_R  points  baseline_m   E_t  verdict')
     for r in records:
         p = r.probabilities
-        points = '' if r.n_points < 0 else str(r.n_points)
+        points = str(r.n_points)
         print(f'  {r.frame_index:5d} {r.reference_index:4d}  {r.method:>6}  '
               + '  '.join(f'{p.get(m, float("nan")):.2f}' for m in 'FEHR')
               + f'  {points:>6}  {r.gt_baseline_m:10.3f}  {r.translation_error:.3f}  '
