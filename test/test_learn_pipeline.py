@@ -81,11 +81,11 @@ def test_eval_prints_the_tables_and_writes_files(tables, tmp_path, capsys):
     capsys.readouterr()
     out_dir = tmp_path / 'eval'
     assert main(['eval', str(tables[1]), '--models', str(model_file), '--out-dir',
-                 str(out_dir), '--train', str(tables[0]), '--candidates', 'hgb+extra']) == 0
+                 str(out_dir), '--train', str(tables[0]), '--candidates', 'logistic+extra']) == 0
     text = capsys.readouterr().out
     for needle in ('Model E after R veto', 'Butt 2020 H (mean)', 'VINS-Mono rule',
                    'ORB-SLAM2 H', 'ORB-SLAM3 F', '0.5041', 'frames to first yes',
-                   'hgb+extra', 'precision at logistic recall'):
+                   'logistic+extra', 'precision at logistic recall'):
         assert needle in text
     assert (out_dir / 'eval.md').read_text() in text + '\n'
     assert (out_dir / 'eval.csv').read_text().startswith('classifier,group,label')
