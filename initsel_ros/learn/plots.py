@@ -102,8 +102,13 @@ def plot_precision_recall(
     return paths
 
 
-def plot_errors_vs_baseline(table: PairTable, out_dir: Path, bins: int = 20) -> Path:
-    """Median E_t and E_R per method against the ground-truth baseline (like Figure 1)."""
+def plot_errors_vs_baseline(
+    table: PairTable, out_dir: Path, bins: int = 20, min_count: int = 5
+) -> Path:
+    """Median E_t and E_R per method against the ground-truth baseline (like Figure 1).
+
+    Bins with fewer than ``min_count`` successful estimates are left out.
+    """
     plt = _pyplot()
     baseline = np.asarray(table['gt_baseline_m'], dtype=float)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
@@ -117,7 +122,7 @@ def plot_errors_vs_baseline(table: PairTable, out_dir: Path, bins: int = 20) -> 
             med = np.full(bins, np.nan)
             for b in range(bins):
                 v = values[(which == b) & np.isfinite(values)]
-                if len(v):
+                if len(v) >= min_count:
                     med[b] = np.median(v)
             ax.plot(centres, med, marker='.', label=m)
     axes[0].axhline(0.8, color='grey', ls=':', lw=0.8)
@@ -128,7 +133,10 @@ def plot_errors_vs_baseline(table: PairTable, out_dir: Path, bins: int = 20) -> 
     for ax in axes:
         ax.set_xlabel('ground-truth baseline (m)')
         ax.legend()
-    fig.suptitle(f'Pose error against baseline ({len(table)} pairs; failed estimates omitted)')
+    fig.suptitle(
+        f'Pose error against baseline ({len(table)} pairs; failed estimates omitted, '
+        f'bins with < {min_count} estimates omitted)'
+    )
     fig.tight_layout()
     path = Path(out_dir) / 'errors_vs_baseline.png'
     fig.savefig(path, dpi=110)
