@@ -112,3 +112,13 @@ def test_batches_cover_the_sequence_and_drop_single_frames():
     assert batch_ranges(7, 3) == [[0, 1, 2], [3, 4, 5]]
     assert batch_ranges(8, 3)[-1] == [6, 7]
     assert batch_ranges(10, 3, stride=2) == [[0, 2, 4], [6, 8]]
+
+
+def test_dataset_reads_a_bag_like_the_tum_folder(tables, near_bag_ros1):
+    from_bag = build_table([near_bag_ros1], DatasetConfig(batch=30, jobs=1, orbslam_iterations=0),
+                           progress=False)
+    from_tum = read_table(tables[1])
+    assert len(from_bag) == len(from_tum) == 58
+    np.testing.assert_allclose(from_bag['gt_baseline_m'], from_tum['gt_baseline_m'], atol=1e-6)
+    np.testing.assert_array_equal(from_bag['n_tracks'], from_tum['n_tracks'])
+    assert from_bag['E_label'].tolist() == from_tum['E_label'].tolist()
