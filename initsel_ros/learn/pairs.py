@@ -335,6 +335,10 @@ def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
     intr = sequence.intrinsics
     K = intr.K
     depth = sequence.depth(ref)
+    if depth is None:
+        LOG.warning('%s batch %d: reference frame %d has no depth map; batch skipped '
+                    '(labels need ground-truth points)', sequence.name, batch, ref)
+        return []
     if config.source is Source.KLT:
         pairs: Iterator[Pair] = klt_pairs(sequence, frames, config.tracker)
     else:
