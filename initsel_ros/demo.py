@@ -122,7 +122,7 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     """Play the sequence to the in-process ``selector`` node and listen to what it says."""
     import rclpy
     from geometry_msgs.msg import PoseStamped
-    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import CameraInfo, Image, PointCloud2
@@ -142,7 +142,7 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     poses: list[PoseStamped] = []
     clouds: list[PointCloud2] = []
     lock = threading.Lock()
-    executor = MultiThreadedExecutor(num_threads=3, context=context)
+    executor = SingleThreadedExecutor(context=context)
     node = SelectorNode(parameter_overrides=overrides, context=context)
     player = rclpy.create_node('initsel_demo_player', context=context)
     reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

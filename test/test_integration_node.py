@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import threading
 import time
 from collections.abc import Callable
 
@@ -300,15 +301,27 @@ def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
     harness_factory, tmp_path
 ):
     h = harness_factory(model_file=_double_model_file(tmp_path))
+    entered, release = threading.Event(), threading.Event()
+    process = h.node._selector.process
+
+    def slow_process(image, stamp):
+        entered.set()
+        assert release.wait(10.0)
+        return process(image, stamp)
+
+    h.node._selector.process = slow_process
     frames = [conv.numpy_to_image(texture(6), 'mono8', stamp=conv.seconds_to_stamp(1.0 + k))
               for k in range(4)]
-    for msg in frames:  # arrive faster than the worker runs
+    h.node._on_image(frames[0])
+    assert entered.wait(10.0)  # the worker is busy with frame 1 ...
+    for msg in frames[1:]:  # ... while three more arrive
         h.node._on_image(msg)
-    h.spin_until(lambda: h.status, what='a status')
+    release.set()
+    h.spin_until(lambda: len(h.status) >= 2, what='two statuses')
     for _ in range(10):
         h.executor.spin_once(timeout_sec=0.02)
-    assert len(h.status) == 1
-    assert h.status[0]['stamp'] == pytest.approx(4.0) and h.status[0]['dropped_frames'] == 3
+    assert [s['stamp'] for s in h.status] == [pytest.approx(1.0), pytest.approx(4.0)]
+    assert h.status[-1]['dropped_frames'] == 2 and h.status[-1]['received_frames'] == 4
 
 
 def test_missing_or_malformed_model_file_stops_the_node_with_one_error(context, tmp_path):

@@ -1,6 +1,6 @@
 """The selector node end to end: a timed replay (30/60 Hz) and a flood (200 Hz, 1920x1080).
 
-The node runs in this process on a MultiThreadedExecutor (as ``initsel demo`` does). For the
+The node runs in this process on a SingleThreadedExecutor (as ``initsel demo`` does). For the
 replay the publisher shares the process; for the flood it runs in a child process
 (``python -m initsel_ros.benchmarks.live publish ...``) so publishing does not compete with
 the node for the interpreter lock. rclpy is imported inside the functions.
@@ -98,11 +98,14 @@ class NodeRun:
 
 
 class _NodeUnderTest:
-    """SelectorNode + a listener node on one MultiThreadedExecutor, spinning in a thread."""
+    """SelectorNode + a listener node on one SingleThreadedExecutor spinning in a thread.
+
+    The node processes frames in a worker thread of its own.
+    """
 
     def __init__(self, model_path: Path, mode: str = 'continuous') -> None:
         import rclpy
-        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.executors import SingleThreadedExecutor
         from rclpy.parameter import Parameter
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from std_msgs.msg import String
@@ -122,7 +125,7 @@ class _NodeUnderTest:
         self.listener = rclpy.create_node('initsel_bench_listener', context=self.context)
         reliable = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
         self.listener.create_subscription(String, STATUS_TOPIC, self._on_status, reliable)
-        self.executor = MultiThreadedExecutor(num_threads=3, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.executor.add_node(self.listener)
         self.thread = threading.Thread(target=self.executor.spin, daemon=True)
