@@ -40,7 +40,7 @@ class TrackerConfig:
     quality_level: float = 0.01
     min_distance_px: float = 8.0
     block_size: int = 7
-    window_px: int = 21
+    window_px: int = 17
     pyramid_levels: int = 3
     fb_max_error_px: float = 1.0
     lk_iterations: int = 10
