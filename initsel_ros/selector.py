@@ -144,6 +144,31 @@ def to_gray(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(img)
 
 
+def decide_pair(
+    models: ModelSet,
+    thresholds: dict[str, float],
+    policy: PolicyConfig,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    width: int,
+    height: int,
+) -> Decision:
+    """The per-frame decision: 23 features, four model probabilities, policy.
+
+    Args:
+        models: the four models.
+        thresholds: per-model thresholds (see :func:`effective_thresholds`).
+        policy: the policy settings.
+        ref: (N, 2) reference pixels.
+        cur: (N, 2) current pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+    """
+    raw = raw_features(ref, cur)
+    probabilities = models.predict_proba(scale_features(raw, width, height, models.scaling))
+    return decide(probabilities, thresholds, len(ref), float(raw[1]), policy)
+
+
 class Selector:
     """Live initialization selector for one camera stream."""
 
@@ -221,12 +246,8 @@ class Selector:
         tracks = self.tracker.track(gray)
         since = self.tracker.frames_since_reference
         ref, cur = self._undistort(tracks.ref), self._undistort(tracks.cur)
-        raw = raw_features(ref, cur)
-        probabilities = self.models.predict_proba(
-            scale_features(raw, w, h, self.models.scaling)
-        )
-        decision = decide(
-            probabilities, self.thresholds, len(tracks), float(raw[1]), self.config.policy
+        decision = decide_pair(
+            self.models, self.thresholds, self.config.policy, ref, cur, w, h
         )
         if decision.reason is Reason.TOO_FEW_TRACKS:
             result = self._new_reference(gray, stamp, Reason.TOO_FEW_TRACKS, index, decision)

@@ -25,18 +25,15 @@ Pairs = list[tuple[np.ndarray, np.ndarray]]
 
 
 def decision_fn(models: Any, width: int, height: int) -> Callable[[np.ndarray, np.ndarray], Any]:
-    """The selector's per-pair decision: 23 features, four models, policy."""
-    from initsel_ros.features import mean_disparity, pair_features
-    from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
+    """The selector's per-pair decision (``selector.decide_pair``, as ``Selector.process``)."""
+    from initsel_ros.policy import PolicyConfig, effective_thresholds
+    from initsel_ros.selector import decide_pair
 
     config = PolicyConfig()
     thresholds = effective_thresholds(models.thresholds, config)
-    scaling = models.scaling
 
     def run(p0: np.ndarray, p1: np.ndarray) -> Any:
-        x = pair_features(p0, p1, width, height, scaling)
-        return decide(models.predict_proba(x), thresholds, len(p0), mean_disparity(p0, p1),
-                      config)
+        return decide_pair(models, thresholds, config, p0, p1, width, height)
 
     return run
 
@@ -50,7 +47,7 @@ def time_decision(models: Any, pairs: Pairs, repeat: int, width: int, height: in
 def time_decision_parts(models: Any, pairs: Pairs, repeat: int, width: int,
                         height: int) -> list[Timing]:
     """The decision split into features, model scores and policy."""
-    from initsel_ros.features import mean_disparity, pair_features
+    from initsel_ros.features import pair_features, raw_features
     from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
 
     config = PolicyConfig()
@@ -58,14 +55,14 @@ def time_decision_parts(models: Any, pairs: Pairs, repeat: int, width: int,
     x = pair_features(*pairs[0], width, height, models.scaling)
     probs = models.predict_proba(x)
     p0, p1 = pairs[0]
+    mean = float(raw_features(p0, p1)[1])
     return [
         Timing('  23 features', time_calls(
             lambda i: pair_features(*pairs[i % len(pairs)], width, height, models.scaling),
             repeat)),
         Timing('  four models', time_calls(lambda i: models.predict_proba(x), repeat)),
-        Timing('  policy (incl. mean disparity)', time_calls(
-            lambda i: decide(probs, thresholds, len(p0), mean_disparity(p0, p1), config),
-            repeat)),
+        Timing('  policy', time_calls(
+            lambda i: decide(probs, thresholds, len(p0), mean, config), repeat)),
     ]
 
 
