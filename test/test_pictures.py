@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
-import math
-
 import cv2
 import numpy as np
 import pytest
+from test_selector import constant_models
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets import Frame, Sequence, open_sequence
-from initsel_ros.features import N_FEATURES
-from initsel_ros.models import METHODS, LogisticModel, ModelSet
 from initsel_ros.pictures import (
     groundtruth_baselines,
     iter_overlays,
@@ -26,15 +23,6 @@ from initsel_ros.selector import SelectorConfig
 
 STEP_M = 0.01  # camera moves this far along x per frame
 STEP_PX = 2.0  # and the image shifts this far
-
-
-def constant_models(**probabilities: float) -> ModelSet:
-    """Models that ignore the features and always answer ``probabilities`` (test double)."""
-    models = {}
-    for m in METHODS:
-        p = probabilities.get(m, 0.01)
-        models[m] = LogisticModel(m, np.zeros(N_FEATURES), math.log(p / (1 - p)), 0.5)
-    return ModelSet(models)
 
 
 class ShiftSequence(Sequence):
