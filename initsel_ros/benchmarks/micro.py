@@ -143,8 +143,10 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
     """Image message -> numpy -> Selector.process (tracking, features, decision, pose when it
     fires), in continuous mode, over ``passes`` passes of the frames.
 
-    The parts are timed on the same frames: conversion, conversion to grey, tracking.
+    The parts are timed on the same frames: conversion, conversion to grey, tracking, and the
+    debug overlay (timed apart, after each decision: it is not in the per-frame figures).
     """
+    from initsel_ros.overlay import draw_selector_overlay
     from initsel_ros.policy import Reason
     from initsel_ros.ros import conversions as conv
     from initsel_ros.selector import Selector, SelectorConfig, to_gray
@@ -158,7 +160,8 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
     n = len(frames.messages)
     period = float(np.median(np.diff(frames.stamps))) if n > 1 else 1 / 30
     reasons: dict[str, int] = {}
-    samples = []
+    samples: list[float] = []
+    overlay_samples: list[float] = []
     clock = time.perf_counter
     for k in range(passes * n):
         msg = frames.messages[k % n]
@@ -166,8 +169,12 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
             selector.reset()  # the sequence starts over: a new reference, as after a bag loop
         stamp = float(frames.stamps[0]) + k * period
         t0 = clock()
-        result = selector.process(conv.image_to_cv(msg), stamp)
+        image = conv.image_to_cv(msg)
+        result = selector.process(image, stamp)
         samples.append(clock() - t0)
+        t0 = clock()  # the node draws this only while ~/debug_image has subscribers
+        draw_selector_overlay(image, selector, result)
+        overlay_samples.append(clock() - t0)
         posed.append(result.decision.reason in pose_reasons)
         reason = result.decision.reason.value
         reasons[reason] = reasons.get(reason, 0) + 1
@@ -188,6 +195,8 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
         Timing('  BGR -> grey', time_calls(lambda i: to_gray(images[i % n]), n)),
         Timing('  KLT tracking (incl. re-detection every 30 frames)',
                time_calls(track, n, warmup=0)),
+        Timing('  debug overlay, drawn after the decision while ~/debug_image is subscribed',
+               np.array(overlay_samples)),
     ]
     times, with_pose = np.array(samples), np.array(posed, dtype=bool)
     return FramePathResult(
