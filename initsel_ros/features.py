@@ -101,10 +101,10 @@ def raw_features(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
     rows[:2] = p0.T
     rows[2:] = p1.T
     d = rows[2:] - rows[:2]
-    disparity = np.sqrt(d[0] * d[0] + d[1] * d[1])
+    disparity = np.hypot(d[0], d[1])
     lo, hi = rows.min(axis=1), rows.max(axis=1)
     out[0] = n
-    mean = disparity.mean()
+    mean = disparity.sum() / n
     out[1] = mean
     out[2] = np.sqrt(max(np.dot(disparity, disparity) / n - mean * mean, 0.0))
     out[3:11:2] = lo  # x0min, y0min, x1min, y1min
