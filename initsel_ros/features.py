@@ -4,7 +4,7 @@ Feature order (``FEATURE_NAMES``): count; mean and population standard deviation
 disparity |p1 - p0|; min and max of x0, y0, x1, y1; range of x0, y0, x1, y1; the
 8-bin histogram of motion directions. Directions are measured with image y pointing up,
 i.e. the angle of ``(x1 - x0, -(y1 - y0))``, and bin k is centred on ``45 * k`` degrees
-(each bin spans +-22.5 degrees).
+(each bin spans +-22.5 degrees); a correspondence that did not move has angle 0 (bin 0).
 
 Two scalings map the raw values into the models' input:
 

@@ -200,10 +200,15 @@ class ModelSet:
         models = data.get('models')
         if not isinstance(models, dict):
             raise ModelFileError('"models" must map model names to their coefficients')
+        names = data.get('feature_names', list(FEATURE_NAMES))
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise ModelFileError('"feature_names" must be a list of names')
+        if not isinstance(data.get('metadata', {}) or {}, dict):
+            raise ModelFileError('"metadata" must be a mapping')
         return cls(
             models={name: LogisticModel.from_dict(name, m) for name, m in models.items()},
             scaling=scaling,
-            feature_names=tuple(data.get('feature_names', FEATURE_NAMES)),
+            feature_names=tuple(names),
             metadata=dict(data.get('metadata', {}) or {}),
         )
 

@@ -259,9 +259,10 @@ class Selector:
         result = FrameResult(index, stamp, self._reference_stamp, decision, init, False, since)
         if init is not None:
             self.initialized = self.config.mode == 'once'
-            if self.config.mode == 'continuous':
+            if self.config.mode == 'continuous':  # re-anchor on the initializing frame
                 self.tracker.reset(gray)
                 self._reference_stamp = stamp
+                result = replace(result, new_reference=True)
         elif since >= self.config.max_frames_since_reference:
             self.tracker.reset(gray)
             self._reference_stamp = stamp

@@ -149,6 +149,11 @@ def test_camera_info_round_trips_intrinsics_and_distortion():
     plain = conv.camera_info_to_intrinsics(conv.intrinsics_to_camera_info(Intrinsics.tum_fr3()))
     assert plain == Intrinsics.tum_fr3()
     assert plain.distortion == ()
+    coefficients = (0.1, -0.05, 0.0, 0.0, 0.01, 0.1, 0.0, 0.0)
+    rational = Intrinsics(500.0, 510.0, 320.5, 240.5, 640, 480, coefficients)
+    msg = conv.intrinsics_to_camera_info(rational)
+    assert msg.distortion_model == 'rational_polynomial'
+    assert conv.camera_info_to_intrinsics(msg) == rational
 
 
 @pytest.mark.parametrize(
@@ -156,6 +161,9 @@ def test_camera_info_round_trips_intrinsics_and_distortion():
     [
         ([0.0] * 9, (640, 480), 'plumb_bob', 'invalid K'),
         ([math.nan, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'plumb_bob', 'invalid K'),
+        ([500, 3, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'plumb_bob', 'invalid K'),  # skew
+        ([500, 0, 320, 0, 500, 240, 0, 0, 0], (640, 480), 'plumb_bob', 'invalid K'),
+        ([1e307, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'plumb_bob', 'implausible'),
         ([500, 0, 320, 0, 500, 240, 0, 0, 1], (0, 0), 'plumb_bob', 'zero image size'),
         ([500, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'equidistant', 'not supported'),
     ],

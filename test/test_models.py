@@ -78,6 +78,8 @@ def _edit(tmp_path, change):
         (lambda d: d.update(scaling='metric'), 'unknown scaling'),
         (lambda d: d['feature_names'].reverse(), 'feature_names do not match'),
         (lambda d: d['models'].update(E=[1, 2]), 'expected a mapping'),
+        (lambda d: d.update(feature_names=5), 'feature_names. must be a list'),
+        (lambda d: d.update(metadata='trained'), 'metadata. must be a mapping'),
     ],
 )
 def test_malformed_model_files_are_rejected_with_the_file_name(tmp_path, change, message):

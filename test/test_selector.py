@@ -152,3 +152,13 @@ def test_default_models_never_initialize_on_rotation_or_a_static_camera(fixture,
     assert not any(r.initialization for r in results)
     reasons = {r.decision.reason for r in results}
     assert Reason.INITIALIZED not in reasons
+
+
+def test_continuous_mode_reanchors_on_each_initializing_frame(near_sequence):
+    seq, results = _run(near_sequence, mode='continuous')
+    inits = [i for i, r in enumerate(results) if r.initialization]
+    assert inits
+    for i in inits:
+        assert results[i].new_reference
+        if i + 1 < len(results):
+            assert results[i + 1].reference_stamp == pytest.approx(seq.frames[i].stamp)

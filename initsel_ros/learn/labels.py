@@ -6,12 +6,15 @@ For each method (F 8-point, E 5-point, H DLT) the pose is estimated from the cor
 - ``E_t``: chordal distance between the unit ground-truth and estimated translation directions;
 - ``E_R``: median distance between ground-truth 3D points (the reference pixels back-projected
   with the reference depth) and the triangulated points after a scale alignment, computed with
-  both scale rules (``first_two``: the paper's; ``median``: median of the ratios of distances
-  between consecutive point pairs, robust).
+  both scale rules (``first_two``: the paper's, from the first two points; ``median``: the
+  median over points of |P_g,i| / |P_e,i|, distances from the reference camera centre, robust).
+  Both are computed on the points the estimator kept (in front of both cameras, reprojection
+  and parallax checks: see ``estimate_pose``); labels use ``median`` unless told otherwise.
 
 Label(method) = ``E_t < et_max`` and ``E_R < er_max`` (0.8 and 1 in the paper);
-R label = ground-truth baseline <= 0.05 m. A failed estimate is label 0 with NaN errors and a
-reason. Raw errors are kept so :func:`relabel` can apply other thresholds later.
+R label = ground-truth baseline <= 0.05 m. A failed estimate (including one that keeps fewer
+than 8 points) is label 0 with NaN errors and a reason. Raw errors are kept so
+:func:`relabel` can apply other thresholds later.
 """
 
 from __future__ import annotations

@@ -208,7 +208,8 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
     """
     K = np.asarray(msg.k, dtype=float).reshape(3, 3)
     if (not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0
-            or not math.isclose(K[2, 2], 1.0) or np.any(K[2, :2] != 0)):
+            or not math.isclose(K[2, 2], 1.0) or np.any(K[2, :2] != 0)
+            or K[0, 1] != 0 or K[1, 0] != 0):
         raise ConfigError(f'camera_info has an invalid K {K.ravel().tolist()}')
     distortion = tuple(float(d) for d in msg.d)
     if not all(math.isfinite(d) for d in distortion):
@@ -228,11 +229,15 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
 def intrinsics_to_camera_info(
     intrinsics: Intrinsics, *, stamp: Time | None = None, frame_id: str = ''
 ) -> CameraInfo:
-    """A CameraInfo message (plumb_bob, identity R, P = [K | 0]) for ``intrinsics``."""
+    """A CameraInfo message (identity R, P = [K | 0]) for ``intrinsics``.
+
+    The distortion model is ``plumb_bob`` for up to 5 coefficients, else
+    ``rational_polynomial``.
+    """
     msg = CameraInfo()
     msg.header = Header(stamp=stamp or Time(), frame_id=frame_id)
     msg.width, msg.height = int(intrinsics.width), int(intrinsics.height)
-    msg.distortion_model = 'plumb_bob'
+    msg.distortion_model = 'rational_polynomial' if len(intrinsics.distortion) > 5 else 'plumb_bob'
     distortion = list(intrinsics.distortion) + [0.0] * max(0, 5 - len(intrinsics.distortion))
     msg.d = [float(d) for d in distortion]
     K = intrinsics.K
