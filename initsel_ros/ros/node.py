@@ -412,7 +412,8 @@ def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
             'initsel_ros selector node: decides when and with which method (F, E, H) a '
             'monocular SLAM system initializes.\n\n'
             'Topics: subscribes image_raw, camera_info; publishes init/method, init/pose, '
-            'init/points, ~/status, /diagnostics (and /tf); service ~/reset.\n'
+            'init/points, ~/status, /diagnostics, ~/debug_image (while subscribed; and /tf); '
+            'service ~/reset.\n'
             'Usage: selector --ros-args -r image_raw:=/camera/image_raw '
             '--params-file config/selector.yaml -p mode:=continuous'
         ),
