@@ -162,6 +162,9 @@ def scale_features(
         raise GeometryError(f'expected {N_FEATURES} features, got shape {raw.shape}')
     x = raw / feature_divisors(width, height, scaling)
     bins = x[..., _BINS]
+    if x.ndim == 1:  # one frame's vector: scalar arithmetic is cheaper than array calls
+        bins /= max(float(np.sqrt(bins @ bins)), 1.0)
+        return x
     norm = np.sqrt((bins * bins).sum(axis=-1, keepdims=True))
     x[..., _BINS] = bins / np.maximum(norm, 1.0)  # counts: a non-zero norm is at least 1
     return x
