@@ -19,6 +19,7 @@ from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
 from std_msgs.msg import Header
 
 from initsel_ros.camera import Intrinsics
+from initsel_ros.datasets.poses import matrix_to_quaternion, quaternion_to_matrix
 from initsel_ros.errors import ConfigError, ImageConversionError
 
 
@@ -324,29 +325,12 @@ def point_cloud_to_array(msg: PointCloud2) -> np.ndarray:
 # ---------------------------------------------------------------------------------------- pose
 def rotation_to_quaternion(R: np.ndarray) -> np.ndarray:
     """(3, 3) rotation matrix -> (4,) unit quaternion (x, y, z, w) with w >= 0."""
-    R = np.asarray(R, dtype=float).reshape(3, 3)
-    # Symmetric 4x4 matrix whose top eigenvector is the quaternion (Bar-Itzhack); robust to
-    # slightly non-orthogonal input.
-    m = R
-    K = np.array([
-        [m[0, 0] - m[1, 1] - m[2, 2], m[1, 0] + m[0, 1], m[2, 0] + m[0, 2], m[2, 1] - m[1, 2]],
-        [m[1, 0] + m[0, 1], m[1, 1] - m[0, 0] - m[2, 2], m[2, 1] + m[1, 2], m[0, 2] - m[2, 0]],
-        [m[2, 0] + m[0, 2], m[2, 1] + m[1, 2], m[2, 2] - m[0, 0] - m[1, 1], m[1, 0] - m[0, 1]],
-        [m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1], m[0, 0] + m[1, 1] + m[2, 2]],
-    ]) / 3.0
-    _, vectors = np.linalg.eigh(K)
-    q = vectors[:, -1]
-    return q if q[3] >= 0 else -q
+    return matrix_to_quaternion(np.asarray(R, dtype=float).reshape(3, 3))
 
 
 def quaternion_to_rotation(q: Sequence[float]) -> np.ndarray:
     """(x, y, z, w) quaternion (any norm > 0) -> (3, 3) rotation matrix."""
-    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    return quaternion_to_matrix(np.asarray(q, dtype=float))
 
 
 def camera_pose_in_reference(R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
