@@ -105,14 +105,14 @@ def run_offline(seq, models, mode: str, frames: int) -> tuple[list[InitRecord], 
     from initsel_ros.selector import Selector, SelectorConfig
 
     selector = Selector(models, seq.intrinsics, SelectorConfig(mode=mode))
-    stamps = seq.stamps
+    stamps = seq.stamps_ns
     records, reasons = [], {}
     for i in range(min(frames, len(seq))):
-        result = selector.process(seq.image(i), float(stamps[i]))
+        result = selector.process(seq.image(i), int(stamps[i]))
         reasons[result.decision.reason.value] = reasons.get(result.decision.reason.value, 0) + 1
         init = result.initialization
         if init is not None:
-            ref = int(np.argmin(np.abs(stamps - init.reference_stamp)))
+            ref = int(np.argmin(np.abs(stamps - init.reference_stamp_ns)))
             records.append(judge(seq, i, ref, init.method.value, init.t, init.probabilities,
                                  len(init.points)))
     return records, reasons

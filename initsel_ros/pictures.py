@@ -82,11 +82,11 @@ def iter_overlays(
         ``(index, result, overlay (H, W, 3) uint8 BGR, selector)`` per frame.
     """
     selector = Selector(models, sequence.intrinsics, config)
-    stamps = sequence.stamps
+    stamps = sequence.stamps_ns
     stop = len(sequence) if stop is None else min(stop, len(sequence))
     for i in range(start, stop):
         image = sequence.image(i)
-        result = selector.process(image, float(stamps[i]))
+        result = selector.process(image, int(stamps[i]))
         tracks = selector.tracker.tracks()
         overlay = draw_overlay(image, result, tracks.ref, tracks.cur, selector.thresholds)
         yield i, result, overlay, selector
@@ -204,13 +204,13 @@ def groundtruth_baselines(
     Returns:
         (N,) float64 metres; NaN where a pose or the reference is unknown.
     """
-    stamps = sequence.stamps
+    stamps = sequence.stamps_ns
     centres = sequence.poses()[:, :3, 3]
     out = np.full(len(results), np.nan)
     for k, (result, i) in enumerate(zip(results, indices, strict=True)):
-        if not math.isfinite(result.reference_stamp):
+        if result.reference_stamp_ns is None:
             continue
-        ref = int(np.argmin(np.abs(stamps - result.reference_stamp)))
+        ref = int(np.argmin(np.abs(stamps - result.reference_stamp_ns)))
         out[k] = float(np.linalg.norm(centres[i] - centres[ref]))
     return out
 

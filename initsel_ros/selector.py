@@ -75,8 +75,8 @@ class Initialization:
         points: (M, 3) float64 points in the reference camera frame, map units.
         pixels_ref: (M, 2) float32 pixels of the points in the reference image.
         pixels_cur: (M, 2) float32 pixels of the points in the current image.
-        reference_stamp: time of the reference frame, seconds.
-        stamp: time of the current frame, seconds.
+        reference_stamp_ns: time of the reference frame, integer nanoseconds.
+        stamp_ns: time of the current frame, integer nanoseconds.
         frames_since_reference: frames between reference and current.
         probabilities: model name -> probability for this pair.
         parallax_deg: median parallax of the points, degrees.
@@ -88,8 +88,8 @@ class Initialization:
     points: np.ndarray
     pixels_ref: np.ndarray
     pixels_cur: np.ndarray
-    reference_stamp: float
-    stamp: float
+    reference_stamp_ns: int
+    stamp_ns: int
     frames_since_reference: int
     probabilities: dict[str, float]
     parallax_deg: float
@@ -101,8 +101,9 @@ class FrameResult:
 
     Attributes:
         frame_index: running count of processed frames, from 0.
-        stamp: this frame's time, seconds.
-        reference_stamp: the reference frame's time, seconds (NaN before one exists).
+        stamp_ns: this frame's time, integer nanoseconds.
+        reference_stamp_ns: the reference frame's time, integer nanoseconds (None before
+            one exists).
         decision: the decision and its reason.
         initialization: set on the frame that initializes, else None.
         new_reference: True when this frame became the reference frame.
@@ -110,8 +111,8 @@ class FrameResult:
     """
 
     frame_index: int
-    stamp: float
-    reference_stamp: float
+    stamp_ns: int
+    reference_stamp_ns: int | None
     decision: Decision
     initialization: Initialization | None = None
     new_reference: bool = False
@@ -185,7 +186,7 @@ class Selector:
         self.tracker = KltTracker(self.config.tracker)
         self.initialized = False
         self._frame_index = 0
-        self._reference_stamp = float('nan')
+        self._reference_stamp_ns: int | None = None
 
     def set_intrinsics(self, intrinsics: Intrinsics) -> None:
         """Use new intrinsics from the next frame on (e.g. from CameraInfo)."""
@@ -195,15 +196,15 @@ class Selector:
         """Start over: the next frame becomes the reference."""
         self.tracker.clear()
         self.initialized = False
-        self._reference_stamp = float('nan')
+        self._reference_stamp_ns = None
 
-    def _new_reference(self, gray: np.ndarray, stamp: float, reason: Reason, index: int,
+    def _new_reference(self, gray: np.ndarray, stamp_ns: int, reason: Reason, index: int,
                        decision: Decision | None = None) -> FrameResult:
         found = self.tracker.reset(gray)
-        self._reference_stamp = stamp
+        self._reference_stamp_ns = stamp_ns
         if decision is None:
             decision = Decision(reason, n_tracks=found, detail=f'{found} features detected')
-        return FrameResult(index, stamp, stamp, decision, None, True, 0)
+        return FrameResult(index, stamp_ns, stamp_ns, decision, None, True, 0)
 
     def _undistort(self, pts: np.ndarray) -> np.ndarray:
         if not self.intrinsics.has_distortion or len(pts) == 0:
@@ -215,13 +216,14 @@ class Selector:
         )
         return out.reshape(-1, 2)
 
-    def process(self, image: np.ndarray, stamp: float) -> FrameResult:
+    def process(self, image: np.ndarray, stamp_ns: int) -> FrameResult:
         """Handle one frame.
 
         Args:
             image: (H, W) uint8/uint16 grey or (H, W, 3|4) uint8 BGR(A); its size must match
                 the intrinsics.
-            stamp: capture time, seconds.
+            stamp_ns: capture time, integer nanoseconds (any int: negative and repeated
+                stamps are carried through unchanged; the node decides what they mean).
 
         Returns:
             The :class:`FrameResult`; its ``initialization`` is set on the initializing frame.
@@ -236,12 +238,13 @@ class Selector:
                 f'image is {w}x{h} but the intrinsics are for '
                 f'{self.intrinsics.width}x{self.intrinsics.height}'
             )
+        stamp_ns = int(stamp_ns)
         index = self._frame_index
         self._frame_index += 1
         if self.initialized and self.config.mode == 'once':
-            return FrameResult(index, stamp, self._reference_stamp, Decision(Reason.DONE))
+            return FrameResult(index, stamp_ns, self._reference_stamp_ns, Decision(Reason.DONE))
         if not self.tracker.has_reference or self.tracker.image_shape != gray.shape:
-            return self._new_reference(gray, stamp, Reason.NEW_REFERENCE, index)
+            return self._new_reference(gray, stamp_ns, Reason.NEW_REFERENCE, index)
 
         tracks = self.tracker.track(gray)
         since = self.tracker.frames_since_reference
@@ -250,27 +253,28 @@ class Selector:
             self.models, self.thresholds, self.config.policy, ref, cur, w, h
         )
         if decision.reason is Reason.TOO_FEW_TRACKS:
-            result = self._new_reference(gray, stamp, Reason.TOO_FEW_TRACKS, index, decision)
-            return replace(result, reference_stamp=stamp)
+            result = self._new_reference(gray, stamp_ns, Reason.TOO_FEW_TRACKS, index, decision)
+            return replace(result, reference_stamp_ns=stamp_ns)
 
         init = None
         if decision.positive:
-            decision, init = self._try_candidates(decision, ref, cur, stamp, since)
-        result = FrameResult(index, stamp, self._reference_stamp, decision, init, False, since)
+            decision, init = self._try_candidates(decision, ref, cur, stamp_ns, since)
+        result = FrameResult(index, stamp_ns, self._reference_stamp_ns, decision, init, False,
+                             since)
         if init is not None:
             self.initialized = self.config.mode == 'once'
             if self.config.mode == 'continuous':  # re-anchor on the initializing frame
                 self.tracker.reset(gray)
-                self._reference_stamp = stamp
+                self._reference_stamp_ns = stamp_ns
                 result = replace(result, new_reference=True)
         elif since >= self.config.max_frames_since_reference:
             self.tracker.reset(gray)
-            self._reference_stamp = stamp
+            self._reference_stamp_ns = stamp_ns
             result = replace(result, new_reference=True)
         return result
 
     def _try_candidates(
-        self, decision: Decision, ref: np.ndarray, cur: np.ndarray, stamp: float, since: int
+        self, decision: Decision, ref: np.ndarray, cur: np.ndarray, stamp_ns: int, since: int
     ) -> tuple[Decision, Initialization | None]:
         failures = []
         first_failure: Reason | None = None
@@ -281,7 +285,7 @@ class Selector:
             )
             problem = check_pose(estimate, self.config.policy)
             if problem is None:
-                init = self._initialization(estimate, ref, cur, decision, stamp, since)
+                init = self._initialization(estimate, ref, cur, decision, stamp_ns, since)
                 return replace(decision, reason=Reason.INITIALIZED, detail=method.value), init
             first_failure = first_failure or problem
             failures.append(
@@ -293,7 +297,7 @@ class Selector:
 
     def _initialization(
         self, estimate: PoseEstimate, ref: np.ndarray, cur: np.ndarray,
-        decision: Decision, stamp: float, since: int,
+        decision: Decision, stamp_ns: int, since: int,
     ) -> Initialization:
         depth = float(np.median(estimate.points[:, 2]))
         scale = 1.0 / depth if depth > 0 else 1.0
@@ -304,8 +308,8 @@ class Selector:
             points=estimate.points * scale,
             pixels_ref=np.asarray(ref, np.float32)[estimate.indices],
             pixels_cur=np.asarray(cur, np.float32)[estimate.indices],
-            reference_stamp=self._reference_stamp,
-            stamp=stamp,
+            reference_stamp_ns=self._reference_stamp_ns,
+            stamp_ns=int(stamp_ns),
             frames_since_reference=since,
             probabilities=dict(decision.probabilities),
             parallax_deg=estimate.parallax_deg,

@@ -93,7 +93,8 @@ def test_initialization_inliers_are_marked_in_yellow():
     pixels = np.array([[320, 300], [500, 420]], np.float32)
     init = Initialization(
         method=Method.E, R=np.eye(3), t=np.array([0.1, 0, 0]), points=np.ones((2, 3)),
-        pixels_ref=pixels - 5, pixels_cur=pixels, reference_stamp=0.5, stamp=1.0,
+        pixels_ref=pixels - 5, pixels_cur=pixels,
+        reference_stamp_ns=500_000_000, stamp_ns=1_000_000_000,
         frames_since_reference=3, probabilities={'E': 0.9}, parallax_deg=2.0,
     )
     res = result(Reason.INITIALIZED, detail='E')
@@ -118,7 +119,8 @@ def test_selector_overlay_draws_the_initializing_pairs_after_a_continuous_reset(
     pixels = np.array([[300, 300]], np.float32)
     init = Initialization(
         method=Method.H, R=np.eye(3), t=np.array([0.1, 0, 0]), points=np.ones((1, 3)),
-        pixels_ref=pixels - [40, 0], pixels_cur=pixels, reference_stamp=0.5, stamp=1.0,
+        pixels_ref=pixels - [40, 0], pixels_cur=pixels,
+        reference_stamp_ns=500_000_000, stamp_ns=1_000_000_000,
         frames_since_reference=3, probabilities={'H': 0.9}, parallax_deg=2.0,
     )
     res = FrameResult(7, 1.0, 0.5, Decision(Reason.INITIALIZED, detail='H'), init)

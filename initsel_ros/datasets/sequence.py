@@ -66,6 +66,11 @@ class Sequence:
         return np.array([f.stamp for f in self.frames], dtype=np.float64)
 
     @property
+    def stamps_ns(self) -> np.ndarray:
+        """(N,) int64 colour image times, integer nanoseconds (rounded from ``stamps``)."""
+        return np.round(self.stamps * 1e9).astype(np.int64)
+
+    @property
     def has_pose(self) -> np.ndarray:
         """(N,) bool, True where the frame has a ground-truth pose."""
         return np.array([f.pose is not None for f in self.frames], dtype=bool)

@@ -58,6 +58,20 @@ def stamp_to_seconds(stamp: Time) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
 
 
+def stamp_to_ns(stamp: Time) -> int:
+    """``builtin_interfaces/Time`` -> integer nanoseconds, exactly (may be negative)."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def ns_to_stamp(ns: int) -> Time:
+    """Integer nanoseconds -> ``builtin_interfaces/Time``, exactly (inverse of stamp_to_ns).
+
+    Negative times keep ``0 <= nanosec < 1e9`` with a negative ``sec``, as ROS does.
+    """
+    sec, nanosec = divmod(int(ns), 1_000_000_000)
+    return Time(sec=sec, nanosec=nanosec)
+
+
 def seconds_to_stamp(seconds: float) -> Time:
     """Float seconds (>= 0) -> ``builtin_interfaces/Time``, rounded to the nanosecond."""
     total_ns = round(seconds * 1e9)

@@ -261,6 +261,7 @@ class SelectorNode(Node):
 
     def _process(self, msg: Image, dropped: int) -> None:
         stamp = conv.stamp_to_seconds(msg.header.stamp)
+        stamp_ns = conv.stamp_to_ns(msg.header.stamp)
         try:
             image = conv.image_to_cv(msg)
             self._match_image_size(image.shape[1], image.shape[0])
@@ -269,7 +270,7 @@ class SelectorNode(Node):
                     f'time jumped back {self._last_stamp - stamp:.1f} s (bag loop?): start over'
                 )
                 self._selector.reset()
-            result = self._selector.process(image, stamp)
+            result = self._selector.process(image, stamp_ns)
         except ImageConversionError as exc:
             self._skipped += 1
             self.get_logger().warning(
@@ -373,8 +374,8 @@ class SelectorNode(Node):
     def _publish_initialization(self, init: Initialization, image_frame_id: str) -> None:
         self._initializations += 1
         frame_id = self._settings.reference_frame_id
-        current = Header(stamp=conv.seconds_to_stamp(init.stamp), frame_id=frame_id)
-        reference = Header(stamp=conv.seconds_to_stamp(init.reference_stamp), frame_id=frame_id)
+        current = Header(stamp=conv.ns_to_stamp(init.stamp_ns), frame_id=frame_id)
+        reference = Header(stamp=conv.ns_to_stamp(init.reference_stamp_ns), frame_id=frame_id)
         self._method_pub.publish(String(data=init.method.value))
         self._pose_pub.publish(conv.make_pose_stamped(init.R, init.t, current))
         self._points_pub.publish(
