@@ -51,6 +51,13 @@ def floor_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def wall_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One textured wall (a single plane) seen from the arc trajectory, 60 frames."""
+    return _render(tmp_path_factory, 'wall_arc', scene='wall', trajectory='arc', frames=60,
+                   start=15)
+
+
+@pytest.fixture(scope='session')
 def near_bag_ros1(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """``near_sequence`` as a ROS 1 bag file."""
     from initsel_ros.datasets.bags import write_bag

@@ -176,6 +176,35 @@ def test_floor_scene_is_a_single_plane(floor_sequence):
         assert np.max(np.abs(world[2])) < 2e-3  # z = 0 up to the PNG depth resolution
 
 
+def test_wall_scene_is_a_single_plane_seen_from_an_arc(wall_arc_sequence):
+    seq = open_sequence(wall_arc_sequence)
+    planes = []
+    for i in (0, 59):
+        _, _, X = _backproject(seq.depth(i), seq.intrinsics.K)
+        assert X.shape[1] > 0.95 * seq.intrinsics.width * seq.intrinsics.height / 16  # all wall
+        T = seq.frames[i].pose
+        world = (T[:3, :3] @ X + T[:3, 3:4]).T
+        centre = world.mean(axis=0)
+        normal = np.linalg.svd(world - centre, full_matrices=False)[2][-1]
+        assert np.max(np.abs((world - centre) @ normal)) < 3e-3  # one plane
+        planes.append((normal, centre))
+    assert abs(planes[0][0] @ planes[1][0]) > 0.9999
+    assert abs((planes[1][1] - planes[0][1]) @ planes[0][0]) < 3e-3  # the same plane
+
+
+def test_arc_trajectory_keeps_its_distance_and_looks_at_the_target():
+    stamps, poses = make_trajectory('arc', 300)
+    target = build_scene('wall').target
+    offsets = target - poses[:, :3, 3]
+    distances = np.linalg.norm(offsets, axis=1)
+    assert np.ptp(distances) < 1e-9 and distances[0] == pytest.approx(1.3)
+    axes = poses[:, :3, 2]
+    assert np.allclose(np.sum(axes * offsets, axis=1) / distances, 1.0)
+    heading = np.degrees(np.arctan2(offsets[:, 1], offsets[:, 0]))
+    assert np.ptp(heading) == pytest.approx(50.0, abs=0.5)  # +-25 degrees
+    assert np.allclose(np.diff(stamps), 1 / 30)
+
+
 def test_static_sequence_keeps_one_pose_and_changes_only_by_noise(static_sequence):
     seq = open_sequence(static_sequence)
     assert np.allclose(seq.poses(), seq.poses()[0])

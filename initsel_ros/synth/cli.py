@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture')
-TRAJECTORIES = ('near', 'far', 'rotation', 'forward', 'static', 'random')
+SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall')
+TRAJECTORIES = ('near', 'far', 'rotation', 'forward', 'static', 'random', 'arc')
 
 
 def _coefficients(text: str) -> tuple[float, ...]:

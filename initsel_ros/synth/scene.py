@@ -25,6 +25,7 @@ class SceneName(str, Enum):
     FLOOR = 'floor'
     ZIGZAG = 'zigzag'
     LOW_TEXTURE = 'low_texture'
+    WALL = 'wall'
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,6 +98,9 @@ POSTER_HEIGHT = 0.95
 NEAR_CONVERGENCE = np.array([-2.841, 0.111, 0.099])
 
 _UP = np.array([0.0, 0.0, 1.0])
+#: Mean viewing direction of the real near trajectory (camera minus scene target), world frame;
+#: ``trajectories.nominal_eye`` derives it from the bundled trajectory, this is its value.
+_NOMINAL_VIEW = np.array([0.7516, -0.3713, 0.5452])
 
 
 def _poster_frame() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -175,6 +179,30 @@ def _room_planes(rng: np.random.Generator, floor: bool = True, wall: bool = True
     return planes
 
 
+def _wall_planes(rng: np.random.Generator, ppm: float) -> list[Plane]:
+    """One upright textured wall through the scene target, facing the nominal camera.
+
+    6 m wide, from 2.5 m below the floor level to 2.5 m above it (so that cameras looking
+    down at the target see only the wall); a poster-like background with printed sheets
+    pinned on it: every visible point lies on one plane (the homography case).
+    """
+    target = scene_target()
+    towards = _NOMINAL_VIEW[:2] / np.linalg.norm(_NOMINAL_VIEW[:2])
+    normal = np.array([towards[0], towards[1], 0.0])
+    u = np.cross(_UP, normal)  # along the wall; u x v = normal with v pointing down
+    width, height = 6.0, 5.0
+    wall_ppm = min(ppm, 500.0)
+    tex = tx.poster_texture(rng, width, height, wall_ppm)
+    for _ in range(40):  # A4 and A3 sheets pinned on the wall
+        w, h = (0.297, 0.210) if rng.random() < 0.6 else (0.420, 0.297)
+        sheet = tx.paper_texture(rng, w, h, wall_ppm)
+        y0 = int(rng.integers(0, tex.shape[0] - sheet.shape[0]))
+        x0 = int(rng.integers(0, tex.shape[1] - sheet.shape[1]))
+        tex[y0:y0 + sheet.shape[0], x0:x0 + sheet.shape[1]] = sheet
+    origin = np.array([target[0], target[1], 2.5]) - u * width / 2
+    return [make_plane('wall', origin, u, -_UP, tex, wall_ppm)]
+
+
 def build_scene(name: str | SceneName = SceneName.STRUCTURE_TEXTURE, seed: int = 0,
                 ppm: float = tx.PIXELS_PER_METRE) -> Scene:
     """Build a scene variant; the textures are a pure function of ``seed``.
@@ -184,7 +212,8 @@ def build_scene(name: str | SceneName = SceneName.STRUCTURE_TEXTURE, seed: int =
     Args:
         name: 'structure_texture' (sheets, zig-zag poster, room), 'floor' (sheets on the floor
             only: every visible point on z = 0, the homography case), 'zigzag' (poster only),
-            'low_texture' (same geometry, nearly textureless surfaces).
+            'low_texture' (same geometry, nearly textureless surfaces), 'wall' (one upright
+            textured wall through the target, facing the cameras: a single plane).
         seed: texture seed.
         ppm: texture resolution of sheets and poster, pixels per metre.
     """
@@ -208,6 +237,8 @@ def _build_scene(name: SceneName, seed: int, ppm: float) -> Scene:
     elif name is SceneName.ZIGZAG:
         planes = _poster_planes(rng, False, ppm)
         target = np.array([target[0], target[1], POSTER_HEIGHT / 2])
+    elif name is SceneName.WALL:
+        planes = _wall_planes(rng, ppm)
     else:
         planes = (_room_planes(rng) + _sheet_planes(rng, 7, (0.35, 0.95), True, ppm)
                   + _poster_planes(rng, True, ppm))

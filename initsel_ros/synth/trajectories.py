@@ -33,6 +33,7 @@ class TrajectoryName(str, Enum):
     FORWARD = 'forward'
     STATIC = 'static'
     RANDOM = 'random'
+    ARC = 'arc'
 
 
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
@@ -88,7 +89,8 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
     """Timestamps and camera-to-world poses for a trajectory kind.
 
     Args:
-        name: near, far, rotation, forward, static or random.
+        name: near, far, rotation, forward, static, random or arc (the eye swings +-25
+            degrees on a horizontal arc of 1.3 m radius about the target, looking at it).
         frames: number of frames (default: 1099, the length of the real near sequence).
         seed: for ``random``.
         target: (3,) world point the generated trajectories look at (default: scene target).
@@ -137,6 +139,15 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
         poses = np.repeat(base[None], n, axis=0)
         poses[:, :3, 3] = target + dist[:, None] * direction
         return stamps, poses
+    if name is TrajectoryName.ARC:
+        # 1.3 m from the target, swinging +-25 degrees about the vertical through it, 0.1 Hz
+        offset = nominal_eye(1.3) - target
+        angle = np.deg2rad(25.0) * np.sin(2 * np.pi * 0.1 * t)
+        c, s = np.cos(angle), np.sin(angle)
+        eyes = np.stack([target[0] + c * offset[0] - s * offset[1],
+                         target[1] + s * offset[0] + c * offset[1],
+                         np.full(n, target[2] + offset[2])], axis=1)
+        return stamps, look_at(eyes, np.repeat(target[None], n, axis=0))
     # RANDOM: smooth sums of sinusoids for the eye, the looked-at point and roll
     rng = np.random.default_rng(seed)
 
