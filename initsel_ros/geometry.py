@@ -9,7 +9,7 @@ why), not an exception; malformed arguments raise :class:`GeometryError`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import cv2
@@ -44,6 +44,8 @@ class PoseEstimate:
         indices: (M,) indices of those points' correspondences in the input arrays.
         inliers: (N,) bool, the robust estimator's inliers.
         parallax_deg: median parallax angle, degrees, over inliers in front of both cameras.
+        matrix: (3, 3) the estimated H, F or E (zeros when none was found); model selection
+            scores the correspondences against it.
     """
 
     method: Method
@@ -55,6 +57,7 @@ class PoseEstimate:
     indices: np.ndarray
     inliers: np.ndarray
     parallax_deg: float
+    matrix: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
 
     @property
     def n_points(self) -> int:
@@ -63,12 +66,14 @@ class PoseEstimate:
 
 
 def _failure(
-    method: Method, n: int, reason: str, inliers: np.ndarray | None = None
+    method: Method, n: int, reason: str, inliers: np.ndarray | None = None,
+    matrix: np.ndarray | None = None,
 ) -> PoseEstimate:
     return PoseEstimate(
         method=method, ok=False, reason=reason, R=np.eye(3), t=np.zeros(3),
         points=np.zeros((0, 3)), indices=np.zeros(0, dtype=np.int64),
         inliers=np.zeros(n, dtype=bool) if inliers is None else inliers, parallax_deg=0.0,
+        matrix=np.zeros((3, 3)) if matrix is None else np.asarray(matrix, dtype=np.float64),
     )
 
 
@@ -155,39 +160,74 @@ def triangulate(
     return triangulate_pair(R, t, _check_camera_matrix(K), a, b).points
 
 
-def _homography_pose(
-    H: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray, inliers: np.ndarray,
-    max_reprojection_px: float, min_baseline_ratio: float,
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """Choose among the (up to 4) decompositions of H by points in front of both cameras.
+#: H decomposition: the best solution must triangulate this many times more good points than
+#: the runner-up (ORB-SLAM's rule: the second best keeps fewer than 75 % of the best's points).
+HOMOGRAPHY_AMBIGUITY_RATIO = 0.75
 
-    Decompositions whose translation (baseline over plane distance) is below
-    ``min_baseline_ratio`` are rotations, with no usable translation, and are skipped.
+
+@dataclass(frozen=True)
+class HomographyChoice:
+    """The chosen decomposition of a homography, or why none was chosen.
+
+    Attributes:
+        R: (3, 3) rotation of the chosen solution (identity when none).
+        t: (3,) unit translation of the chosen solution (zeros when none).
+        good: good points (in front of both cameras, small reprojection error, parallax) of
+            each solution tried, best first.
+        reason: '' when a solution was chosen, else why not.
     """
-    count, rotations, translations, normals = cv2.decomposeHomographyMat(H, K)
-    if count == 0:
-        return None
-    pts0 = p0[inliers].reshape(-1, 1, 2).astype(np.float32)
-    pts1 = p1[inliers].reshape(-1, 1, 2).astype(np.float32)
-    # Undistorted normalized points for the visibility filter.
-    n0 = cv2.undistortPoints(pts0, K, None)
-    n1 = cv2.undistortPoints(pts1, K, None)
-    possible = cv2.filterHomographyDecompByVisibleRefpoints(rotations, normals, n0, n1)
-    candidates = range(count) if possible is None else np.asarray(possible).ravel().tolist()
-    best, best_key = None, None
-    for i in candidates:
-        R = np.asarray(rotations[i])
-        t = np.asarray(translations[i]).reshape(3)
-        norm = np.linalg.norm(t)  # baseline / plane distance
+
+    R: np.ndarray
+    t: np.ndarray
+    good: tuple[int, ...]
+    reason: str
+
+
+def choose_homography_decomposition(
+    H: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray, inliers: np.ndarray,
+    max_reprojection_px: float, min_point_parallax_deg: float, min_baseline_ratio: float,
+) -> HomographyChoice:
+    """Choose among the decompositions of H by triangulating its inliers (as ORB-SLAM does).
+
+    Every solution of ``cv2.decomposeHomographyMat`` (up to four) triangulates the inliers;
+    a point is good when it lies in front of both cameras, reprojects within
+    ``max_reprojection_px`` and has at least ``min_point_parallax_deg`` of parallax. The
+    solution with the most good points wins only when it is clearly ahead: the runner-up
+    keeps fewer than :data:`HOMOGRAPHY_AMBIGUITY_RATIO` of its points. Otherwise the pair is
+    ambiguous (planar two-fold ambiguity at small baselines) and nothing is chosen.
+    Solutions whose translation (baseline over plane distance) is below
+    ``min_baseline_ratio`` are rotations and are skipped.
+    """
+    count, rotations, translations, _ = cv2.decomposeHomographyMat(H, K)
+    a, b = p0[inliers], p1[inliers]
+    scored = []
+    for i in range(count):
+        R = np.asarray(rotations[i], dtype=np.float64)
+        t = np.asarray(translations[i], dtype=np.float64).reshape(3)
+        norm = float(np.linalg.norm(t))
         if norm < min_baseline_ratio:
             continue
-        t_unit = t / norm
-        tri = triangulate_pair(R, t_unit, K, p0[inliers], p1[inliers])
-        good = tri.in_front & (tri.reprojection_px <= max_reprojection_px)
-        key = (int(good.sum()), -float(np.median(tri.reprojection_px)) if len(good) else 0.0)
-        if best_key is None or key > best_key:
-            best, best_key = (R, t_unit), key
-    return best
+        tri = triangulate_pair(R, t / norm, K, a, b)
+        good = tri.in_front & (tri.reprojection_px <= max_reprojection_px) & (
+            tri.parallax_deg >= min_point_parallax_deg)
+        scored.append((int(good.sum()), i, R, t / norm))
+    none = HomographyChoice(np.eye(3), np.zeros(3), (), '')
+    if not scored:
+        return replace(none, reason='homography has no decomposition with translation (rotation?)')
+    scored.sort(key=lambda item: -item[0])
+    good = tuple(item[0] for item in scored)
+    best = scored[0]
+    if best[0] == 0:
+        return replace(none, good=good,
+                       reason='no decomposition puts points in front of both cameras')
+    # Solutions that are the same motion up to numerical noise do not compete.
+    rivals = [item for item in scored[1:]
+              if rotation_angle_deg(item[2].T @ best[2]) > 0.5 or item[3] @ best[3] < 0.999]
+    second = rivals[0][0] if rivals else 0
+    if second >= HOMOGRAPHY_AMBIGUITY_RATIO * best[0]:
+        return replace(none, good=good, reason=(
+            f'homography decomposition ambiguous: {best[0]} vs {second} good points'))
+    return HomographyChoice(best[2], best[3], good, '')
 
 
 def estimate_pose(
@@ -208,7 +248,9 @@ def estimate_pose(
 
     F and H are robustly estimated with RANSAC (OpenCV's 8-point fit on the inliers, and
     4-point DLT with Faugeras-Lustman decomposition); E with RANSAC over Nister's 5-point
-    solver. The pose is the candidate with the most points in front of both cameras.
+    solver. F and E poses are the ``recoverPose`` candidate with the most points in front of
+    both cameras; H's is chosen by :func:`choose_homography_decomposition` (and refused when
+    ambiguous).
     Kept points are inliers in front of both cameras, reprojecting within
     ``max_reprojection_px`` and seen with at least ``min_point_parallax_deg`` of parallax.
 
@@ -251,15 +293,14 @@ def estimate_pose(
         if H is None or mask is None:
             return _failure(method, n, 'no homography found')
         inliers = mask.ravel().astype(bool)
-        chosen = _homography_pose(
-            H, K, a, b, inliers, max_reprojection_px, min_homography_baseline_ratio
+        matrix = np.asarray(H, dtype=np.float64)
+        choice = choose_homography_decomposition(
+            matrix, K, a, b, inliers, max_reprojection_px, min_point_parallax_deg,
+            min_homography_baseline_ratio,
         )
-        if chosen is None:
-            return _failure(
-                method, n, 'homography has no decomposition with translation (rotation?)',
-                inliers,
-            )
-        R, t = chosen
+        if choice.reason:
+            return _failure(method, n, choice.reason, inliers, matrix)
+        R, t = choice.R, choice.t
     else:
         if method is Method.F:
             F, mask = cv2.findFundamentalMat(
@@ -267,6 +308,7 @@ def estimate_pose(
             )
             if F is None or F.shape != (3, 3) or mask is None:
                 return _failure(method, n, 'no fundamental matrix found')
+            matrix = np.asarray(F, dtype=np.float64)
             E = K.T @ F @ K
         else:
             E, mask = cv2.findEssentialMat(
@@ -275,15 +317,17 @@ def estimate_pose(
             if E is None or E.shape[0] < 3 or mask is None:
                 return _failure(method, n, 'no essential matrix found')
             E = E[:3]
+            matrix = np.asarray(E, dtype=np.float64)
         inliers = mask.ravel().astype(bool)
         if inliers.sum() < needed:
-            return _failure(method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers)
+            return _failure(method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers,
+                            matrix)
         _, R, t, _ = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
         t = t.reshape(3)
         t = t / max(np.linalg.norm(t), _EPS)
 
     if np.linalg.norm(t) < 0.5:
-        return _failure(method, n, 'no translation recovered (pure rotation?)', inliers)
+        return _failure(method, n, 'no translation recovered (pure rotation?)', inliers, matrix)
     tri = triangulate_pair(R, t, K, a, b)
     valid = inliers & tri.in_front
     parallax = float(np.median(tri.parallax_deg[valid])) if valid.any() else 0.0
@@ -301,7 +345,29 @@ def estimate_pose(
     return PoseEstimate(
         method=method, ok=ok, reason=reason, R=np.asarray(R, dtype=np.float64), t=t,
         points=tri.points[indices], indices=indices, inliers=inliers, parallax_deg=parallax,
+        matrix=matrix,
     )
+
+
+def homogeneous(p: np.ndarray) -> np.ndarray:
+    """(N, 2) pixels -> (N, 3) homogeneous coordinates, float64."""
+    return np.hstack([np.asarray(p, dtype=np.float64), np.ones((len(p), 1))])
+
+
+def fundamental_from_essential(E: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """``F = K^-T E K^-1``: the pixel-space epipolar constraint of an essential matrix."""
+    K_inv = np.linalg.inv(np.asarray(K, dtype=np.float64))
+    return K_inv.T @ np.asarray(E, dtype=np.float64) @ K_inv
+
+
+def sampson_fundamental(F: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """(N,) squared Sampson errors of ``x1^T F x0 = 0``, pixels^2."""
+    x0, x1 = homogeneous(p0), homogeneous(p1)
+    Fx0 = x0 @ F.T
+    Ftx1 = x1 @ F
+    num = np.einsum('ij,ij->i', x1, Fx0) ** 2
+    den = Fx0[:, 0] ** 2 + Fx0[:, 1] ** 2 + Ftx1[:, 0] ** 2 + Ftx1[:, 1] ** 2
+    return num / np.maximum(den, 1e-300)
 
 
 def translation_chordal_error(t_gt: np.ndarray, t_est: np.ndarray) -> float:

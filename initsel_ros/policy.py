@@ -23,6 +23,8 @@ class Reason(str, Enum):
     POSE_FAILED = 'pose estimation failed'
     TOO_FEW_POINTS = 'too few triangulated points'
     LOW_PARALLAX = 'low parallax'
+    VERIFYING = 'verifying'  # a candidate is held back until the next frames confirm it
+    VERIFICATION_FAILED = 'verification_failed'  # the next frames contradicted the candidate
     DONE = 'already initialized'  # mode 'once', until reset
 
 

@@ -18,6 +18,7 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import raw_features, scale_features
 from initsel_ros.geometry import Method, PoseEstimate, estimate_pose
+from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.models import ModelSet
 from initsel_ros.policy import (
     Decision,
@@ -27,11 +28,16 @@ from initsel_ros.policy import (
     decide,
     effective_thresholds,
 )
-from initsel_ros.tracking import KltTracker, TrackerConfig
+from initsel_ros.refine import Refinement, refine_two_view
+from initsel_ros.tracking import KltTracker, TrackerConfig, Tracks
+from initsel_ros.verify import VerifyConfig, VerifyStep, check_frame
 
 log = logging.getLogger(__name__)
 
 Mode = Literal['once', 'continuous']
+#: After the bundle adjustment a map point must reproject within this many pixels in both
+#: images (the estimators keep points within 2.5 px before it).
+MAP_MAX_REPROJECTION_PX = 2.0
 
 
 @dataclass(frozen=True)
@@ -46,6 +52,8 @@ class SelectorConfig:
         max_frames_since_reference: a frame this many frames after the reference becomes the
             new reference when nothing initialized.
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
+        refine: bundle-adjust the chosen pose and points before publishing (refine.py).
+        verify: hold the candidate back and confirm it on the next frames (verify.py).
     """
 
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
@@ -53,6 +61,8 @@ class SelectorConfig:
     mode: Mode = 'once'
     max_frames_since_reference: int = 90
     ransac_threshold_px: float = 1.0
+    refine: bool = True
+    verify: VerifyConfig = field(default_factory=VerifyConfig)
 
     def __post_init__(self) -> None:
         if self.mode not in ('once', 'continuous'):
@@ -80,6 +90,9 @@ class Initialization:
         frames_since_reference: frames between reference and current.
         probabilities: model name -> probability for this pair.
         parallax_deg: median parallax of the points, degrees.
+        selection: the candidates tried at fire time, their scores and why this one won.
+        refinement: the bundle adjustment's result (None when refinement is off).
+        verification: the checks of the frames after it (empty when verification is off).
     """
 
     method: Method
@@ -93,6 +106,18 @@ class Initialization:
     frames_since_reference: int
     probabilities: dict[str, float]
     parallax_deg: float
+    selection: Selection | None = None
+    refinement: Refinement | None = None
+    verification: tuple[VerifyStep, ...] = ()
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    """An initialization held back until the next frames confirm it."""
+
+    initialization: Initialization
+    track_ids: np.ndarray  # (M,) sorted tracker ids of the map points
+    steps: tuple[VerifyStep, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -108,6 +133,8 @@ class FrameResult:
         initialization: set on the frame that initializes, else None.
         new_reference: True when this frame became the reference frame.
         frames_since_reference: frames between the reference and this frame.
+        selection: on frames where a model fired, the candidates tried and their scores.
+        verification: while a candidate is verified, this frame's check.
     """
 
     frame_index: int
@@ -117,6 +144,8 @@ class FrameResult:
     initialization: Initialization | None = None
     new_reference: bool = False
     frames_since_reference: int = 0
+    selection: Selection | None = None
+    verification: VerifyStep | None = None
 
 
 def to_gray(image: np.ndarray) -> np.ndarray:
@@ -187,6 +216,7 @@ class Selector:
         self.initialized = False
         self._frame_index = 0
         self._reference_stamp_ns: int | None = None
+        self._candidate: _Candidate | None = None
 
     def set_intrinsics(self, intrinsics: Intrinsics) -> None:
         """Use new intrinsics from the next frame on (e.g. from CameraInfo)."""
@@ -197,11 +227,13 @@ class Selector:
         self.tracker.clear()
         self.initialized = False
         self._reference_stamp_ns = None
+        self._candidate = None
 
     def _new_reference(self, gray: np.ndarray, stamp_ns: int, reason: Reason, index: int,
                        decision: Decision | None = None) -> FrameResult:
         found = self.tracker.reset(gray)
         self._reference_stamp_ns = stamp_ns
+        self._candidate = None
         if decision is None:
             decision = Decision(reason, n_tracks=found, detail=f'{found} features detected')
         return FrameResult(index, stamp_ns, stamp_ns, decision, None, True, 0)
@@ -253,64 +285,153 @@ class Selector:
             self.models, self.thresholds, self.config.policy, ref, cur, w, h
         )
         if decision.reason is Reason.TOO_FEW_TRACKS:
+            if self._candidate is not None:
+                decision = replace(decision, detail=decision.detail
+                                   + '; the candidate being verified lost its tracks')
             result = self._new_reference(gray, stamp_ns, Reason.TOO_FEW_TRACKS, index, decision)
             return replace(result, reference_stamp_ns=stamp_ns)
 
-        init = None
-        if decision.positive:
-            decision, init = self._try_candidates(decision, ref, cur, stamp_ns, since)
-        result = FrameResult(index, stamp_ns, self._reference_stamp_ns, decision, init, False,
-                             since)
-        if init is not None:
+        if self._candidate is not None:
+            result = self._verify(tracks, cur, decision, index, stamp_ns, since)
+        else:
+            result = FrameResult(index, stamp_ns, self._reference_stamp_ns, decision, None, False,
+                                 since)
+            if decision.positive:
+                result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since)
+        if result.initialization is not None:
             self.initialized = self.config.mode == 'once'
             if self.config.mode == 'continuous':  # re-anchor on the initializing frame
                 self.tracker.reset(gray)
                 self._reference_stamp_ns = stamp_ns
                 result = replace(result, new_reference=True)
-        elif since >= self.config.max_frames_since_reference:
+        elif since >= self.config.max_frames_since_reference and self._candidate is None:
             self.tracker.reset(gray)
             self._reference_stamp_ns = stamp_ns
             result = replace(result, new_reference=True)
         return result
 
-    def _try_candidates(
-        self, decision: Decision, ref: np.ndarray, cur: np.ndarray, stamp_ns: int, since: int
-    ) -> tuple[Decision, Initialization | None]:
-        failures = []
-        first_failure: Reason | None = None
-        for method in decision.candidates:
+    def _fire(
+        self, result: FrameResult, ref: np.ndarray, cur: np.ndarray, ids: np.ndarray,
+        stamp_ns: int, since: int,
+    ) -> FrameResult:
+        """A model fired: estimate every candidate, choose by evidence, refine, maybe hold."""
+        decision = result.decision
+        selection, estimate, problem = self._choose(decision, ref, cur)
+        result = replace(result, selection=selection)
+        if estimate is None:
+            return replace(result, decision=replace(
+                decision, reason=problem, detail=selection.summary()))
+        init, map_indices = self._initialization(estimate, ref, cur, decision, stamp_ns, since,
+                                                 selection)
+        if init.points.shape[0] < self.config.policy.min_points:
+            return replace(result, decision=replace(
+                decision, reason=Reason.TOO_FEW_POINTS,
+                detail=f'{init.points.shape[0]} points left after refinement; '
+                       + selection.summary()))
+        detail = f'{init.method.value}: {selection.why}'
+        if self.config.verify.frames > 0:
+            self._candidate = _Candidate(init, np.asarray(ids)[map_indices])
+            return replace(result, decision=replace(
+                decision, reason=Reason.VERIFYING,
+                detail=f'{detail}; verifying on the next {self.config.verify.frames} frames'))
+        return replace(result, initialization=init,
+                       decision=replace(decision, reason=Reason.INITIALIZED, detail=detail))
+
+    def _choose(
+        self, decision: Decision, ref: np.ndarray, cur: np.ndarray,
+    ) -> tuple[Selection, PoseEstimate | None, Reason]:
+        """Estimate with the fired methods and H, and select by GRIC among those that pass."""
+        methods = list(decision.candidates)
+        rotation = decision.probabilities.get('R', 0.0) >= self.thresholds.get('R', 0.5)
+        h_vetoed = rotation and 'H' in self.config.policy.r_veto
+        if Method.H not in methods and not h_vetoed:
+            methods.append(Method.H)  # cheap, and the criterion needs it to see a plane
+        estimates, problems, reasons = [], [], []
+        for method in methods:
             estimate = estimate_pose(
                 method, ref, cur, self.intrinsics.K,
                 ransac_threshold_px=self.config.ransac_threshold_px,
             )
             problem = check_pose(estimate, self.config.policy)
-            if problem is None:
-                init = self._initialization(estimate, ref, cur, decision, stamp_ns, since)
-                return replace(decision, reason=Reason.INITIALIZED, detail=method.value), init
-            first_failure = first_failure or problem
-            failures.append(
-                f'{method.value}: {estimate.reason or problem.value} '
-                f'({estimate.n_points} points, parallax {estimate.parallax_deg:.2f} deg)'
-            )
-        assert first_failure is not None
-        return replace(decision, reason=first_failure, detail='; '.join(failures)), None
+            estimates.append(estimate)
+            reasons.append(problem)
+            problems.append('' if problem is None else (
+                estimate.reason or f'{problem.value}: {estimate.n_points} points, '
+                f'parallax {estimate.parallax_deg:.2f} deg'))
+        selection = select_method(estimates, problems, ref, cur, self.intrinsics.K)
+        if selection.winner is None:
+            first = next(r for r in reasons if r is not None)
+            return selection, None, first
+        winner = next(e for e in estimates if e.method is selection.winner)
+        return selection, winner, Reason.INITIALIZED
+
+    def _verify(
+        self, tracks: Tracks, cur: np.ndarray, decision: Decision, index: int, stamp_ns: int,
+        since: int,
+    ) -> FrameResult:
+        """Check the held-back candidate on this frame; publish it once enough frames agree."""
+        candidate = self._candidate
+        assert candidate is not None
+        init = candidate.initialization
+        ids = candidate.track_ids
+        pos = np.minimum(np.searchsorted(tracks.ids, ids), max(len(tracks.ids) - 1, 0))
+        tracked = (tracks.ids[pos] == ids) if len(tracks.ids) else np.zeros(len(ids), bool)
+        pixels = np.zeros((len(ids), 2))
+        pixels[tracked] = cur[pos[tracked]]
+        step = check_frame(init.points, pixels, tracked, self.intrinsics.K, self.config.verify)
+        base = FrameResult(index, stamp_ns, self._reference_stamp_ns, decision, None, False, since,
+                           verification=step)
+        done = len(candidate.steps) + 1
+        wanted = self.config.verify.frames
+        if not step.ok:
+            self._candidate = None
+            return replace(base, decision=replace(
+                decision, reason=Reason.VERIFICATION_FAILED,
+                detail=f'{init.method.value} candidate of frame {init.frames_since_reference} '
+                       f'failed on frame {done} of {wanted}: {step.detail}'))
+        steps = (*candidate.steps, step)
+        if done < wanted:
+            self._candidate = replace(candidate, steps=steps)
+            return replace(base, decision=replace(
+                decision, reason=Reason.VERIFYING,
+                detail=f'{init.method.value} candidate: frame {done} of {wanted} ok, '
+                       f'{step.detail}'))
+        self._candidate = None
+        verified = replace(init, verification=steps)
+        return replace(base, initialization=verified, decision=replace(
+            decision, reason=Reason.INITIALIZED, probabilities=dict(init.probabilities),
+            detail=f'{init.method.value} verified on {wanted} frames (last: {step.detail})'))
 
     def _initialization(
         self, estimate: PoseEstimate, ref: np.ndarray, cur: np.ndarray,
-        decision: Decision, stamp_ns: int, since: int,
-    ) -> Initialization:
-        depth = float(np.median(estimate.points[:, 2]))
+        decision: Decision, stamp_ns: int, since: int, selection: Selection,
+    ) -> tuple[Initialization, np.ndarray]:
+        """The seed map of the chosen estimate, and its points' indices into the tracks."""
+        R, t = estimate.R, estimate.t
+        points, indices = estimate.points, estimate.indices
+        refinement = None
+        if self.config.refine:
+            refinement = refine_two_view(
+                R, t, points, ref[indices], cur[indices], self.intrinsics.K,
+                max_reprojection_px=MAP_MAX_REPROJECTION_PX,
+            )
+            R, t, points = refinement.R, refinement.t, refinement.points
+            indices = indices[refinement.kept]
+        depth = float(np.median(points[:, 2])) if len(points) else 0.0
         scale = 1.0 / depth if depth > 0 else 1.0
-        return Initialization(
+        init = Initialization(
             method=estimate.method,
-            R=estimate.R,
-            t=estimate.t * scale,
-            points=estimate.points * scale,
-            pixels_ref=np.asarray(ref, np.float32)[estimate.indices],
-            pixels_cur=np.asarray(cur, np.float32)[estimate.indices],
+            R=R,
+            t=t * scale,
+            points=points * scale,
+            pixels_ref=np.asarray(ref, np.float32)[indices],
+            pixels_cur=np.asarray(cur, np.float32)[indices],
             reference_stamp_ns=self._reference_stamp_ns,
             stamp_ns=int(stamp_ns),
             frames_since_reference=since,
             probabilities=dict(decision.probabilities),
             parallax_deg=estimate.parallax_deg,
+            selection=selection,
+            refinement=refinement,
         )
+        return init, indices

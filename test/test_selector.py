@@ -65,7 +65,7 @@ def test_firing_model_on_a_pure_image_shift_is_refused_by_the_pose_check():
     assert result.initialization is None
     assert result.decision.reason in (Reason.POSE_FAILED, Reason.LOW_PARALLAX,
                                       Reason.TOO_FEW_POINTS)
-    assert 'E:' in result.decision.detail and 'H:' in result.decision.detail
+    assert 'E failed' in result.decision.detail and 'H failed' in result.decision.detail
 
 
 def test_losing_the_tracks_starts_a_new_reference():
