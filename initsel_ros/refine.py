@@ -7,8 +7,9 @@ are optimized together with every point (3 parameters each) to minimise the repr
 error in both images, with a robust loss (``soft_l1``, the smooth pseudo-Huber: quadratic
 below ``huber_px``, linear above; scipy's plain ``huber`` stalled here from perturbed
 starts). ``scipy.optimize.least_squares`` with an analytic sparse Jacobian (each point
-touches only its own 4 residuals) keeps it to a few milliseconds for a few hundred points. Points whose final reprojection error exceeds
-``max_reprojection_px`` in either image, or that end behind a camera, are dropped.
+touches only its own 4 residuals) keeps it to a few milliseconds for a few hundred points.
+Points whose final reprojection error exceeds ``max_reprojection_px`` in either image, or
+that end behind a camera, are dropped.
 """
 
 from __future__ import annotations
