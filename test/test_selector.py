@@ -144,8 +144,9 @@ def test_default_models_initialize_on_the_rendered_near_sequence_with_the_true_d
     assert init.method.value in ('F', 'E', 'H')
     assert all(r.decision.reason is Reason.DONE for r in results[index + 1:])
     ref = int(np.argmin(np.abs(seq.stamps_ns - init.reference_stamp_ns)))
-    _, t_gt = relative_pose(seq.frames[ref].pose, seq.frames[index].pose)
-    assert translation_chordal_error(t_gt, init.t) < 0.8
+    cur = int(np.argmin(np.abs(seq.stamps_ns - init.stamp_ns)))  # before 'index' (verified)
+    _, t_gt = relative_pose(seq.frames[ref].pose, seq.frames[cur].pose)
+    assert translation_chordal_error(t_gt, init.t) < 0.2
     assert len(init.points) >= 50 and np.all(init.points[:, 2] > 0)
     assert np.median(init.points[:, 2]) == pytest.approx(1.0)  # the scale convention
     assert init.pixels_ref.shape == init.pixels_cur.shape == (len(init.points), 2)
@@ -167,3 +168,117 @@ def test_continuous_mode_reanchors_on_each_initializing_frame(near_sequence):
         assert results[i].new_reference
         if i + 1 < len(results):
             assert results[i + 1].reference_stamp_ns == seq.stamps_ns[i]
+
+
+def _first_init(path, config):
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import default_model_path
+
+    seq = open_sequence(path)
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, config)
+    for i, stamp in enumerate(seq.stamps_ns):
+        result = sel.process(seq.image(i), int(stamp))
+        if result.initialization is not None:
+            return seq, i, result
+    raise AssertionError('no initialization')
+
+
+def _pose_errors(seq, init):
+    from initsel_ros.geometry import relative_pose, rotation_angle_deg, translation_chordal_error
+
+    ref = int(np.searchsorted(seq.stamps_ns, init.reference_stamp_ns))
+    cur = int(np.searchsorted(seq.stamps_ns, init.stamp_ns))
+    R_gt, t_gt = relative_pose(seq.frames[ref].pose, seq.frames[cur].pose)
+    return translation_chordal_error(t_gt, init.t), rotation_angle_deg(init.R.T @ R_gt)
+
+
+def test_a_planar_wall_initializes_with_h_and_an_accurate_pose(wall_arc_sequence):
+    seq, _, result = _first_init(wall_arc_sequence, SelectorConfig())
+    init = result.initialization
+    assert init.method.value == 'H'
+    assert init.selection.winner.value == 'H' and 'H' in [
+        s.method.value for s in init.selection.scores]
+    e_t, rot = _pose_errors(seq, init)
+    assert e_t < 0.1 and rot < 1.0
+
+
+def test_verification_holds_the_candidate_back_and_keeps_its_stamps(near_sequence):
+    seq, index, result = _first_init(near_sequence, SelectorConfig())
+    init = result.initialization
+    frames = SelectorConfig().verify.frames
+    assert frames > 0 and len(init.verification) == frames
+    assert all(step.ok for step in init.verification)
+    # published 'frames' frames after the initializing frame, with that frame's stamp
+    assert init.stamp_ns == seq.stamps_ns[index - frames]
+    assert result.stamp_ns == seq.stamps_ns[index]
+    assert result.decision.reason is Reason.INITIALIZED and 'verified' in result.decision.detail
+    e_t, rot = _pose_errors(seq, init)
+    assert e_t < 0.2 and rot < 1.0
+
+
+def test_verification_rejects_a_wrong_candidate_and_keeps_looking(near_sequence, monkeypatch):
+    import initsel_ros.selector as selector_module
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import default_model_path
+
+    real = selector_module.estimate_pose
+    spoiled = []
+
+    def wrong_first_pose(method, p0, p1, K, **kwargs):
+        estimate = real(method, p0, p1, K, **kwargs)
+        if not spoiled and estimate.ok:  # the first usable estimate: flip its depths
+            spoiled.append(method)
+            points = estimate.points.copy()
+            points[:, 2] = 2 * np.median(points[:, 2]) - points[:, 2] * 0.5
+            from dataclasses import replace as dc_replace
+            return dc_replace(estimate, points=points)
+        return estimate
+
+    monkeypatch.setattr(selector_module, 'estimate_pose', wrong_first_pose)
+    seq = open_sequence(near_sequence)
+    config = SelectorConfig(refine=False)
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, config)
+    results = [sel.process(seq.image(i), int(t)) for i, t in enumerate(seq.stamps_ns)]
+    reasons = [r.decision.reason for r in results]
+    assert Reason.VERIFICATION_FAILED in reasons
+    failed = results[reasons.index(Reason.VERIFICATION_FAILED)]
+    assert 'RMS' in failed.decision.detail and failed.verification is not None
+    later = [r for r in results if r.initialization is not None]
+    assert later, 'kept looking and initialized after the rejection'
+
+
+def test_without_verification_the_same_wrong_candidate_would_be_published(
+    near_sequence, monkeypatch,
+):
+    import initsel_ros.selector as selector_module
+    from initsel_ros.verify import VerifyConfig
+
+    real = selector_module.estimate_pose
+
+    def flipped(method, p0, p1, K, **kwargs):
+        estimate = real(method, p0, p1, K, **kwargs)
+        from dataclasses import replace as dc_replace
+        points = estimate.points.copy()
+        if len(points):
+            points[:, 2] = 2 * np.median(points[:, 2]) - points[:, 2] * 0.5
+        return dc_replace(estimate, points=points)
+
+    monkeypatch.setattr(selector_module, 'estimate_pose', flipped)
+    _, _, result = _first_init(near_sequence,
+                               SelectorConfig(refine=False, verify=VerifyConfig(frames=0)))
+    assert result.initialization is not None and result.initialization.verification == ()
+
+
+def test_refinement_adjusts_the_published_pose_and_lowers_the_reprojection_error(
+    near_sequence,
+):
+    seq, _, result = _first_init(near_sequence, SelectorConfig())
+    init = result.initialization
+    assert init.refinement is not None
+    assert init.refinement.rms_after_px <= init.refinement.rms_before_px
+    assert np.allclose(init.R, init.refinement.R)
+    t_unit = init.t / np.linalg.norm(init.t)
+    assert np.allclose(t_unit, init.refinement.t)
+    _, _, plain = _first_init(near_sequence, SelectorConfig(refine=False))
+    assert plain.initialization.refinement is None
+    assert not np.allclose(plain.initialization.R, init.R)  # refinement moved the pose
