@@ -20,6 +20,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'dataset': ('initsel_ros.learn.cli_dataset', 'build labelled pairs from TUM sequences'),
     'train': ('initsel_ros.learn.cli_train', 'train the F/E/H/R models into a model file'),
     'eval': ('initsel_ros.learn.cli_eval', "print the paper's tables against the baselines"),
+    'seedmap': ('initsel_ros.learn.cli_seedmap',
+                'accuracy of the published seed map against the baselines'),
     'replay': ('initsel_ros.ros.replay', 'publish a TUM folder or bag as image topics'),
     'bench': ('initsel_ros.bench', 'measure decision, per-frame and baseline costs'),
     'demo': ('initsel_ros.demo', 'render a sequence and initialize on it, end to end'),

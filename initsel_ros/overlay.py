@@ -176,6 +176,17 @@ def _decision_lines(result: FrameResult, init: Initialization | None) -> list[tu
             f'INIT {init.method.value}: {len(init.points)} points, '
             f'parallax {init.parallax_deg:.1f} deg', _YELLOW,
         ))
+    selection = init.selection if init is not None else result.selection
+    if selection is not None:  # the fire-time candidates: one line each, the winner marked
+        for score in selection.scores:
+            mark = '*' if score.method is selection.winner else ' '
+            text = (f'{mark}{score.method.value} GRIC {score.gric:.0f}, {score.n_points} pts'
+                    if score.ok else f' {score.method.value} failed: {score.problem}')
+            lines.append((text[:48], _YELLOW if mark == '*' else _GREY))
+    if result.verification is not None:
+        step = result.verification
+        lines.append((f'verify: {step.inliers} inliers ({100 * step.fraction:.0f} %), '
+                      f'RMS {step.rms_px:.2f} px', _GREEN if step.ok else _RED))
     if d.vetoed:
         lines.append((f'vetoed by R: {", ".join(d.vetoed)}', _ORANGE))
     if d.detail and init is None:

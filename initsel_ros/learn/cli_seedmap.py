@@ -1,0 +1,60 @@
+"""``initsel seedmap``: accuracy of the published seed map, selector against the baselines."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``initsel seedmap``."""
+    parser.add_argument('sequences', nargs='+', type=Path, metavar='SEQUENCE',
+                        help='sequences with ground truth and depth (TUM folders, bags); a '
+                             "name containing 'wall', 'floor' or 'planar' counts as planar")
+    parser.add_argument('--models', type=Path, default=None,
+                        help='model file (default: the packaged config/models.json)')
+    parser.add_argument('--length', type=int, default=60,
+                        help='frames per batch; the selector starts fresh at each (default 60)')
+    parser.add_argument('--step', type=int, default=30, help='frames between batch starts')
+    parser.add_argument('--verify-frames', type=int, default=None,
+                        help="override the selector's verification frames (0 = off)")
+    parser.add_argument('--no-refine', action='store_true', help='turn the refinement off')
+    parser.add_argument('--no-baselines', action='store_true', help='the selector only')
+    parser.add_argument('--jobs', type=int, default=2, help='worker processes')
+    parser.add_argument('--out-dir', type=Path, default=None,
+                        help='write seedmap.md and seedmap.csv (one row per batch and system)')
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate and print the table."""
+    from dataclasses import replace
+
+    from initsel_ros.learn.seedmap import (
+        evaluate_sequences,
+        outcomes_csv,
+        summarize,
+        summary_markdown,
+    )
+    from initsel_ros.models import default_model_path
+    from initsel_ros.selector import SelectorConfig
+
+    config = SelectorConfig(refine=not args.no_refine)
+    if args.verify_frames is not None:
+        config = replace(config, verify=replace(config.verify, frames=args.verify_frames))
+
+    def progress(done: int, total: int) -> None:
+        print(f'\rbatches {done}/{total}', end='', file=sys.stderr, flush=True)
+
+    outcomes = evaluate_sequences(
+        args.sequences, args.models or default_model_path(), config, length=args.length,
+        step=args.step, jobs=args.jobs, baselines=not args.no_baselines, progress=progress,
+    )
+    print(file=sys.stderr)
+    table = summary_markdown(summarize(outcomes))
+    print(table)
+    if args.out_dir is not None:
+        args.out_dir.mkdir(parents=True, exist_ok=True)
+        (args.out_dir / 'seedmap.md').write_text(table + '\n')
+        outcomes_csv(outcomes, args.out_dir / 'seedmap.csv')
+    return 0

@@ -1,0 +1,433 @@
+"""How good is the seed map a SLAM front end receives? Selector and baselines, one run.
+
+For each batch (``length`` frames starting every ``step`` frames) of each sequence, the live
+:class:`~initsel_ros.selector.Selector` runs from the batch's first frame, in mode 'once',
+exactly as the node runs it; its published initialization is compared with the ground truth:
+
+- ``E_t``: translation direction error (chordal distance, 0..2);
+- rotation error, degrees;
+- depth error: median over the map points of ``|s z_est - z_gt| / z_gt`` after one scale
+  ``s = median(z_gt / z_est)``, against the reference frame's depth;
+- frames from the batch start to the initializing frame (and to publication, which
+  verification delays);
+- whether the chosen method is the most accurate of F/E/H on that pair, or within
+  ``tolerance`` E_t of it (each method estimated and refined as the selector would).
+
+On the same tracks (one KLT tracker per batch, the selector's settings), the baselines run as
+per-frame rules, each initializing at its first accepted frame with its own method:
+ORB-SLAM2 and ORB-SLAM3 (parallel H/F RANSAC scores, H when ``R_H`` > 0.40 / 0.50, then at
+least 50 points with 1 degree of parallax), VINS-Mono (more than 20 correspondences with an
+average parallax above 30 px at focal 460, F-RANSAC + recoverPose with more than 12 inliers)
+and Butt et al. 2020 (H when the mean disparity exceeds 50 px, F when its deviation also
+exceeds 15 px).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.geometry import (
+    estimate_pose,
+    relative_pose,
+    rotation_angle_deg,
+    translation_chordal_error,
+    triangulate_pair,
+)
+from initsel_ros.learn.baselines import (
+    OrbSlamVersion,
+    butt_rule,
+    orbslam_scores,
+    vins_relative_pose,
+)
+from initsel_ros.models import ModelSet
+from initsel_ros.refine import refine_two_view
+from initsel_ros.selector import Selector, SelectorConfig
+from initsel_ros.tracking import KltTracker
+
+#: Names of the systems compared, in table order.
+SYSTEMS = ('initsel', 'ORB-SLAM2', 'ORB-SLAM3', 'VINS-Mono', 'Butt 2020')
+#: Substrings of a sequence name that mark it planar (every visible point on one plane).
+PLANAR_MARKERS = ('wall', 'floor', 'planar')
+#: Substrings that mark a sequence without a usable baseline (no initialization expected).
+NO_BASELINE_MARKERS = ('rotation', 'static')
+ORB_MIN_POINTS = 50
+ORB_MIN_PARALLAX_DEG = 1.0
+
+
+@dataclass(frozen=True)
+class BatchOutcome:
+    """One system's first initialization in one batch (NaN fields when it did not).
+
+    Attributes:
+        sequence: sequence name.
+        planar: the sequence is planar.
+        system: one of :data:`SYSTEMS`.
+        start: batch start, frame index.
+        initialized: the system initialized within the batch.
+        method: its method ('' when none).
+        frames_to_init: initializing frame - batch start.
+        frames_to_publish: publishing frame - batch start (later with verification).
+        baseline_m: ground-truth baseline of the initializing pair, metres.
+        e_t: translation direction error.
+        rotation_deg: rotation error, degrees.
+        depth_error: median relative depth error after one scale.
+        n_points: map points.
+        best_method: the most accurate of F/E/H on that pair (selector only).
+        chosen_ok: the chosen method is the best or within the tolerance (selector only).
+        e_t_f: F's E_t on that pair, refined (selector only); likewise e_t_e and e_t_h.
+    """
+
+    sequence: str
+    planar: bool
+    system: str
+    start: int
+    initialized: bool
+    method: str = ''
+    frames_to_init: float = math.nan
+    frames_to_publish: float = math.nan
+    baseline_m: float = math.nan
+    e_t: float = math.nan
+    rotation_deg: float = math.nan
+    depth_error: float = math.nan
+    n_points: int = 0
+    best_method: str = ''
+    chosen_ok: bool = False
+    e_t_f: float = math.nan
+    e_t_e: float = math.nan
+    e_t_h: float = math.nan
+
+
+def depth_error(points: np.ndarray, pixels_ref: np.ndarray, depth: np.ndarray | None) -> float:
+    """Median relative depth error of map points after one scale, against a depth map.
+
+    Args:
+        points: (M, 3) map points, reference camera frame (any scale).
+        pixels_ref: (M, 2) their pixels in the reference image.
+        depth: (H, W) reference depth, metres (0 or NaN = unknown); None gives NaN.
+    """
+    if depth is None or len(points) == 0:
+        return math.nan
+    h, w = depth.shape
+    u = np.clip(np.rint(pixels_ref[:, 0]).astype(int), 0, w - 1)
+    v = np.clip(np.rint(pixels_ref[:, 1]).astype(int), 0, h - 1)
+    z_gt = depth[v, u].astype(np.float64)
+    z = points[:, 2]
+    ok = np.isfinite(z_gt) & (z_gt > 0) & (z > 0)
+    if ok.sum() < 3:
+        return math.nan
+    s = float(np.median(z_gt[ok] / z[ok]))
+    return float(np.median(np.abs(s * z[ok] - z_gt[ok]) / z_gt[ok]))
+
+
+def _pose_errors(T_ref: np.ndarray, T_cur: np.ndarray, R: np.ndarray, t: np.ndarray,
+                 ) -> tuple[float, float, float]:
+    R_gt, t_gt = relative_pose(T_ref, T_cur)
+    return (translation_chordal_error(t_gt, t), rotation_angle_deg(np.asarray(R).T @ R_gt),
+            float(np.linalg.norm(t_gt)))
+
+
+def _refined_pose(method: str, p0: np.ndarray, p1: np.ndarray, K: np.ndarray, refine: bool):
+    est = estimate_pose(method, p0, p1, K)
+    if not est.ok:
+        return None
+    if not refine:
+        return est.R, est.t, est.points, est.indices
+    ref = refine_two_view(est.R, est.t, est.points, p0[est.indices], p1[est.indices], K)
+    return ref.R, ref.t, ref.points, est.indices[ref.kept]
+
+
+class _Batch:
+    """The frames of one batch, decoded once, and its ground truth."""
+
+    def __init__(self, sequence, start: int, length: int) -> None:
+        self.sequence = sequence
+        self.name = sequence.name
+        self.start = start
+        self.stop = min(start + length, len(sequence))
+        self.images = [sequence.image(i) for i in range(start, self.stop)]
+        self.poses = sequence.poses()
+        self.stamps_ns = sequence.stamps_ns
+        self.intrinsics: Intrinsics = sequence.intrinsics
+        self.planar = any(m in self.name.lower() for m in PLANAR_MARKERS)
+
+    def gray(self, k: int) -> np.ndarray:
+        img = self.images[k]
+        return cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+
+    def undistort(self, pts: np.ndarray) -> np.ndarray:
+        intr = self.intrinsics
+        if not intr.has_distortion or len(pts) == 0:
+            return np.asarray(pts, np.float64)
+        out = cv2.undistortPoints(pts.reshape(-1, 1, 2).astype(np.float32), intr.K,
+                                  np.asarray(intr.distortion, np.float64), P=intr.K)
+        return out.reshape(-1, 2).astype(np.float64)
+
+    def outcome(self, system: str, index: int, method: str, R, t, points, pixels_ref,
+                published: int | None = None) -> BatchOutcome:
+        ref = self.start
+        e_t, rot, baseline = _pose_errors(self.poses[ref], self.poses[index], R, t)
+        return BatchOutcome(
+            self.name, self.planar, system, self.start, True, method, float(index - ref),
+            float((index if published is None else published) - ref), baseline, e_t, rot,
+            depth_error(points, pixels_ref, self.sequence.depth(ref)), len(points),
+        )
+
+
+def _run_selector(batch: _Batch, models: ModelSet, config: SelectorConfig,
+                  tolerance: float) -> BatchOutcome:
+    selector = Selector(models, batch.intrinsics, replace(config, mode='once'))
+    for k in range(len(batch.images)):
+        i = batch.start + k
+        result = selector.process(batch.images[k], int(batch.stamps_ns[i]))
+        init = result.initialization
+        if init is None:
+            continue
+        ref = int(np.searchsorted(batch.stamps_ns, init.reference_stamp_ns))
+        cur = int(np.searchsorted(batch.stamps_ns, init.stamp_ns))
+        if ref != batch.start:  # the selector re-referenced inside the batch: judge its pair
+            batch_for_pair = _Batch(batch.sequence, ref, cur - ref + 1)
+        else:
+            batch_for_pair = batch
+        out = batch_for_pair.outcome('initsel', cur, init.method.value, init.R, init.t,
+                                     init.points, init.pixels_ref, published=i)
+        out = replace(out, start=batch.start,
+                      frames_to_init=float(cur - batch.start),
+                      frames_to_publish=float(i - batch.start))
+        return _compare_methods(batch_for_pair, ref, cur, out, config, tolerance)
+    return BatchOutcome(batch.name, batch.planar, 'initsel', batch.start, False)
+
+
+def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
+    tracker = KltTracker(config.tracker)
+    tracker.reset(batch.gray(ref - batch.start))
+    tracks = tracker.tracks()
+    for k in range(ref - batch.start + 1, cur - batch.start + 1):
+        tracks = tracker.track(batch.gray(k))
+    return batch.undistort(tracks.ref), batch.undistort(tracks.cur)
+
+
+def _compare_methods(batch: _Batch, ref: int, cur: int, out: BatchOutcome,
+                     config: SelectorConfig, tolerance: float) -> BatchOutcome:
+    """E_t of each method (estimated and refined as the selector would) on the same pair."""
+    p0, p1 = _tracks_until(batch, config, ref, cur)
+    K = batch.intrinsics.K
+    errors = {}
+    for m in ('F', 'E', 'H'):
+        pose = _refined_pose(m, p0, p1, K, config.refine)
+        errors[m] = math.nan if pose is None else _pose_errors(
+            batch.poses[ref], batch.poses[cur], pose[0], pose[1])[0]
+    finite = {m: e for m, e in errors.items() if math.isfinite(e)}
+    best = min(finite, key=finite.get) if finite else ''
+    chosen_ok = bool(finite) and out.e_t <= min(finite.values()) + tolerance
+    return replace(out, best_method=best, chosen_ok=chosen_ok, e_t_f=errors['F'],
+                   e_t_e=errors['E'], e_t_h=errors['H'])
+
+
+def _orb_attempt(p0, p1, K, version: OrbSlamVersion):
+    scores = orbslam_scores(p0, p1)
+    if not math.isfinite(scores.ratio):
+        return None
+    method = 'H' if scores.ratio > version.ratio_threshold else 'F'
+    est = estimate_pose(method, p0, p1, K)
+    if est.ok and est.n_points >= ORB_MIN_POINTS and est.parallax_deg >= ORB_MIN_PARALLAX_DEG:
+        return method, est.R, est.t, est.points, p0[est.indices]
+    return None
+
+
+def _vins_attempt(p0, p1, K):
+    result = vins_relative_pose(p0, p1, K, run_ransac=False)
+    if not result.accepted:
+        return None
+    tri = triangulate_pair(result.R, result.t, K, p0, p1)
+    good = tri.in_front & (tri.reprojection_px <= 2.5)
+    return 'E', result.R, result.t, tri.points[good], p0[good]
+
+
+def _butt_attempt(p0, p1, K):
+    disparity = np.linalg.norm(p1 - p0, axis=1)
+    h_good, f_good = butt_rule(np.array([disparity.mean()]), np.array([disparity.std()]))
+    if not h_good[0]:
+        return None
+    method = 'F' if f_good[0] else 'H'
+    est = estimate_pose(method, p0, p1, K)
+    if not est.ok:
+        return None
+    return method, est.R, est.t, est.points, p0[est.indices]
+
+
+def _run_baselines(batch: _Batch, config: SelectorConfig) -> list[BatchOutcome]:
+    attempts: dict[str, Callable] = {
+        'ORB-SLAM2': lambda a, b, K: _orb_attempt(a, b, K, OrbSlamVersion.ORB2),
+        'ORB-SLAM3': lambda a, b, K: _orb_attempt(a, b, K, OrbSlamVersion.ORB3),
+        'VINS-Mono': _vins_attempt,
+        'Butt 2020': _butt_attempt,
+    }
+    found: dict[str, BatchOutcome] = {}
+    tracker = KltTracker(config.tracker)
+    tracker.reset(batch.gray(0))
+    K = batch.intrinsics.K
+    for k in range(1, len(batch.images)):
+        tracks = tracker.track(batch.gray(k))
+        if len(tracks) < config.policy.min_tracks:
+            break  # the selector would re-reference here; the rules stop
+        p0, p1 = batch.undistort(tracks.ref), batch.undistort(tracks.cur)
+        for name, attempt in attempts.items():
+            if name in found:
+                continue
+            hit = attempt(p0, p1, K)
+            if hit is not None:
+                method, R, t, points, pixels = hit
+                found[name] = batch.outcome(name, batch.start + k, method, R, t, points, pixels)
+        if len(found) == len(attempts):
+            break
+    return [found.get(name, BatchOutcome(batch.name, batch.planar, name, batch.start, False))
+            for name in attempts]
+
+
+def evaluate_batch(path: str, start: int, length: int, model_path: str,
+                   config: SelectorConfig, tolerance: float = 0.05,
+                   baselines: bool = True) -> list[BatchOutcome]:
+    """Every system's outcome on one batch (a process-pool task: arguments are picklable)."""
+    from initsel_ros.datasets import open_sequence
+
+    cv2.setNumThreads(1)
+    sequence = open_sequence(path)
+    batch = _Batch(sequence, start, length)
+    models = ModelSet.load(model_path)
+    outcomes = [_run_selector(batch, models, config, tolerance)]
+    if baselines:
+        outcomes += _run_baselines(batch, config)
+    return outcomes
+
+
+def evaluate_sequences(
+    paths: Sequence[Path | str], model_path: Path | str, config: SelectorConfig | None = None,
+    *, length: int = 60, step: int = 30, jobs: int = 2, tolerance: float = 0.05,
+    baselines: bool = True, progress: Callable[[int, int], None] | None = None,
+) -> list[BatchOutcome]:
+    """Run :func:`evaluate_batch` over every batch of every sequence (in a process pool)."""
+    from initsel_ros.datasets import open_sequence
+
+    config = config or SelectorConfig()
+    tasks = []
+    for path in paths:
+        n = len(open_sequence(path))
+        tasks += [(str(path), s, length) for s in range(0, max(n - length // 2, 1), step)]
+    outcomes: list[BatchOutcome] = []
+    args = [(p, s, n, str(model_path), config, tolerance, baselines) for p, s, n in tasks]
+    if jobs <= 1:
+        results: Iterable = (evaluate_batch(*a) for a in args)
+        for k, res in enumerate(results):
+            outcomes += res
+            if progress:
+                progress(k + 1, len(args))
+        return outcomes
+    import multiprocessing
+
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context('spawn')) as pool:
+        for k, res in enumerate(pool.map(evaluate_batch, *zip(*args, strict=True))):
+            outcomes += res
+            if progress:
+                progress(k + 1, len(args))
+    return outcomes
+
+
+def _median(values: Sequence[float]) -> float:
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.median(finite)) if finite else math.nan
+
+
+@dataclass(frozen=True)
+class SystemSummary:
+    """One row of the seed-map table: a system on a group of sequences."""
+
+    group: str
+    system: str
+    batches: int
+    initialized: int
+    median_e_t: float
+    median_rotation_deg: float
+    median_depth_error: float
+    share_e_t_below_0_1: float
+    chosen_ok_share: float
+    median_frames_to_init: float
+    median_frames_to_publish: float
+    methods: str
+
+
+def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
+    """Per group (planar, non-planar, no baseline) and system, the table's figures."""
+    def group_of(o: BatchOutcome) -> str:
+        if any(m in o.sequence.lower() for m in NO_BASELINE_MARKERS):
+            return 'rotation/static'
+        return 'planar' if o.planar else 'non-planar'
+
+    rows = []
+    for group in ('planar', 'non-planar', 'rotation/static'):
+        for system in SYSTEMS:
+            sel = [o for o in outcomes if o.system == system and group_of(o) == group]
+            if not sel:
+                continue
+            done = [o for o in sel if o.initialized]
+            counts: dict[str, int] = {}
+            for o in done:
+                counts[o.method] = counts.get(o.method, 0) + 1
+            rows.append(SystemSummary(
+                group, system, len(sel), len(done),
+                _median([o.e_t for o in done]), _median([o.rotation_deg for o in done]),
+                _median([o.depth_error for o in done]),
+                float(np.mean([o.e_t < 0.1 for o in done])) if done else math.nan,
+                float(np.mean([o.chosen_ok for o in done]))
+                if done and system == 'initsel' else math.nan,
+                _median([o.frames_to_init for o in done]),
+                _median([o.frames_to_publish for o in done]),
+                ' '.join(f'{m}:{c}' for m, c in sorted(counts.items())),
+            ))
+    return rows
+
+
+def _f(value: float, digits: int = 3) -> str:
+    return '-' if not math.isfinite(value) else f'{value:.{digits}f}'
+
+
+def summary_markdown(rows: Sequence[SystemSummary]) -> str:
+    """The seed-map table as Markdown."""
+    lines = [
+        '| sequences | system | batches | initialized | median E_t | median rotation error, '
+        'deg | median depth error | E_t < 0.1 | chosen method best (+-0.05 E_t) | '
+        'median frames to init | median frames to publish | methods |',
+        '|---|---|---|---|---|---|---|---|---|---|---|---|',
+    ]
+    for r in rows:
+        lines.append(
+            f'| {r.group} | {r.system} | {r.batches} | {r.initialized} | {_f(r.median_e_t)} | '
+            f'{_f(r.median_rotation_deg, 2)} | {_f(r.median_depth_error)} | '
+            f'{_f(r.share_e_t_below_0_1, 2)} | {_f(r.chosen_ok_share, 2)} | '
+            f'{_f(r.median_frames_to_init, 1)} | {_f(r.median_frames_to_publish, 1)} | '
+            f'{r.methods} |')
+    return '\n'.join(lines)
+
+
+def outcomes_csv(outcomes: Sequence[BatchOutcome], path: Path) -> None:
+    """Every batch outcome, one CSV row each."""
+    import csv
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, 'w', newline='') as f:
+        writer = csv.DictWriter(f, fieldnames=list(asdict(outcomes[0]).keys()) if outcomes
+                                else ['sequence'])
+        writer.writeheader()
+        for o in outcomes:
+            writer.writerow(asdict(o))
+
+
+__all__ = ['SYSTEMS', 'BatchOutcome', 'SystemSummary', 'depth_error', 'evaluate_batch',
+           'evaluate_sequences', 'outcomes_csv', 'summarize', 'summary_markdown']
