@@ -272,7 +272,7 @@ def test_without_verification_the_same_wrong_candidate_would_be_published(
 def test_refinement_adjusts_the_published_pose_and_lowers_the_reprojection_error(
     near_sequence,
 ):
-    seq, _, result = _first_init(near_sequence, SelectorConfig())
+    _, _, result = _first_init(near_sequence, SelectorConfig())
     init = result.initialization
     assert init.refinement is not None
     assert init.refinement.rms_after_px <= init.refinement.rms_before_px
