@@ -189,11 +189,17 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         for est in estimators:
             table.add(est.name, _ms(est.median), _ms(est.percentile(99)), '',
                       f'decision {est.median / d:.0f}x cheaper')
+        fire = micro.time_fire(pairs, intrinsics.K, base_repeat)
+        for k, part in enumerate(fire):
+            table.add(part.name, _ms(part.median), _ms(part.percentile(99)),
+                      'a few ms, once' if k == 0 else '',
+                      f'{part.median / d:.0f}x a decision' if k == 0 else '')
         results['decision'] = {
             'decision': decision.to_dict(),
             'parts': {p.name.strip(): p.to_dict() for p in parts},
             'orbslam': orb.to_dict(), 'orbslam_ratio': ratio,
             'estimators': {e.name: e.to_dict() for e in estimators},
+            'fire': {p.name.strip(): p.to_dict() for p in fire},
         }
 
     if 'frame' not in args.skip or 'memory' not in args.skip:
