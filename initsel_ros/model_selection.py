@@ -7,7 +7,9 @@ Each candidate's matrix is scored on the same correspondences:
   ``r = 4`` (two 2-D observations per correspondence), ``d`` the dimension of the model's
   manifold (3 for F and E, 2 for H), ``k`` its parameters (F 7, E 5, H 8),
   ``lambda1 = log r``, ``lambda2 = log(r n)``, ``lambda3 = 2``, and ``e_i`` the Sampson
-  (first-order geometric) error. A plane fits H as well as F, and H's lower dimension then
+  (first-order geometric) error, and sigma the noise estimated from the most general
+  model's residuals (Torr's practice; a fixed 1 px hides a scene's depth when the tracks are
+  much better than a pixel). A plane fits H as well as F, and H's lower dimension then
   wins; with depth variation H's residuals grow and F or E win. E is scored as the
   fundamental matrix ``K^-T E K^-1`` at its maximum-likelihood fit on its inliers (OpenCV's
   5-point RANSAC returns a minimal-sample E; F and H come refitted on their inliers), so a
@@ -145,12 +147,14 @@ class Selection:
         scores: every candidate tried, in the order tried.
         orb_ratio: ORB-SLAM's ``R_H = S_H / (S_H + S_F)`` (NaN when H or F/E is missing).
         why: one sentence for the status and the log.
+        sigma_px: the noise level GRIC used, pixels.
     """
 
     winner: Method | None
     scores: tuple[CandidateScore, ...]
     orb_ratio: float
     why: str
+    sigma_px: float = 1.0
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready fields."""
@@ -158,6 +162,7 @@ class Selection:
             'winner': None if self.winner is None else self.winner.value,
             'candidates': [s.to_dict() for s in self.scores],
             'orb_ratio': None if not math.isfinite(self.orb_ratio) else round(self.orb_ratio, 3),
+            'noise_px': round(self.sigma_px, 3),
             'why': self.why,
         }
 
@@ -184,13 +189,31 @@ def _refined_essential(est: PoseEstimate, p0: np.ndarray, p1: np.ndarray,
     return skew @ R
 
 
+#: Median of the chi-square distribution with one degree of freedom: a Sampson error of an
+#: epipolar model is about sigma^2 chi2(1) for noise sigma per coordinate.
+CHI2_1_MEDIAN = 0.4549
+#: Bounds of the noise estimated from the data, pixels (KLT on sharp frames reaches about
+#: 0.1 px; beyond 2 px the tracks are not worth initializing on).
+MIN_SIGMA_PX = 0.1
+MAX_SIGMA_PX = 2.0
+
+
+def estimate_noise_px(errors_sq: np.ndarray) -> float:
+    """Robust noise level from an epipolar model's squared Sampson errors (pixels^2)."""
+    finite = errors_sq[np.isfinite(errors_sq)]
+    if finite.size < 8:
+        return 1.0
+    sigma = math.sqrt(float(np.median(finite)) / CHI2_1_MEDIAN)
+    return float(min(max(sigma, MIN_SIGMA_PX), MAX_SIGMA_PX))
+
+
 def select_method(
     estimates: Sequence[PoseEstimate],
     problems: Sequence[str],
     p0: np.ndarray,
     p1: np.ndarray,
     K: np.ndarray,
-    sigma_px: float = 1.0,
+    sigma_px: float | None = None,
 ) -> Selection:
     """Score every estimate on the same correspondences and pick the lowest GRIC.
 
@@ -200,27 +223,34 @@ def select_method(
         p0: (N, 2) reference pixels (undistorted), the correspondences all were fit to.
         p1: (N, 2) current pixels.
         K: (3, 3) camera matrix.
-        sigma_px: measurement noise for GRIC and the ORB scores, pixels.
+        sigma_px: measurement noise for GRIC, pixels; None estimates it from the most
+            general model's residuals (F, else E), as Torr does (:func:`estimate_noise_px`).
+            ORB-SLAM's ratio always uses its own 1 px.
     """
     p0 = np.asarray(p0, dtype=np.float64)
     p1 = np.asarray(p1, dtype=np.float64)
     n = max(len(p0), 1)
-    scores = []
+    errors: dict[str, np.ndarray] = {}
     fundamentals: dict[str, np.ndarray] = {}
-    for est, problem in zip(estimates, problems, strict=True):
+    for est in estimates:
         matrix = np.asarray(est.matrix, dtype=np.float64)
-        has_matrix = bool(np.any(matrix))
-        value = math.inf
-        if has_matrix:
-            if est.method is Method.H:
-                errors = sampson_homography(matrix, p0, p1)
-            else:
-                if est.method is Method.E:
-                    matrix = _refined_essential(est, p0, p1, K)
-                F = matrix if est.method is Method.F else fundamental_from_essential(matrix, K)
-                fundamentals[est.method.value] = F
-                errors = sampson_fundamental(F, p0, p1)
-            value = gric(errors, est.method.value, sigma_px)
+        if not np.any(matrix):
+            continue
+        if est.method is Method.H:
+            errors['H'] = sampson_homography(matrix, p0, p1)
+            continue
+        if est.method is Method.E:
+            matrix = _refined_essential(est, p0, p1, K)
+        F = matrix if est.method is Method.F else fundamental_from_essential(matrix, K)
+        fundamentals[est.method.value] = F
+        errors[est.method.value] = sampson_fundamental(F, p0, p1)
+    if sigma_px is None:
+        general = errors.get('F', errors.get('E'))
+        sigma_px = 1.0 if general is None else estimate_noise_px(general)
+    scores = []
+    for est, problem in zip(estimates, problems, strict=True):
+        e = errors.get(est.method.value)
+        value = math.inf if e is None else gric(e, est.method.value, sigma_px)
         scores.append(CandidateScore(
             est.method, not problem, problem, value, est.n_points, est.parallax_deg,
             float(np.count_nonzero(est.inliers)) / n,
@@ -230,19 +260,20 @@ def select_method(
     F = fundamentals.get('F', fundamentals.get('E'))
     orb_ratio = math.nan
     if H is not None and F is not None:
-        s_h, s_f = orb_scores(H, F, p0, p1, sigma_px)
+        s_h, s_f = orb_scores(H, F, p0, p1, 1.0)
         orb_ratio = s_h / (s_h + s_f) if s_h + s_f > 0 else math.nan
     passed = [s for s in scores if s.ok]
     if not passed:
-        return Selection(None, tuple(scores), orb_ratio, 'no candidate passed the pose check')
+        return Selection(None, tuple(scores), orb_ratio, 'no candidate passed the pose check',
+                         sigma_px)
     best = min(passed, key=lambda s: s.gric)
     others = [s for s in passed if s is not best]
     if others:
         runner = min(others, key=lambda s: s.gric)
         why = (f'{best.method.value} has the lowest GRIC ({best.gric:.0f} vs '
-               f'{runner.method.value} {runner.gric:.0f})')
+               f'{runner.method.value} {runner.gric:.0f}, noise {sigma_px:.2f} px)')
     else:
         failed = [s.method.value for s in scores if not s.ok]
         why = f'{best.method.value} is the only candidate that passed the pose check' + (
             f' ({", ".join(failed)} failed)' if failed else '')
-    return Selection(best.method, tuple(scores), orb_ratio, why)
+    return Selection(best.method, tuple(scores), orb_ratio, why, sigma_px)
