@@ -58,6 +58,17 @@ def wall_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def near_pair_table(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``initsel dataset`` on ``near_sequence`` (batches of 30): a real labelled pair table."""
+    from initsel_ros.cli import main
+
+    out = tmp_path_factory.mktemp('pairs') / 'near.csv'
+    assert main(['dataset', str(near_sequence), '--out', str(out), '--batch', '30',
+                 '--jobs', '1', '--quiet', '--no-orbslam']) == 0
+    return out
+
+
+@pytest.fixture(scope='session')
 def near_bag_ros1(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """``near_sequence`` as a ROS 1 bag file."""
     from initsel_ros.datasets.bags import write_bag

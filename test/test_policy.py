@@ -3,9 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from initsel_ros.geometry import Method, PoseEstimate
-from initsel_ros.policy import PolicyConfig, Reason, check_pose, decide, effective_thresholds
+from initsel_ros.policy import (
+    PolicyConfig,
+    Reason,
+    check_pose,
+    check_pose_batch,
+    decide,
+    decide_batch,
+    effective_thresholds,
+)
 
 T = {'F': 0.5, 'E': 0.5, 'H': 0.5, 'R': 0.5}
 
@@ -54,3 +64,53 @@ def test_pose_check_reasons():
     assert check_pose(_estimate(ok=False), cfg) is Reason.POSE_FAILED
     assert check_pose(_estimate(n=20), cfg) is Reason.TOO_FEW_POINTS
     assert check_pose(_estimate(parallax=0.5), cfg) is Reason.LOW_PARALLAX
+
+
+def _agree(probs: dict, thresholds: dict, n_tracks: np.ndarray, config: PolicyConfig) -> None:
+    batch = decide_batch(probs, thresholds, n_tracks, config)
+    first = batch.first_method()
+    for i in range(len(n_tracks)):
+        row = {m: float(np.asarray(v)[i]) for m, v in probs.items()}
+        one = decide(row, thresholds, int(n_tracks[i]), 0.0, config)
+        assert batch.reason[i] is one.reason, (i, row)
+        assert batch.candidates(i) == one.candidates, (i, row)
+        assert first[i] == (one.candidates[0].value if one.candidates else '')
+        names = ('E', 'H', 'F')
+        assert tuple(m for j, m in enumerate(names) if batch.vetoed[i, j]) == one.vetoed
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.tuples(*[st.floats(0, 1)] * 4, st.integers(0, 400)), min_size=1, max_size=20),
+    st.tuples(*[st.sampled_from([0.0, 0.3, 0.5, 0.5, 0.9, 1.0])] * 4),
+    st.sets(st.sampled_from(['F', 'E', 'H'])),
+)
+def test_vectorized_policy_agrees_with_the_live_one(rows, thresholds, veto):
+    probs = {m: np.array([r[j] for r in rows]) for j, m in enumerate('FEHR')}
+    n_tracks = np.array([r[4] for r in rows])
+    config = PolicyConfig(r_veto=frozenset(veto))
+    _agree(probs, dict(zip('FEHR', thresholds, strict=True)), n_tracks, config)
+
+
+def test_vectorized_policy_agrees_on_a_real_pair_table(near_pair_table):
+    """Every pair of a labelled table, with the shipped models' probabilities."""
+    from initsel_ros.learn.table import read_table
+    from initsel_ros.learn.train import feature_columns
+    from initsel_ros.models import ModelSet, default_model_path
+
+    table = read_table(near_pair_table)
+    models = ModelSet.load(default_model_path())
+    probs = models.predict_proba_batch(table.matrix(feature_columns(models.scaling)))
+    config = PolicyConfig()
+    thresholds = effective_thresholds(models.thresholds, config)
+    _agree(probs, thresholds, np.asarray(table['n_tracks']), config)
+
+
+def test_vectorized_pose_check_agrees_with_the_live_one():
+    ok = np.array([True, True, True, False, True, True])
+    points = np.array([80, 20, 80, 80, 50, 80])
+    parallax = np.array([2.0, 2.0, 0.5, 2.0, 1.0, np.nan])
+    batch = check_pose_batch(ok, points, parallax, PolicyConfig())
+    for i in range(len(ok)):
+        est = _estimate(bool(ok[i]), int(points[i]), float(parallax[i]))
+        assert batch[i] is check_pose(est, PolicyConfig())
