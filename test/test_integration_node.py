@@ -21,13 +21,15 @@ pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
 import rclpy
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from ros_helpers import DOMAIN_ID, configure_this_process
-from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from test_tracking import shifted, texture
@@ -62,10 +64,14 @@ class Harness:
         self.client = rclpy.create_node('initsel_test_client', namespace=self.namespace,
                                         context=context)
         reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.image_pub = self.client.create_publisher(Image, 'image_raw', reliable)
+        compressed = parameters.get('image_transport') == 'compressed'
+        self.image_pub = (
+            self.client.create_publisher(CompressedImage, 'image_raw/compressed', reliable)
+            if compressed else self.client.create_publisher(Image, 'image_raw', reliable))
         self.info_pub = self.client.create_publisher(CameraInfo, 'camera_info', reliable)
         self.status: list[dict] = []
         self.diagnostics: list[DiagnosticStatus] = []
+        self.diagnostic_stamps: list[Time] = []
         self.method: list[str] = []
         self.pose: list[PoseStamped] = []
         self.points: list[PointCloud2] = []
@@ -78,6 +84,9 @@ class Harness:
         c.create_subscription(PoseStamped, 'init/pose', self.pose.append, LATCHED_QOS)
         c.create_subscription(PointCloud2, 'init/points', self.points.append, LATCHED_QOS)
         self.reset_client = c.create_client(Trigger, 'selector/reset')
+        self.set_client = c.create_client(SetParameters, 'selector/set_parameters')
+        self.get_client = c.create_client(GetParameters, 'selector/get_parameters')
+        self.describe_client = c.create_client(DescribeParameters, 'selector/describe_parameters')
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
         self.executor.add_node(self.client)
@@ -86,8 +95,11 @@ class Harness:
                         what='discovery')
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        self.diagnostics.extend(s for s in msg.status if s.name == DIAGNOSTIC_NAME
-                                and s.hardware_id == self.node.get_fully_qualified_name())
+        mine = [s for s in msg.status if s.name == DIAGNOSTIC_NAME
+                and s.hardware_id == self.node.get_fully_qualified_name()]
+        self.diagnostics.extend(mine)
+        if mine:
+            self.diagnostic_stamps.append(msg.header.stamp)
 
     def spin_until(self, predicate: Callable[[], bool], timeout: float = TIMEOUT_S,
                    what: str = 'condition') -> None:
@@ -104,14 +116,43 @@ class Harness:
         self.spin_until(lambda: len(self.status) > count, what='a status')
         return self.status[-1]
 
-    def send_array(self, image: np.ndarray, stamp: float, encoding: str = 'bgr8') -> dict:
+    def send_array(self, image: np.ndarray, stamp: float | Time, encoding: str = 'bgr8') -> dict:
+        """Publish pixels (as ``encoding``, or JPEG when the node takes compressed images)."""
         if image.ndim == 2 and encoding == 'bgr8':
-            encoding = 'mono8'
-        return self.send(conv.numpy_to_image(image, encoding, stamp=conv.seconds_to_stamp(stamp),
+            encoding = 'mono16' if image.dtype == np.uint16 else 'mono8'
+        stamp = stamp if isinstance(stamp, Time) else conv.seconds_to_stamp(stamp)
+        if self.image_pub.msg_type is CompressedImage:
+            return self.send(conv.numpy_to_compressed(image, 'jpeg', stamp=stamp,
+                                                      frame_id='camera_optical_frame'))
+        return self.send(conv.numpy_to_image(image, encoding, stamp=stamp,
                                              frame_id='camera_optical_frame'))
 
-    def send_camera_info(self, intrinsics: Intrinsics) -> None:
-        self.info_pub.publish(conv.intrinsics_to_camera_info(intrinsics))
+    def call(self, client, request, what: str):
+        """Call a service of the node and spin until it answers."""
+        assert client.wait_for_service(timeout_sec=TIMEOUT_S), what
+        future = client.call_async(request)
+        self.spin_until(future.done, what=what)
+        return future.result()
+
+    def set_parameters(self, **values: object) -> list:
+        """``/selector/set_parameters`` as ``ros2 param set`` calls it; one result per value."""
+        request = SetParameters.Request(parameters=[
+            Parameter(k.replace('__', '.'), value=v).to_parameter_msg()
+            for k, v in values.items()])
+        return list(self.call(self.set_client, request, 'set_parameters').results)
+
+    def get_parameter(self, name: str) -> object:
+        """The value ``/selector/get_parameters`` reports for ``name``."""
+        from rclpy.parameter import parameter_value_to_python
+
+        response = self.call(self.get_client, GetParameters.Request(names=[name]),
+                             'get_parameters')
+        return parameter_value_to_python(response.values[0])
+
+    def send_camera_info(self, intrinsics: Intrinsics | CameraInfo) -> None:
+        msg = (intrinsics if isinstance(intrinsics, CameraInfo)
+               else conv.intrinsics_to_camera_info(intrinsics))
+        self.info_pub.publish(msg)
         for _ in range(5):
             self.executor.spin_once(timeout_sec=0.02)
 
@@ -144,9 +185,18 @@ def as_sequence(fixture_value):
     return open_sequence(fixture_value)
 
 
-def play(h: Harness, sequence) -> list[dict]:
+def play(h: Harness, sequence, stamps: list[Time] | None = None,
+         convert: Callable[[np.ndarray], np.ndarray] | None = None,
+         until_initialized: bool = False) -> list[dict]:
+    """Send the sequence's camera_info and frames (with ``stamps``, pixels via ``convert``)."""
     h.send_camera_info(sequence.intrinsics)
-    return [h.send_array(sequence.image(i), f.stamp) for i, f in enumerate(sequence.frames)]
+    statuses = []
+    for i, frame in enumerate(sequence.frames):
+        image = sequence.image(i) if convert is None else convert(sequence.image(i))
+        statuses.append(h.send_array(image, frame.stamp if stamps is None else stamps[i]))
+        if until_initialized and statuses[-1]['method']:
+            break
+    return statuses
 
 
 # ------------------------------------------------------------------------------ with a model

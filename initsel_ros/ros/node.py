@@ -28,6 +28,7 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.logging import get_logger
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import (
@@ -644,6 +645,11 @@ def params_files(argv: Sequence[str]) -> list[str]:
     return files
 
 
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
 def _check_ros_arguments(argv: Sequence[str]) -> None:
     """Parse every ``--params-file`` before rcl does, for a one-line syntax error.
 
@@ -662,13 +668,17 @@ def main(args: Sequence[str] | None = None) -> int:
     while its executor waited: about one stop in eight hung in a replay test.)
     """
     argv = list(sys.argv if args is None else args)
-    _parse_cli(remove_ros_args(argv))
-    logger = rclpy.logging.get_logger(NODE_NAME)
+    logger = get_logger(NODE_NAME)
     try:
         _check_ros_arguments(argv)
+        non_ros = remove_ros_args(argv)
     except ConfigError as exc:
         logger.error(f'cannot start: {exc}')
         return 1
+    except Exception as exc:  # rcl's argument errors (RCLInvalidROSArgsError, ...)
+        logger.error(f'cannot start: invalid ROS arguments: {_first_line(exc)}')
+        return 1
+    _parse_cli(non_ros)
     stop = threading.Event()
     previous = {}
     if threading.current_thread() is threading.main_thread():
@@ -680,7 +690,7 @@ def main(args: Sequence[str] | None = None) -> int:
         try:
             rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
         except Exception as exc:  # rcl's argument errors (RCLError, ROSArgsError, ...)
-            logger.error(f'cannot start: invalid ROS arguments: {str(exc).splitlines()[0]}')
+            logger.error(f'cannot start: invalid ROS arguments: {_first_line(exc)}')
             return 1
         node = SelectorNode()
         executor = SingleThreadedExecutor()
