@@ -10,14 +10,10 @@ import pytest
 pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
+from node_harness import as_sequence, double_model_file, harnesses, play, ros_context
 from rcl_interfaces.srv import DescribeParameters
 from rclpy.parameter import Parameter
 from ros_helpers import DOMAIN_ID
-from test_integration_node import (  # noqa: F401 - fixtures
-    _double_model_file,
-    context,
-    harness_factory,
-)
 from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
@@ -28,10 +24,20 @@ from initsel_ros.selector import Selector
 READ_ONLY = ('model_file', 'max_features', 'image_transport', 'use_camera_info')
 
 
+@pytest.fixture(scope='module')
+def context():
+    yield from ros_context()
+
+
+@pytest.fixture
+def harness_factory(context):
+    yield from harnesses(context)
+
+
 @pytest.fixture
 def node(harness_factory, tmp_path):
     """A running node whose test-double models give p = 0.01 (E), so nothing fires."""
-    return harness_factory(model_file=_double_model_file(tmp_path))
+    return harness_factory(model_file=double_model_file(tmp_path))
 
 
 @pytest.mark.parametrize(('name', 'value', 'reason'), [
@@ -114,8 +120,6 @@ def test_valid_changes_apply_to_the_running_selector_from_the_next_frame(node):
 
 
 def test_publishing_settings_are_live(harness_factory, near_sequence):
-    from test_integration_node import as_sequence, play
-
     h = harness_factory()
     assert h.set_parameters(reference_frame_id='slam_map_optical')[0].successful
     statuses = play(h, as_sequence(near_sequence), until_initialized=True)
@@ -157,7 +161,7 @@ def test_bad_start_up_values_are_refused(context, tmp_path, override, match):
 
     with pytest.raises(ConfigError, match=match):
         SelectorNode(context=context, namespace='/badstart', cli_args=[
-            '--ros-args', '-p', override, '-p', f'model_file:={_double_model_file(tmp_path)}'])
+            '--ros-args', '-p', override, '-p', f'model_file:={double_model_file(tmp_path)}'])
 
 
 def _main_error(argv: list[str], monkeypatch, capfd) -> tuple[int, str]:
@@ -183,7 +187,7 @@ def test_a_yaml_syntax_error_in_the_params_file_is_one_line_and_exit_1(
 def test_a_nan_in_the_params_file_is_one_line_and_exit_1(tmp_path, monkeypatch, capfd):
     params = tmp_path / 'nan.yaml'
     params.write_text(f'/**/selector:\n  ros__parameters:\n    min_parallax_deg: .nan\n'
-                      f'    model_file: {_double_model_file(tmp_path)}\n')
+                      f'    model_file: {double_model_file(tmp_path)}\n')
     code, err = _main_error(['--ros-args', '--params-file', str(params)], monkeypatch, capfd)
     assert code == 1 and 'Traceback' not in err
     assert 'cannot start: min_parallax_deg must be a finite number in [0, 90], got nan' in err

@@ -1,6 +1,5 @@
 """The node on real-world streams: exact Unix stamps, odd stamps, compressed and 16-bit images,
-changing and guessed intrinsics, bad distortion vectors. In-process, as in
-test_integration_node.py (its harness)."""
+changing and guessed intrinsics, bad distortion vectors. In-process (node_harness.py)."""
 
 from __future__ import annotations
 
@@ -13,15 +12,9 @@ pytest.importorskip('sensor_msgs.msg')
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
+from node_harness import as_sequence, double_model_file, harnesses, play, ros_context
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
-from test_integration_node import (  # noqa: F401 - fixtures
-    _double_model_file,
-    as_sequence,
-    context,
-    harness_factory,
-    play,
-)
 from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
@@ -33,6 +26,16 @@ from initsel_ros.ros.node import INTERNAL_ERROR, SKIPPED_IMAGE
 #: Realistic Unix stamps with odd nanoseconds: 1700000000.666666985 s, then +33333333 ns.
 UNIX_START_NS = 1_700_000_000 * 10**9 + 666_666_985
 FRAME_NS = 33_333_333
+
+
+@pytest.fixture(scope='module')
+def context():
+    yield from ros_context()
+
+
+@pytest.fixture
+def harness_factory(context):
+    yield from harnesses(context)
 
 
 def unix_stamps(n: int, start_ns: int = UNIX_START_NS) -> list[Time]:
@@ -154,7 +157,7 @@ def test_a_replay_restart_starts_a_new_reference_and_initializes_again(
 def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kind(
     harness_factory, tmp_path, capfd
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(11)
 
     def send(k: int, ns: int) -> dict:
@@ -205,7 +208,7 @@ def test_compressed_subscription_follows_the_image_remapping(context, tmp_path):
 
     node = SelectorNode(context=context, namespace='/remapped', cli_args=[
         '--ros-args', '-r', 'image_raw:=/cam7/image', '-p', 'image_transport:=compressed',
-        '-p', f'model_file:={_double_model_file(tmp_path)}'])
+        '-p', f'model_file:={double_model_file(tmp_path)}'])
     probe = rclpy.create_node('remap_probe', context=context)
     try:
         assert node._image_topic == '/cam7/image/compressed'
@@ -219,7 +222,7 @@ def test_compressed_subscription_follows_the_image_remapping(context, tmp_path):
 def test_corrupt_or_foreign_compressed_data_is_a_skipped_frame_with_a_reason(
     harness_factory, tmp_path
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path), image_transport='compressed')
+    h = harness_factory(model_file=double_model_file(tmp_path), image_transport='compressed')
     good = conv.numpy_to_compressed(texture(12), 'png')
     truncated = conv.numpy_to_compressed(texture(12), 'jpeg')
     truncated.data = bytes(truncated.data)[:300]
@@ -279,7 +282,7 @@ def test_16_bit_images_are_scaled_by_their_real_range_or_the_bit_depth_parameter
 
 
 def test_automatic_bit_depth_keeps_the_highest_bit_seen_so_far(harness_factory, tmp_path):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(13).astype(np.uint16)
     assert h.send_array(img << 4, 1.0)['bit_depth'] == 12
     dark = h.send_array((img << 4) >> 2, 1.033)  # a darker frame: still scaled as 12-bit
@@ -290,7 +293,7 @@ def test_automatic_bit_depth_keeps_the_highest_bit_seen_so_far(harness_factory, 
 def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
     harness_factory, tmp_path, capfd
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(14)
     tum = Intrinsics.tum_fr3()
     h.send_camera_info(tum)
@@ -314,7 +317,7 @@ def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
 def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
     harness_factory, tmp_path, capfd
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     small = texture(16, shape=(240, 320))
     statuses = [h.send_array(shifted(small, k, 0), 1.0 + k / 30) for k in range(3)]
     for status in statuses:
@@ -332,7 +335,7 @@ def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
 def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed(
     harness_factory, tmp_path
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path), camera__fx=500.0,
+    h = harness_factory(model_file=double_model_file(tmp_path), camera__fx=500.0,
                         camera__fy=500.0)
     status = h.send_array(texture(17, shape=(240, 320)), 1.0)
     assert status['reason'] == 'new reference' and not status['intrinsics_guessed']
@@ -342,7 +345,7 @@ def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed
 def test_camera_info_with_a_distortion_length_opencv_rejects_is_ignored(
     harness_factory, tmp_path, coefficients, capfd
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     good = Intrinsics(600.0, 600.0, 320.0, 240.0, 640, 480, (0.01, 0.0, 0.0, 0.0, 0.0))
     h.send_camera_info(good)
     img = texture(18)
@@ -361,7 +364,7 @@ def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(co
     from initsel_ros.errors import ConfigError
     from initsel_ros.ros.node import SelectorNode
 
-    with pytest.raises(ConfigError, match='camera.distortion: 3 distortion coefficients'):
+    with pytest.raises(ConfigError, match=r'camera\.distortion: 3 distortion coefficients'):
         SelectorNode(context=context, namespace='/baddist', cli_args=[
             '--ros-args', '-p', 'camera.distortion:=[0.01, 0.001, 0.0]',
-            '-p', f'model_file:={_double_model_file(tmp_path)}'])
+            '-p', f'model_file:={double_model_file(tmp_path)}'])
