@@ -139,10 +139,8 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+    from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2
     from std_msgs.msg import String
-
-    from sensor_msgs.msg import CompressedImage
 
     from initsel_ros.ros import conversions as conv
     from initsel_ros.ros.node import SelectorNode
