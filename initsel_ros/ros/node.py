@@ -105,8 +105,8 @@ WARN_THROTTLE_S = 5.0
 SPIN_SLICE_S = 0.1
 #: How to give the node real intrinsics (logged and put in ~/status when they are guessed).
 CALIBRATE_HINT = (
-    'publish a calibrated camera_info (ros2 run camera_calibration cameracalibrator, then '
-    "the driver's camera_info_url) or set camera.fx/fy/cx/cy/width/height/distortion"
+    'calibrate (ros2 run camera_calibration cameracalibrator) and publish the camera_info, '
+    'or set camera.fx/fy/cx/cy/width/height/distortion (docs/node.md, Intrinsics)'
 )
 
 
