@@ -368,3 +368,33 @@ def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(co
         SelectorNode(context=context, namespace='/baddist', cli_args=[
             '--ros-args', '-p', 'camera.distortion:=[0.01, 0.001, 0.0]',
             '-p', f'model_file:={double_model_file(tmp_path)}'])
+
+
+def test_a_failed_publication_is_never_reported_as_an_initialization(
+    harness_factory, near_sequence, monkeypatch
+):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    failures = []
+
+    def broken(msg):
+        failures.append(msg)
+        raise RuntimeError('publisher gone')
+
+    monkeypatch.setattr(h.node._pose_pub, 'publish', broken)
+    h.send_camera_info(sequence.intrinsics)
+    stamps = unix_stamps(len(sequence))
+    statuses = []
+    for i in range(len(sequence)):
+        statuses.append(h.send_array(sequence.image(i), stamps[i]))
+        if statuses[-1]['reason'] == INTERNAL_ERROR:
+            break
+    failed = statuses[-1]
+    assert failures and failed['reason'] == INTERNAL_ERROR and failed['method'] is None
+    assert not failed['initialized'] and failed['initializations'] == 0
+    assert 'publishing the initialization failed' in failed['detail']
+    monkeypatch.undo()
+    rest = [h.send_array(sequence.image(i), stamps[i])
+            for i in range(len(statuses), len(sequence))]
+    assert any(s['method'] for s in rest) and rest[-1]['initialized']
+    h.spin_until(lambda: h.pose, what='init/pose after the failure')
