@@ -91,6 +91,11 @@ def test_every_live_parameter_of_the_table_can_be_set_while_running(node):
     assert status['reason'] == 'new reference'
 
 
+def test_parameters_of_rclpy_itself_stay_settable(node):
+    [result] = node.set_parameters(use_sim_time=False)
+    assert result.successful, result.reason
+
+
 def test_valid_changes_apply_to_the_running_selector_from_the_next_frame(node):
     img = texture(22)
     assert node.send_array(img, 1.0)['reason'] == 'new reference'

@@ -53,6 +53,7 @@ from initsel_ros.ros.params import (
     CAMERA_PARAMETERS,
     NODE_NAME,
     PARAMETERS,
+    SPECS,
     ImageTransport,
     Mode,
     NodeSettings,
@@ -234,7 +235,7 @@ class SelectorNode(Node):
         rclpy has already refused read-only parameters and wrong types; this runs the start-up
         validation (:meth:`NodeSettings.from_values`) on the current values plus the changes.
         """
-        changes = {p.name: _plain(p.value) for p in parameters}
+        changes = _own(parameters)
         camera = sorted(CAMERA_PARAMETERS & changes.keys())
         if camera and self._camera_info_seen:
             return SetParametersResult(
@@ -250,7 +251,9 @@ class SelectorNode(Node):
 
     def _apply_parameters(self, parameters: list[Parameter]) -> None:
         """Post-set callback: hand the new settings to the worker (used from the next frame)."""
-        changes = {p.name: _plain(p.value) for p in parameters}
+        changes = _own(parameters)
+        if not changes:
+            return
         self._values.update(changes)
         settings = NodeSettings.from_values(self._values)
         with self._lock:
@@ -592,6 +595,11 @@ class SelectorNode(Node):
             f'{len(init.points)} points, parallax {init.parallax_deg:.1f} deg, '
             f'{init.frames_since_reference} frames since the reference'
         )
+
+
+def _own(parameters: list[Parameter]) -> dict[str, Any]:
+    """The node's own parameters among ``parameters`` (not rclpy's, e.g. use_sim_time)."""
+    return {p.name: _plain(p.value) for p in parameters if p.name in SPECS}
 
 
 def _plain(value: Any) -> Any:

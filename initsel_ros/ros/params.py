@@ -304,8 +304,8 @@ CAMERA_PARAMETERS = frozenset(name for name in SPECS if name.startswith('camera.
 class NodeSettings:
     """Validated parameter values of the node.
 
-    ``values`` holds every parameter's normalized value by name (what the node compares and
-    re-validates when a parameter changes).
+    ``values`` holds every parameter's value by name as given, defaults filled in (what the
+    node re-validates with a change when a parameter is set).
     """
 
     model_file: str
