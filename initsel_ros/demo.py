@@ -68,8 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--compressed', action='store_true',
                         help='publish JPEG sensor_msgs/CompressedImage on image_raw/compressed '
                         '(node parameter image_transport:=compressed)')
-    parser.add_argument('--jpeg-quality', type=int, default=90,
-                        help='JPEG quality with --compressed (default 90)')
+    parser.add_argument('--jpeg-quality', type=int, default=95,
+                        help='JPEG quality with --compressed (default 95)')
 
 
 def _prepare_sequence(args: argparse.Namespace, work: Path):
@@ -126,7 +126,7 @@ def run_offline(seq, models, mode: str, frames: int) -> tuple[list[InitRecord], 
 
 
 def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
-             compressed: bool = False, jpeg_quality: int = 90,
+             compressed: bool = False, jpeg_quality: int = 95,
              ) -> tuple[list[InitRecord], dict[str, int]]:
     """Play the sequence to the in-process ``selector`` node and listen to what it says.
 
