@@ -11,13 +11,16 @@ import numpy as np
 
 from initsel_ros.errors import ConfigError
 
-#: TUM RGB-D freiburg3 colour camera (no distortion), 640x480.
 #: Plausible focal lengths, as multiples of the image diagonal (fields of view of about
 #: 0.6 to 179 degrees).
 MIN_FOCAL_PER_DIAGONAL = 0.005
 MAX_FOCAL_PER_DIAGONAL = 100.0
 
+#: TUM RGB-D freiburg3 colour camera (no distortion), 640x480.
 TUM_FR3 = {'fx': 535.4, 'fy': 539.2, 'cx': 320.1, 'cy': 247.6, 'width': 640, 'height': 480}
+#: Numbers of distortion coefficients OpenCV accepts (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4
+#: [tx ty]]]]); 0 = none. Any other length makes ``cv2.undistortPoints`` fail on every frame.
+DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
 
 
 @dataclass(frozen=True)
@@ -40,6 +43,7 @@ class Intrinsics:
             raise ConfigError(f'focal lengths must be positive, got fx={self.fx} fy={self.fy}')
         if self.width <= 0 or self.height <= 0:
             raise ConfigError(f'image size must be positive, got {self.width}x{self.height}')
+        check_distortion(self.distortion)
         diagonal = math.hypot(self.width, self.height)
         for name, f in (('fx', self.fx), ('fy', self.fy)):
             if not MIN_FOCAL_PER_DIAGONAL * diagonal <= f <= MAX_FOCAL_PER_DIAGONAL * diagonal:
@@ -48,6 +52,14 @@ class Intrinsics:
                     f'(expected {MIN_FOCAL_PER_DIAGONAL:g} to {MAX_FOCAL_PER_DIAGONAL:g} '
                     'times the diagonal)'
                 )
+
+    def same_camera(self, other: Intrinsics) -> bool:
+        """True when ``other`` has the same size, K and distortion (all-zero = none)."""
+        return (
+            (self.fx, self.fy, self.cx, self.cy, self.width, self.height)
+            == (other.fx, other.fy, other.cx, other.cy, other.width, other.height)
+            and _effective(self.distortion) == _effective(other.distortion)
+        )
 
     @classmethod
     def tum_fr3(cls) -> Intrinsics:
@@ -123,3 +135,23 @@ class Intrinsics:
         if not isinstance(data, dict):
             raise ConfigError(f'{path}: expected a mapping of intrinsics')
         return cls.from_dict(data, source=str(path))
+
+
+def check_distortion(distortion: tuple[float, ...] | list[float]) -> None:
+    """Raise ConfigError unless OpenCV accepts this many coefficients (or all are zero).
+
+    All-zero vectors of any length mean "no distortion" and pass.
+    """
+    if len(distortion) not in DISTORTION_LENGTHS and any(d != 0.0 for d in distortion):
+        raise ConfigError(
+            f'{len(distortion)} distortion coefficients {list(distortion)}: OpenCV needs '
+            f'{", ".join(map(str, DISTORTION_LENGTHS[1:]))} (k1 k2 p1 p2 [k3 ...]) or none'
+        )
+
+
+def _effective(distortion: tuple[float, ...]) -> tuple[float, ...]:
+    """Distortion without trailing zeros (so (), (0, 0, 0, 0, 0) and (k1, 0, 0, 0) compare)."""
+    values = list(distortion)
+    while values and values[-1] == 0.0:
+        values.pop()
+    return tuple(values)

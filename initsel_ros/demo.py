@@ -2,8 +2,10 @@
 
 With ROS 2 available (the default), the ``selector`` node runs in this process on its own
 executor, a publisher plays the rendered frames on ``image_raw`` + ``camera_info`` at the
-recorded rate, and a listener collects ``init/*`` and the per-frame status. ``--offline``
-runs the same :class:`~initsel_ros.selector.Selector` directly, without ROS.
+recorded rate (``--compressed``: JPEG on ``image_raw/compressed``), and a listener collects
+``init/*`` and the per-frame status; frames and initializations are matched by their exact
+stamps. ``--offline`` runs the same :class:`~initsel_ros.selector.Selector` directly, without
+ROS.
 """
 
 from __future__ import annotations
@@ -63,6 +65,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='playback speed factor for the live run (1 = 30 Hz)')
     parser.add_argument('--offline', action='store_true',
                         help='run the selector directly, without ROS 2')
+    parser.add_argument('--compressed', action='store_true',
+                        help='publish JPEG sensor_msgs/CompressedImage on image_raw/compressed '
+                        '(node parameter image_transport:=compressed)')
+    parser.add_argument('--jpeg-quality', type=int, default=95,
+                        help='JPEG quality with --compressed (default 95)')
 
 
 def _prepare_sequence(args: argparse.Namespace, work: Path):
@@ -119,25 +126,35 @@ def run_offline(seq, models, mode: str, frames: int) -> tuple[list[InitRecord], 
 
 
 def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
+             compressed: bool = False, jpeg_quality: int = 95,
              ) -> tuple[list[InitRecord], dict[str, int]]:
-    """Play the sequence to the in-process ``selector`` node and listen to what it says."""
+    """Play the sequence to the in-process ``selector`` node and listen to what it says.
+
+    Args:
+        compressed: publish JPEG CompressedImages (the node takes ``image_transport``
+            ``compressed``) instead of raw rgb8 Images.
+    """
     import rclpy
     from geometry_msgs.msg import PoseStamped
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+    from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2
     from std_msgs.msg import String
 
     from initsel_ros.ros import conversions as conv
     from initsel_ros.ros.node import SelectorNode
+    from initsel_ros.ros.transport import oversize_warning
 
     context = rclpy.Context()
     rclpy.init(context=context)
     overrides = [Parameter('mode', value=mode)]
+    if compressed:
+        overrides.append(Parameter('image_transport', value='compressed'))
     if model_path is not None:
         overrides.append(Parameter('model_file', value=str(model_path)))
-    stamps = seq.stamps
+    stamps_ns = [int(ns) for ns in seq.stamps_ns]
+    index_of_ns = {ns: i for i, ns in enumerate(stamps_ns)}
     statuses: list[dict] = []
     methods: list[str] = []
     poses: list[PoseStamped] = []
@@ -170,7 +187,8 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     player.create_subscription(String, 'init/method', on_method, latched)
     player.create_subscription(PoseStamped, 'init/pose', on_pose, latched)
     player.create_subscription(PointCloud2, 'init/points', on_points, latched)
-    image_pub = player.create_publisher(Image, 'image_raw', reliable)
+    image_pub = (player.create_publisher(CompressedImage, 'image_raw/compressed', reliable)
+                 if compressed else player.create_publisher(Image, 'image_raw', reliable))
     info_pub = player.create_publisher(CameraInfo, 'camera_info', reliable)
     executor.add_node(node)
     executor.add_node(player)
@@ -183,20 +201,29 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
             time.sleep(0.05)
         start = time.monotonic()
         for i in range(n):
-            due = start + (stamps[i] - stamps[0]) / max(rate, 1e-6)
+            due = start + (stamps_ns[i] - stamps_ns[0]) * 1e-9 / max(rate, 1e-6)
             time.sleep(max(0.0, due - time.monotonic()))
-            header_stamp = conv.seconds_to_stamp(float(stamps[i]))
-            image = seq.image(i)[:, :, ::-1]  # BGR -> RGB
-            msg = conv.numpy_to_image(image, 'rgb8', stamp=header_stamp,
-                                      frame_id='camera_rgb_optical_frame')
+            header_stamp = conv.ns_to_stamp(stamps_ns[i])
+            frame_id = 'camera_rgb_optical_frame'
+            if compressed:
+                msg = conv.numpy_to_compressed(seq.image(i), 'jpeg', quality=jpeg_quality,
+                                               stamp=header_stamp, frame_id=frame_id)
+            else:
+                image = seq.image(i)[:, :, ::-1]  # BGR -> RGB
+                msg = conv.numpy_to_image(image, 'rgb8', stamp=header_stamp, frame_id=frame_id)
+            if i == 0:
+                warning = oversize_warning(len(msg.data))
+                if warning:
+                    print(f'note: this demo runs the node in its own process, but {warning}')
             info = conv.intrinsics_to_camera_info(seq.intrinsics, stamp=header_stamp,
-                                                  frame_id='camera_rgb_optical_frame')
+                                                  frame_id=frame_id)
             info_pub.publish(info)
             image_pub.publish(msg)
+        last_ns = stamps_ns[n - 1]
         deadline = time.monotonic() + 10.0
         while time.monotonic() < deadline:
             with lock:
-                if statuses and statuses[-1]['stamp'] >= stamps[n - 1] - 1e-6:
+                if statuses and _status_ns(statuses[-1]) >= last_ns:
                     break
             time.sleep(0.05)
         time.sleep(0.3)
@@ -211,17 +238,17 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
     by_stamp = {}
     for s in statuses:
         reasons[s['reason']] = reasons.get(s['reason'], 0) + 1
-        by_stamp[round(s['stamp'], 6)] = s
+        by_stamp[_status_ns(s)] = s
     dropped = max((s['dropped_frames'] for s in statuses), default=0)
     reasons['(frames received)'] = len(statuses)
     reasons['(frames dropped)'] = dropped
     records = []
     for method, pose, cloud in zip(methods, poses, clouds, strict=False):
-        stamp = conv.stamp_to_seconds(pose.header.stamp)
-        i = int(np.argmin(np.abs(stamps - stamp)))
-        status = by_stamp.get(round(stamp, 6), {})
-        # The cloud is stamped with the reference frame's time.
-        ref = int(np.argmin(np.abs(stamps - conv.stamp_to_seconds(cloud.header.stamp))))
+        # Exact stamps: the pose carries the initializing frame's, the cloud the reference's.
+        stamp_ns = conv.stamp_to_ns(pose.header.stamp)
+        i = index_of_ns[stamp_ns]
+        status = by_stamp.get(stamp_ns, {})
+        ref = index_of_ns[conv.stamp_to_ns(cloud.header.stamp)]
         position = np.array([pose.pose.position.x, pose.pose.position.y, pose.pose.position.z])
         q = pose.pose.orientation
         R_ref_cur = conv.quaternion_to_rotation([q.x, q.y, q.z, q.w])
@@ -230,6 +257,11 @@ def run_live(seq, model_path: Path | None, mode: str, frames: int, rate: float,
         n_points = int(cloud.width) * int(cloud.height)
         records.append(judge(seq, i, ref, method, t_est, probabilities, n_points))
     return records, reasons
+
+
+def _status_ns(status: dict) -> int:
+    """A ``~/status`` entry's exact stamp, integer nanoseconds."""
+    return int(status['stamp_sec']) * 1_000_000_000 + int(status['stamp_nanosec'])
 
 
 def _report(records: list[InitRecord], reasons: dict[str, int], frames: int) -> None:
@@ -277,10 +309,12 @@ def run(args: argparse.Namespace) -> int:
                 print('rclpy is not importable: running offline (pip install -e ".[ros]")')
                 live = False
         print(f'model file: {model_path}')
+        transport = ', compressed (JPEG)' if live and args.compressed else ''
         print(f'running the selector {"live (ROS 2 node)" if live else "offline"} on '
-              f'{seq.name}: {frames} frames, mode {args.mode}')
+              f'{seq.name}: {frames} frames, mode {args.mode}{transport}')
         if live:
-            records, reasons = run_live(seq, args.models, args.mode, frames, args.rate)
+            records, reasons = run_live(seq, args.models, args.mode, frames, args.rate,
+                                        args.compressed, args.jpeg_quality)
         else:
             records, reasons = run_offline(seq, models, args.mode, frames)
         _report(records, reasons, frames)

@@ -218,9 +218,33 @@ class Selector:
         self._reference_stamp_ns: int | None = None
         self._candidate: _Candidate | None = None
 
-    def set_intrinsics(self, intrinsics: Intrinsics) -> None:
-        """Use new intrinsics from the next frame on (e.g. from CameraInfo)."""
+    def set_intrinsics(self, intrinsics: Intrinsics) -> bool:
+        """Use new intrinsics from the next frame on (e.g. from CameraInfo).
+
+        Returns:
+            True when they describe another camera (size, K or distortion) than the current
+            ones: the reference is then dropped and the next frame becomes the new one
+            (``initialized`` stays as it is).
+        """
+        changed = not intrinsics.same_camera(self.intrinsics)
         self.intrinsics = intrinsics
+        if changed:
+            self.tracker.clear()
+            self._reference_stamp_ns = None
+        return changed
+
+    def update_config(self, config: SelectorConfig) -> None:
+        """Use new settings from the next frame on (live parameter changes).
+
+        The thresholds are recomputed; the tracker is rebuilt (dropping the reference) only
+        when its own settings changed.
+        """
+        old_tracker = self.config.tracker
+        self.config = config
+        self.thresholds = effective_thresholds(self.models.thresholds, config.policy)
+        if config.tracker != old_tracker:
+            self.tracker = KltTracker(config.tracker)
+            self._reference_stamp_ns = None
 
     def reset(self) -> None:
         """Start over: the next frame becomes the reference."""

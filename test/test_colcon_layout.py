@@ -90,7 +90,7 @@ def _installed_env(install: Path) -> dict[str, str]:
     return env
 
 
-def test_colcon_installs_scripts_config_and_the_ament_marker(install_prefix):
+def test_colcon_installs_scripts_config_launch_file_and_the_ament_marker(install_prefix):
     prefix = install_prefix / 'initsel_ros'
     for script in ('selector', 'initsel-selector', 'initsel'):
         assert (prefix / 'lib' / 'initsel_ros' / script).is_file(), script
@@ -100,6 +100,8 @@ def test_colcon_installs_scripts_config_and_the_ament_marker(install_prefix):
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / 'initsel_ros'
             ).is_file()
     assert (prefix / 'share' / 'initsel_ros' / 'package.xml').is_file()
+    launch = prefix / 'share' / 'initsel_ros' / 'launch' / 'selector.launch.py'
+    assert launch.read_text() == (ROOT / 'launch' / 'selector.launch.py').read_text()
     if (ROOT / 'config' / 'models.json').is_file():
         assert (config / 'models.json').is_file()
 

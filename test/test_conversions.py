@@ -11,7 +11,7 @@ pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
 import cv2
-from sensor_msgs.msg import CameraInfo, Image, PointField
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointField
 from std_msgs.msg import Header
 
 from initsel_ros.camera import Intrinsics
@@ -242,3 +242,128 @@ def test_pure_sideways_motion_gives_position_along_minus_t():
     # Camera moved 1 m to the right (+x): points move left in its frame, t = (-1, 0, 0).
     msg = conv.make_pose_stamped(np.eye(3), np.array([-1.0, 0.0, 0.0]), Header())
     assert (msg.pose.position.x, msg.pose.position.y, msg.pose.position.z) == (1.0, 0.0, 0.0)
+
+
+# ------------------------------------------------------------------ exact stamps (integer ns)
+@pytest.mark.parametrize(('sec', 'nanosec'), [
+    (1_700_000_000, 666_666_985), (0, 0), (0, 1), (-1, 999_999_999), (-3, 876_543_211),
+    (2**31 - 1, 999_999_999), (-(2**31), 0),
+])
+def test_stamps_map_to_integer_nanoseconds_and_back_field_by_field(sec, nanosec):
+    from builtin_interfaces.msg import Time
+
+    ns = conv.stamp_to_ns(Time(sec=sec, nanosec=nanosec))
+    assert ns == sec * 10**9 + nanosec
+    back = conv.ns_to_stamp(ns)
+    assert (back.sec, back.nanosec) == (sec, nanosec)
+
+
+def test_odd_nanosecond_unix_stamps_survive_many_frames_exactly():
+    start = 1_700_000_000 * 10**9 + 666_666_985
+    for k in range(0, 100_000, 997):
+        ns = start + k * 33_333_333
+        stamp = conv.ns_to_stamp(ns)
+        assert conv.stamp_to_ns(stamp) == ns and 0 <= stamp.nanosec < 10**9
+
+
+# ------------------------------------------------------------------------------ 16-bit images
+def test_sixteen_bit_images_use_their_significant_bits():
+    ten_bit = np.array([[0, 4, 1023]], np.uint16)
+    assert conv.significant_bits(ten_bit) == 10
+    np.testing.assert_array_equal(conv.to_8bit(ten_bit), [[0, 1, 255]])
+    np.testing.assert_array_equal(conv.to_8bit(ten_bit, 12), [[0, 0, 63]])
+    np.testing.assert_array_equal(conv.to_8bit(np.array([[5000]], np.uint16), 12), [[255]])
+    np.testing.assert_array_equal(conv.to_8bit(np.array([[200]], np.uint16)), [[200]])
+    msg = conv.numpy_to_image(ten_bit, 'mono16', is_bigendian=True)
+    msg.encoding = '16UC1'
+    np.testing.assert_array_equal(conv.image_to_cv(msg), [[0, 1, 255]])
+
+
+# ------------------------------------------------------------------------ compressed images
+@pytest.mark.parametrize(('shape', 'dtype', 'fmt'), [
+    ((24, 32), np.uint8, 'jpeg'), ((24, 32, 3), np.uint8, 'jpeg'),
+    ((24, 32), np.uint8, 'png'), ((24, 32, 3), np.uint8, 'png'), ((24, 32), np.uint16, 'png'),
+])
+def test_compressed_images_decode_to_the_selector_input(shape, dtype, fmt):
+    rng = np.random.default_rng(4)
+    pixels = rng.integers(0, 4096 if dtype == np.uint16 else 256, shape).astype(dtype)
+    msg = conv.numpy_to_compressed(pixels, fmt, frame_id='cam')
+    depth = 16 if dtype == np.uint16 else 8
+    encoding = f'{"mono" if len(shape) == 2 else "bgr"}{depth}'
+    assert msg.format == f'{encoding}; {fmt} compressed {encoding}'
+    decoded = conv.compressed_to_numpy(msg)
+    assert decoded.shape == shape and decoded.dtype == dtype
+    if fmt == 'png':
+        np.testing.assert_array_equal(decoded, pixels)
+    image = conv.compressed_to_cv(msg)
+    assert image.dtype == np.uint8 and image.shape == shape
+    if dtype == np.uint16:
+        np.testing.assert_array_equal(image, conv.to_8bit(pixels))
+
+
+def test_a_png_with_alpha_loses_its_alpha_channel():
+    bgra = np.zeros((4, 6, 4), np.uint8)
+    bgra[..., 2] = 200
+    bgra[..., 3] = 17
+    msg = CompressedImage(format='png', data=cv2.imencode('.png', bgra)[1].tobytes())
+    np.testing.assert_array_equal(conv.compressed_to_cv(msg), bgra[..., :3])
+
+
+def _png_declaring(width: int, height: int) -> bytes:
+    data = bytearray(cv2.imencode('.png', np.zeros((2, 2), np.uint8))[1].tobytes())
+    data[16:20], data[20:24] = width.to_bytes(4, 'big'), height.to_bytes(4, 'big')
+    return bytes(data)
+
+
+def _jpeg_declaring(width: int, height: int) -> bytes:
+    data = bytearray(cv2.imencode('.jpg', np.zeros((8, 8), np.uint8))[1].tobytes())
+    sof = data.index(b'\xff\xc0')
+    data[sof + 5:sof + 7], data[sof + 7:sof + 9] = height.to_bytes(2, 'big'), width.to_bytes(
+        2, 'big')
+    return bytes(data)
+
+
+@pytest.mark.parametrize(('data', 'fmt', 'match'), [
+    (b'', 'jpeg', 'not JPEG or PNG'),
+    (b'GIF89a....', 'gif', 'not JPEG or PNG'),
+    (_png_declaring(100_000, 100_000), 'png', 'outside 1..'),  # a decompression bomb
+    (_png_declaring(0, 5), 'png', 'outside 1..'),
+    (_jpeg_declaring(65_535, 65_535), 'jpeg', 'outside 1..'),
+    (b'\x89PNG\r\n\x1a\n' + bytes(8), 'png', 'corrupt header'),
+    (b'\xff\xd8\xff', 'jpeg', 'corrupt header'),
+    (_png_declaring(2, 2)[:40], 'png', 'cannot decode'),
+    (b'\x89PNG\r\n\x1a\n', '16UC1; compressedDepth png', 'compressedDepth'),
+])
+def test_bad_compressed_images_raise_image_conversion_error(data, fmt, match):
+    with pytest.raises(ImageConversionError, match=match):
+        conv.compressed_to_cv(CompressedImage(format=fmt, data=data))
+
+
+def test_numpy_to_compressed_refuses_unknown_formats():
+    with pytest.raises(ImageConversionError, match="'jpeg' or 'png'"):
+        conv.numpy_to_compressed(np.zeros((4, 4), np.uint8), 'webp')
+
+
+# -------------------------------------------------------------------------------- distortion
+@pytest.mark.parametrize('n', [1, 2, 3, 6, 7, 9, 13, 15])
+def test_camera_info_with_a_distortion_length_opencv_rejects_is_a_config_error(n):
+    msg = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
+    msg.d = [0.01] * n
+    with pytest.raises(ConfigError, match=f'camera_info D has {n} distortion coefficients'):
+        conv.camera_info_to_intrinsics(msg)
+
+
+@pytest.mark.parametrize('n', [0, 4, 5, 8, 12, 14])
+def test_camera_info_with_a_distortion_length_opencv_takes_is_accepted(n):
+    msg = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
+    msg.distortion_model = 'rational_polynomial' if n > 5 else 'plumb_bob'
+    msg.d = [0.01] * n
+    assert conv.camera_info_to_intrinsics(msg).distortion == (0.01,) * n
+
+
+def test_an_all_zero_distortion_of_any_length_means_none():
+    msg = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
+    msg.d = [0.0] * 3
+    assert conv.camera_info_to_intrinsics(msg).distortion == ()
+    with pytest.raises(ConfigError, match='3 distortion coefficients'):
+        Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480, (0.1, 0.0, 0.0))

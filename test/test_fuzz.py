@@ -11,6 +11,7 @@ import os
 
 import pytest
 from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
 
 from initsel_ros.benchmarks.fuzz import (
     INTERNAL_ERROR_REASON,
@@ -114,3 +115,45 @@ def test_node_check_catches_an_internal_error(probe, monkeypatch):
 ])
 def test_node_survives_camera_info_with_absurd_finite_focal_lengths(probe, info):
     check_node_callbacks(probe, ImageCase('mono8', 1, 1, 1, 1, False, 0), info)
+
+
+def _encoded_samples() -> list[bytes]:
+    import cv2
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    gray = rng.integers(0, 256, (24, 32), dtype=np.uint8)
+    colour = rng.integers(0, 256, (24, 32, 3), dtype=np.uint8)
+    deep = rng.integers(0, 4096, (24, 32), dtype=np.uint16)
+    return [cv2.imencode(ext, img)[1].tobytes()
+            for ext, img in (('.jpg', gray), ('.jpg', colour), ('.png', colour), ('.png', deep))]
+
+
+ENCODED = _encoded_samples()
+
+
+@PROFILE
+@given(sample=st.integers(0, len(ENCODED) - 1), cut=st.integers(0, 4000),
+       flips=st.lists(st.tuples(st.integers(0, 4000), st.integers(0, 255)), max_size=6),
+       fmt=st.sampled_from(['jpeg', 'png', 'bgr8; jpeg compressed bgr8', '', 'tiff']))
+@example(sample=0, cut=0, flips=[], fmt='jpeg')
+@example(sample=1, cut=20, flips=[], fmt='jpeg')  # header only
+@example(sample=3, cut=4000, flips=[(18, 255), (19, 255)], fmt='png')  # huge declared width
+def test_compressed_decoding_returns_the_selector_input_or_raises_image_conversion_error(
+    sample, cut, flips, fmt
+):
+    import numpy as np
+    from sensor_msgs.msg import CompressedImage
+
+    from initsel_ros.errors import ImageConversionError
+    from initsel_ros.ros.conversions import compressed_to_cv
+
+    data = bytearray(ENCODED[sample][:cut])
+    for position, value in flips:
+        if position < len(data):
+            data[position] = value
+    try:
+        image = compressed_to_cv(CompressedImage(format=fmt, data=bytes(data)))
+    except ImageConversionError:
+        return
+    assert image.dtype == np.uint8 and image.ndim in (2, 3) and image.size > 0

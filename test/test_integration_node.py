@@ -7,12 +7,8 @@ accounted for.
 
 from __future__ import annotations
 
-import itertools
-import json
 import math
 import threading
-import time
-from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -20,15 +16,19 @@ import pytest
 pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
-import rclpy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
-from rclpy.executors import SingleThreadedExecutor
+from diagnostic_msgs.msg import DiagnosticStatus
+from node_harness import (
+    TIMEOUT_S,
+    as_sequence,
+    double_model_file,
+    harnesses,
+    play,
+    ros_context,
+)
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from ros_helpers import DOMAIN_ID, configure_this_process
-from sensor_msgs.msg import CameraInfo, Image, PointCloud2
-from std_msgs.msg import String
+from ros_helpers import DOMAIN_ID
+from sensor_msgs.msg import Image
 from std_srvs.srv import Trigger
 from test_tracking import shifted, texture
 
@@ -36,117 +36,17 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ModelFileError
 from initsel_ros.geometry import relative_pose, translation_chordal_error
 from initsel_ros.ros import conversions as conv
-from initsel_ros.ros.node import DIAGNOSTIC_NAME, LATCHED_QOS, SKIPPED_IMAGE, SelectorNode
-
-configure_this_process()
-TIMEOUT_S = 20.0
-_namespaces = itertools.count()
+from initsel_ros.ros.node import SKIPPED_IMAGE, SelectorNode
 
 
 @pytest.fixture(scope='module')
 def context():
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx, domain_id=DOMAIN_ID)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
-class Harness:
-    """A selector node plus a client node publishing images and recording every output."""
-
-    def __init__(self, context: rclpy.Context, **parameters: object) -> None:
-        self.namespace = f'/itest{next(_namespaces)}'
-        overrides = [Parameter(k.replace('__', '.'), value=v) for k, v in parameters.items()]
-        self.node = SelectorNode(context=context, namespace=self.namespace,
-                                 parameter_overrides=overrides)
-        self.client = rclpy.create_node('initsel_test_client', namespace=self.namespace,
-                                        context=context)
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.image_pub = self.client.create_publisher(Image, 'image_raw', reliable)
-        self.info_pub = self.client.create_publisher(CameraInfo, 'camera_info', reliable)
-        self.status: list[dict] = []
-        self.diagnostics: list[DiagnosticStatus] = []
-        self.method: list[str] = []
-        self.pose: list[PoseStamped] = []
-        self.points: list[PointCloud2] = []
-        c = self.client
-        c.create_subscription(String, 'selector/status',
-                              lambda m: self.status.append(json.loads(m.data)), reliable)
-        c.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, reliable)
-        c.create_subscription(String, 'init/method', lambda m: self.method.append(m.data),
-                              LATCHED_QOS)
-        c.create_subscription(PoseStamped, 'init/pose', self.pose.append, LATCHED_QOS)
-        c.create_subscription(PointCloud2, 'init/points', self.points.append, LATCHED_QOS)
-        self.reset_client = c.create_client(Trigger, 'selector/reset')
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.client)
-        self.spin_until(lambda: self.image_pub.get_subscription_count() > 0
-                        and self.client.count_publishers(f'{self.namespace}/selector/status'),
-                        what='discovery')
-
-    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        self.diagnostics.extend(s for s in msg.status if s.name == DIAGNOSTIC_NAME
-                                and s.hardware_id == self.node.get_fully_qualified_name())
-
-    def spin_until(self, predicate: Callable[[], bool], timeout: float = TIMEOUT_S,
-                   what: str = 'condition') -> None:
-        deadline = time.monotonic() + timeout
-        while not predicate():
-            if time.monotonic() > deadline:
-                raise AssertionError(f'timed out after {timeout} s waiting for {what}')
-            self.executor.spin_once(timeout_sec=0.05)
-
-    def send(self, msg: Image) -> dict:
-        """Publish one image and return the status it produced."""
-        count = len(self.status)
-        self.image_pub.publish(msg)
-        self.spin_until(lambda: len(self.status) > count, what='a status')
-        return self.status[-1]
-
-    def send_array(self, image: np.ndarray, stamp: float, encoding: str = 'bgr8') -> dict:
-        if image.ndim == 2 and encoding == 'bgr8':
-            encoding = 'mono8'
-        return self.send(conv.numpy_to_image(image, encoding, stamp=conv.seconds_to_stamp(stamp),
-                                             frame_id='camera_optical_frame'))
-
-    def send_camera_info(self, intrinsics: Intrinsics) -> None:
-        self.info_pub.publish(conv.intrinsics_to_camera_info(intrinsics))
-        for _ in range(5):
-            self.executor.spin_once(timeout_sec=0.02)
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        self.client.destroy_node()
+    yield from ros_context()
 
 
 @pytest.fixture
 def harness_factory(context):
-    made: list[Harness] = []
-
-    def make(**parameters: object) -> Harness:
-        h = Harness(context, **parameters)
-        made.append(h)
-        return h
-
-    yield make
-    for h in made:
-        h.close()
-
-
-def as_sequence(fixture_value):
-    """Conftest fixtures may hand out a Sequence or a path to one."""
-    if hasattr(fixture_value, 'frames'):
-        return fixture_value
-    from initsel_ros.datasets import open_sequence
-
-    return open_sequence(fixture_value)
-
-
-def play(h: Harness, sequence) -> list[dict]:
-    h.send_camera_info(sequence.intrinsics)
-    return [h.send_array(sequence.image(i), f.stamp) for i, f in enumerate(sequence.frames)]
+    yield from harnesses(context)
 
 
 # ------------------------------------------------------------------------------ with a model
@@ -201,17 +101,8 @@ def test_node_never_initializes_on_rotation_or_a_static_camera(
 
 
 # ----------------------------------------------------------------- behaviour without a model
-def _double_model_file(tmp_path):
-    """A test-double model file: constant probabilities, nothing ever fires."""
-    from test_selector import constant_models
-
-    path = tmp_path / 'constant_models.json'
-    constant_models().save(path)
-    return str(path)
-
-
 def test_status_reports_reasons_probabilities_and_diagnostics(harness_factory, tmp_path):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(1)
     first = h.send_array(img, 100.0)
     second = h.send_array(shifted(img, 2.0, 1.0), 100.033)
@@ -230,7 +121,7 @@ def test_status_reports_reasons_probabilities_and_diagnostics(harness_factory, t
 
 
 def test_reset_service_makes_the_next_frame_the_reference(harness_factory, tmp_path):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(2)
     for k in range(3):
         status = h.send_array(shifted(img, k, 0.0), 10.0 + k / 30)
@@ -260,7 +151,7 @@ def _bad_images() -> list[Image]:
 def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(
     harness_factory, tmp_path
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     *bad, good = _bad_images()
     for msg in bad:
         status = h.send(msg)
@@ -276,7 +167,7 @@ def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(
 def test_images_of_another_size_than_the_intrinsics_are_still_processed(
     harness_factory, tmp_path
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path), use_camera_info=False)
+    h = harness_factory(model_file=double_model_file(tmp_path), use_camera_info=False)
     small = texture(4, shape=(240, 320))
     assert h.send_array(small, 1.0)['reason'] == 'new reference'
     status = h.send_array(shifted(small, 1.0, 0.0), 1.033)
@@ -285,7 +176,7 @@ def test_images_of_another_size_than_the_intrinsics_are_still_processed(
 
 
 def test_invalid_camera_info_is_ignored_and_a_valid_one_is_used(harness_factory, tmp_path):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     bad = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
     bad.k = [math.nan] * 9
     h.info_pub.publish(bad)
@@ -300,7 +191,7 @@ def test_invalid_camera_info_is_ignored_and_a_valid_one_is_used(harness_factory,
 def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
     harness_factory, tmp_path
 ):
-    h = harness_factory(model_file=_double_model_file(tmp_path))
+    h = harness_factory(model_file=double_model_file(tmp_path))
     entered, release = threading.Event(), threading.Event()
     process = h.node._selector.process
 
@@ -350,7 +241,7 @@ def test_parameter_of_the_wrong_type_is_a_config_error(context):
 def test_empty_r_veto_from_a_params_file_disables_the_veto(context, tmp_path):
     params = tmp_path / 'no_veto.yaml'
     params.write_text(f'/**/selector:\n  ros__parameters:\n    r_veto: []\n'
-                      f'    model_file: {_double_model_file(tmp_path)}\n')
+                      f'    model_file: {double_model_file(tmp_path)}\n')
     node = SelectorNode(context=context, namespace='/noveto',
                         cli_args=['--ros-args', '--params-file', str(params)])
     try:

@@ -14,6 +14,7 @@ from initsel_ros.ros.params import (
     NodeSettings,
     default_params_file,
     load_params_file,
+    read_params_yaml,
 )
 
 CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'selector.yaml'
@@ -52,21 +53,83 @@ def test_settings_build_the_selector_config():
     assert settings.intrinsics.distortion == (0.1, 0.0, 0.0, 0.0, 0.0)
 
 
+NAN = float('nan')
+
+
 @pytest.mark.parametrize(
     ('values', 'match'),
     [
-        ({'mode': 'twice'}, "mode must be 'once' or 'continuous'"),
-        ({'thresholds.F': 1.5}, r'thresholds.F must be <= 1'),
+        ({'mode': 'twice'}, "mode must be one of 'once', 'continuous', got 'twice'"),
+        ({'mode': 'sometimes'}, "mode must be one of 'once', 'continuous'"),
+        ({'thresholds.F': 1.5}, r'thresholds.F must be a finite number <= 1'),
+        ({'thresholds.E': 2.0}, r'thresholds.E must be a finite number <= 1'),
+        ({'thresholds.E': NAN}, r'thresholds.E must be a finite number <= 1 .*got nan'),
         ({'r_veto': ['R']}, 'r_veto must name models among F, E, H'),
-        ({'min_tracks': 0}, 'min_tracks must be >= 1'),
+        ({'r_veto': ['X']}, r"r_veto must name models among F, E, H, got \['X'\]"),
+        ({'r_veto': 'F'}, 'r_veto must be a list'),
+        ({'min_tracks': 0}, r'min_tracks must be an integer in \[1, 10000\], got 0'),
+        ({'max_features': -5}, r'max_features must be an integer in \[1, 10000\], got -5'),
+        ({'max_features': 1_000_000_000_000}, r'max_features must be an integer in \[1, 10000\]'),
+        ({'max_features': True}, 'max_features must be an integer'),
+        ({'max_features': 40}, r'min_tracks \(50\) > max_features \(40\)'),
+        ({'min_parallax_deg': NAN}, r'min_parallax_deg must be a finite number in \[0, 90\]'),
+        ({'min_parallax_deg': -1.0}, 'min_parallax_deg must be a finite number'),
+        ({'max_frames_since_reference': 0}, 'max_frames_since_reference must be an integer'),
         ({'camera.fx': 0.0}, 'focal lengths must be positive'),
+        ({'camera.fx': -1.0}, 'focal lengths must be positive'),
+        ({'camera.cx': NAN}, 'camera.cx must be a finite number'),
+        ({'camera.width': 0}, r'camera.width must be an integer in \[1, 100000\]'),
+        ({'camera.distortion': [0.01, 0.001, 0.0]},
+         'camera.distortion: 3 distortion coefficients .* OpenCV needs 4, 5, 8, 12, 14'),
+        ({'camera.distortion': [0.1] * 6}, 'camera.distortion: 6 distortion coefficients'),
+        ({'camera.distortion': [0.1, NAN, 0.0, 0.0]}, 'camera.distortion must be finite'),
+        ({'image_transport': 'theora'}, "image_transport must be one of 'raw', 'compressed'"),
+        ({'bit_depth': 4}, r'bit_depth must be 0 \(automatic\) or an integer in \[8, 16\]'),
+        ({'bit_depth': 17}, 'bit_depth must be 0'),
+        ({'publish_tf': 1}, 'publish_tf must be true or false'),
         ({'reference_frame_id': ''}, 'reference_frame_id must not be empty'),
+        ({'model_file': 3}, 'model_file must be a string'),
         ({'no_such_thing': 1}, 'unknown selector parameters: no_such_thing'),
     ],
 )
-def test_invalid_settings_raise_config_error(values, match):
-    with pytest.raises(ConfigError, match=match):
+def test_invalid_settings_raise_one_line_config_error(values, match):
+    with pytest.raises(ConfigError, match=match) as info:
         NodeSettings.from_values(values)
+    assert '\n' not in str(info.value)
+
+
+def test_valid_distortion_lengths_and_all_zero_vectors_are_accepted():
+    for n in (4, 5, 8, 12, 14):
+        coefficients = [0.01] + [0.0] * (n - 1)
+        assert NodeSettings.from_values(
+            {'camera.distortion': coefficients}).intrinsics.distortion == tuple(coefficients)
+    for zeros in ([], [0.0] * 3, [0.0] * 5):
+        assert NodeSettings.from_values({'camera.distortion': zeros}).intrinsics.distortion == ()
+
+
+def test_every_parameter_is_either_live_or_read_only_with_its_constraints():
+    read_only = {spec.name for spec in PARAMETERS if not spec.live}
+    assert read_only == {'model_file', 'max_features', 'image_transport', 'use_camera_info'}
+    for spec in PARAMETERS:
+        assert spec.constraints, spec.name
+        spec.check(spec.name, spec.default)  # raises ConfigError if a default were invalid
+
+
+def test_default_intrinsics_are_recognized_until_camera_parameters_change():
+    assert NodeSettings.from_values({}).default_intrinsics
+    assert NodeSettings.from_values({'camera.fx': 535.4}).default_intrinsics
+    assert not NodeSettings.from_values({'camera.fx': 500.0}).default_intrinsics
+
+
+def test_yaml_syntax_error_is_one_line_with_its_position(tmp_path):
+    path = tmp_path / 'broken.yaml'
+    path.write_text('selector:\n  ros__parameters:\n    mode: [once\n    min_tracks: 5\n')
+    with pytest.raises(ConfigError, match=r'broken.yaml: YAML syntax error at line \d+, column'
+                       ) as info:
+        read_params_yaml(path)
+    assert '\n' not in str(info.value)
+    with pytest.raises(ConfigError, match='YAML syntax error'):
+        load_params_file(path)
 
 
 def test_params_file_without_selector_section_is_rejected(tmp_path):

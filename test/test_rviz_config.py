@@ -6,6 +6,8 @@ from pathlib import Path
 
 import yaml
 
+from initsel_ros.ros.params import load_params_file
+
 CONFIG = Path(__file__).resolve().parent.parent / 'config'
 
 
@@ -19,7 +21,7 @@ def _displays(tree: list[dict]) -> list[dict]:
 
 def test_rviz_layout_shows_the_node_topics_in_the_reference_frame():
     rviz = yaml.safe_load((CONFIG / 'initsel.rviz').read_text())
-    params = yaml.safe_load((CONFIG / 'selector.yaml').read_text())['selector']['ros__parameters']
+    params = load_params_file(CONFIG / 'selector.yaml')  # any node-section key
     manager = rviz['Visualization Manager']
     assert manager['Global Options']['Fixed Frame'] == params['reference_frame_id']
     topics = {

@@ -1,7 +1,8 @@
 """Conversions between ROS 2 messages and numpy, by hand (no cv_bridge, no sensor_msgs_py).
 
 Images are read with ``np.frombuffer`` honouring ``step`` (row padding) and ``is_bigendian``;
-messages are built with ``msg.data = array.tobytes()`` (assigning an ndarray is ~100x slower).
+compressed images (JPEG, PNG) are decoded with ``cv2.imdecode``; messages are built with
+``msg.data = array.tobytes()`` (assigning an ndarray is ~100x slower).
 Poses follow OpenCV's two-view convention ``x_cur = R @ x_ref + t``.
 """
 
@@ -15,10 +16,10 @@ import cv2
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, TransformStamped
-from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2, PointField
 from std_msgs.msg import Header
 
-from initsel_ros.camera import Intrinsics
+from initsel_ros.camera import Intrinsics, check_distortion
 from initsel_ros.datasets.poses import matrix_to_quaternion, quaternion_to_matrix
 from initsel_ros.errors import ConfigError, ImageConversionError
 
@@ -37,6 +38,7 @@ class EncodingInfo:
 ENCODINGS: dict[str, EncodingInfo] = {
     'mono8': EncodingInfo(1, 'uint8', None),
     'mono16': EncodingInfo(1, 'uint16', None),
+    '16UC1': EncodingInfo(1, 'uint16', None),
     'rgb8': EncodingInfo(3, 'uint8', cv2.COLOR_RGB2BGR),
     'bgr8': EncodingInfo(3, 'uint8', None),
     'rgba8': EncodingInfo(4, 'uint8', cv2.COLOR_RGBA2BGR),
@@ -47,6 +49,11 @@ ENCODINGS: dict[str, EncodingInfo] = {
     'bayer_gbrg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGR2BGR),
     'bayer_grbg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGB2BGR),
 }
+
+#: Largest compressed image decoded, pixels (its header is read first: no decompression bomb).
+MAX_DECODED_PIXELS = 1 << 26
+_PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
+_JPEG_MAGIC = b'\xff\xd8'
 
 #: Point cloud fields published on ``init/points``: all float32, little-endian, in this order.
 POINT_FIELDS: tuple[str, ...] = ('x', 'y', 'z', 'u0', 'v0', 'u1', 'v1')
@@ -129,26 +136,185 @@ def image_to_numpy(msg: Image) -> np.ndarray:
     return pixels.reshape(height, width, info.channels)
 
 
-def image_to_cv(msg: Image) -> np.ndarray:
+def significant_bits(pixels: np.ndarray) -> int:
+    """Bits a 16-bit image uses: those of its largest value, at least 8 (0 when empty)."""
+    if pixels.size == 0:
+        return 0
+    return max(8, int(pixels.max()).bit_length())
+
+
+def to_8bit(pixels: np.ndarray, bits: int = 0) -> np.ndarray:
+    """A uint16 image whose values use ``bits`` bits, as uint8 (``bits - 8`` low bits dropped).
+
+    Args:
+        pixels: uint16 array, any shape.
+        bits: significant bits, 8 to 16 (values above ``2**bits - 1`` saturate); 0 = this
+            image's own :func:`significant_bits`.
+    """
+    bits = bits or significant_bits(pixels)
+    shift = min(max(int(bits), 8), 16) - 8
+    top = (1 << (shift + 8)) - 1
+    if top < 0xFFFF:
+        pixels = np.minimum(pixels, top)
+    return (pixels >> shift).astype(np.uint8)
+
+
+def image_to_cv(msg: Image, bit_depth: int = 0) -> np.ndarray:
     """An Image message as the selector's input: (H, W) uint8 gray or (H, W, 3) uint8 BGR.
 
-    Colour and Bayer encodings become BGR; mono16 keeps its 8 high bits (value >> 8).
+    Colour and Bayer encodings become BGR; mono16 and 16UC1 are scaled by their real range
+    (:func:`to_8bit`: a 12-bit camera's 0..4095 becomes 0..255).
+
+    Args:
+        msg: the image.
+        bit_depth: significant bits of 16-bit images (8-16); 0 = from this image's data.
 
     Raises:
         ImageConversionError: as :func:`image_to_numpy`.
     """
     pixels = image_to_numpy(msg)
-    info = ENCODINGS[msg.encoding]
+    return pixels_to_cv(pixels, msg.encoding, bit_depth)
+
+
+def pixels_to_cv(pixels: np.ndarray, encoding: str, bit_depth: int = 0) -> np.ndarray:
+    """:func:`image_to_numpy` output in ``encoding`` -> (H, W) uint8 or (H, W, 3) uint8 BGR.
+
+    Raises:
+        ImageConversionError: when the colour conversion fails.
+    """
     if pixels.dtype == np.uint16:
-        return (pixels >> 8).astype(np.uint8)
+        return to_8bit(pixels, bit_depth)
+    info = ENCODINGS[encoding]
     if info.to_bgr is not None:
         try:
             return cv2.cvtColor(np.ascontiguousarray(pixels), info.to_bgr)
         except cv2.error as exc:
             raise ImageConversionError(
-                f'{msg.encoding} image {msg.width}x{msg.height}: cannot convert to BGR: {exc}'
+                f'{encoding} image {pixels.shape[1]}x{pixels.shape[0]}: cannot convert to BGR: '
+                f'{exc}'
             ) from exc
     return pixels
+
+
+# -------------------------------------------------------------------------- compressed images
+def compressed_to_numpy(msg: CompressedImage) -> np.ndarray:
+    """Decode a JPEG or PNG ``sensor_msgs/CompressedImage`` (``cv2.imdecode``).
+
+    Returns:
+        (H, W) grey or (H, W, 3) BGR, uint8, or uint16 for 16-bit PNGs (alpha dropped).
+
+    Raises:
+        ImageConversionError: empty data, not JPEG/PNG (``compressedDepth`` included), larger
+            than :data:`MAX_DECODED_PIXELS`, or corrupt.
+    """
+    fmt = str(msg.format)
+    data = np.frombuffer(msg.data, dtype=np.uint8)
+    what = f'compressed image (format {fmt!r}, {data.size} bytes)'
+    if 'compresseddepth' in fmt.lower().replace(' ', ''):
+        raise ImageConversionError(f'{what}: compressedDepth is a depth image, not a camera image')
+    head = bytes(data[:64])
+    if head.startswith(_PNG_MAGIC):
+        size = _png_size(head)
+    elif head.startswith(_JPEG_MAGIC):
+        size = _jpeg_size(data)
+    else:
+        raise ImageConversionError(f'{what}: not JPEG or PNG data')
+    if size is None:
+        raise ImageConversionError(f'{what}: corrupt header')
+    width, height = size
+    if width * height > MAX_DECODED_PIXELS or width == 0 or height == 0:
+        raise ImageConversionError(
+            f'{what}: {width}x{height} is outside 1..{MAX_DECODED_PIXELS} pixels'
+        )
+    try:
+        image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:
+        raise ImageConversionError(f'{what}: cannot decode: {exc}') from exc
+    if image is None or image.size == 0:
+        raise ImageConversionError(f'{what}: cannot decode (corrupt data?)')
+    if image.ndim == 3 and image.shape[2] == 4:
+        image = image[:, :, :3]
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[:, :, 0]
+    if image.dtype not in (np.uint8, np.uint16) or image.ndim not in (2, 3):
+        raise ImageConversionError(f'{what}: decoded to unsupported {image.dtype} {image.shape}')
+    return np.ascontiguousarray(image)
+
+
+def compressed_to_cv(msg: CompressedImage, bit_depth: int = 0) -> np.ndarray:
+    """A CompressedImage as the selector's input (uint8 grey or BGR; 16-bit PNG scaled).
+
+    Raises:
+        ImageConversionError: as :func:`compressed_to_numpy`.
+    """
+    pixels = compressed_to_numpy(msg)
+    return to_8bit(pixels, bit_depth) if pixels.dtype == np.uint16 else pixels
+
+
+def numpy_to_compressed(
+    pixels: np.ndarray,
+    fmt: str = 'jpeg',
+    *,
+    quality: int = 95,
+    stamp: Time | None = None,
+    frame_id: str = '',
+) -> CompressedImage:
+    """Encode (H, W) grey or (H, W, 3) BGR pixels (uint8; uint16 for PNG) as a CompressedImage.
+
+    ``format`` follows image_transport's convention, e.g. ``'bgr8; jpeg compressed bgr8'``.
+
+    Raises:
+        ImageConversionError: unknown ``fmt`` or pixels OpenCV cannot encode that way.
+    """
+    pixels = np.asarray(pixels)
+    if fmt not in ('jpeg', 'png'):
+        raise ImageConversionError(f"compressed format must be 'jpeg' or 'png', got {fmt!r}")
+    depth = 16 if pixels.dtype == np.uint16 else 8
+    encoding = f'{"mono" if pixels.ndim == 2 else "bgr"}{depth}'
+    params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if fmt == 'jpeg' else []
+    try:
+        ok, buffer = cv2.imencode(f'.{"jpg" if fmt == "jpeg" else "png"}', pixels, params)
+    except cv2.error as exc:
+        raise ImageConversionError(f'cannot encode {encoding} as {fmt}: {exc}') from exc
+    if not ok:
+        raise ImageConversionError(f'cannot encode {encoding} as {fmt}')
+    msg = CompressedImage()
+    msg.header = Header(stamp=stamp or Time(), frame_id=frame_id)
+    msg.format = f'{encoding}; {fmt} compressed {encoding}'
+    msg.data = buffer.tobytes()
+    return msg
+
+
+def _png_size(head: bytes) -> tuple[int, int] | None:
+    """(width, height) from a PNG's IHDR chunk, or None."""
+    if len(head) < 24 or head[12:16] != b'IHDR':
+        return None
+    return int.from_bytes(head[16:20], 'big'), int.from_bytes(head[20:24], 'big')
+
+
+def _jpeg_size(data: np.ndarray) -> tuple[int, int] | None:
+    """(width, height) from a JPEG's first start-of-frame marker, or None."""
+    buf = memoryview(np.ascontiguousarray(data))
+    i = 2
+    while i + 9 <= len(buf):
+        if buf[i] != 0xFF:
+            return None
+        marker = buf[i + 1]
+        if marker == 0xFF:  # fill byte
+            i += 1
+            continue
+        if marker in (0x01, *range(0xD0, 0xD8)):  # markers without a length
+            i += 2
+            continue
+        length = int.from_bytes(buf[i + 2:i + 4], 'big')
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            height = int.from_bytes(buf[i + 5:i + 7], 'big')
+            width = int.from_bytes(buf[i + 7:i + 9], 'big')
+            return width, height
+        if length < 2:
+            return None
+        i += 2 + length
+    return None
 
 
 def numpy_to_image(
@@ -218,8 +384,9 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
 
     Raises:
         ConfigError: K not finite, not of the form [fx 0 cx; 0 fy cy; 0 0 1], with focal
-            lengths implausible for the image size, zero image size, or an unsupported
-            distortion model with non-zero coefficients.
+            lengths implausible for the image size, zero image size, a D of a length OpenCV
+            does not take (4, 5, 8, 12, 14; all-zero D of any length = none), or an
+            unsupported distortion model with non-zero coefficients.
     """
     K = np.asarray(msg.k, dtype=float).reshape(3, 3)
     if (not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0
@@ -229,6 +396,10 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
     distortion = tuple(float(d) for d in msg.d)
     if not all(math.isfinite(d) for d in distortion):
         raise ConfigError(f'camera_info has non-finite distortion {list(distortion)}')
+    try:
+        check_distortion(distortion)
+    except ConfigError as exc:
+        raise ConfigError(f'camera_info D has {exc}') from exc
     if not any(distortion):
         distortion = ()
     elif msg.distortion_model not in ('plumb_bob', 'rational_polynomial', ''):
@@ -393,16 +564,24 @@ __all__ = [
     'EncodingInfo',
     'camera_info_to_intrinsics',
     'camera_pose_in_reference',
+    'compressed_to_cv',
+    'compressed_to_numpy',
     'image_to_cv',
     'image_to_numpy',
     'intrinsics_to_camera_info',
     'make_point_cloud',
     'make_pose_stamped',
     'make_transform',
+    'ns_to_stamp',
+    'numpy_to_compressed',
     'numpy_to_image',
+    'pixels_to_cv',
     'point_cloud_to_array',
     'quaternion_to_rotation',
     'rotation_to_quaternion',
     'seconds_to_stamp',
+    'significant_bits',
+    'stamp_to_ns',
     'stamp_to_seconds',
+    'to_8bit',
 ]

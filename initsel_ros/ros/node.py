@@ -1,8 +1,11 @@
 """The ``selector`` node: decides, live from a camera stream, when and how to initialize.
 
-Subscribes ``image_raw`` (and ``camera_info``), runs :class:`initsel_ros.selector.Selector` on
-the newest frame and publishes ``init/method``, ``init/pose``, ``init/points`` (latched) when it
-initializes, plus a status on ``/diagnostics`` and ``~/status`` for every frame. See
+Subscribes ``image_raw`` (or ``image_raw/compressed``) and ``camera_info``, runs
+:class:`initsel_ros.selector.Selector` on the newest frame and publishes ``init/method``,
+``init/pose``, ``init/points`` (latched) when it initializes, plus a status on ``/diagnostics``
+and ``~/status`` for every frame. Every message about a frame carries that frame's
+``builtin_interfaces/Time`` unchanged (integer nanoseconds inside, never float seconds).
+Parameters are validated at start-up and, for the live ones, applied while it runs. See
 docs/node.md for topics, parameters and QoS.
 """
 
@@ -10,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import signal
 import sys
 import threading
@@ -19,13 +21,16 @@ from typing import Any
 
 import numpy as np
 import rclpy
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.logging import get_logger
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import (
     DurabilityPolicy,
     HistoryPolicy,
@@ -34,7 +39,7 @@ from rclpy.qos import (
 )
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
-from sensor_msgs.msg import CameraInfo, Image, PointCloud2
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2
 from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
@@ -44,8 +49,18 @@ from initsel_ros.models import ModelSet
 from initsel_ros.overlay import draw_selector_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
-from initsel_ros.ros.params import NODE_NAME, PARAMETERS, Mode, NodeSettings
+from initsel_ros.ros.params import (
+    CAMERA_PARAMETERS,
+    NODE_NAME,
+    PARAMETERS,
+    SPECS,
+    ImageTransport,
+    Mode,
+    NodeSettings,
+    read_params_yaml,
+)
 from initsel_ros.selector import FrameResult, Initialization, Selector
+from initsel_ros.stamps import CONSEQUENCES, StampIssue, StampMonitor
 
 try:  # tf2_msgs is not among the PyPI ROS wheels; /tf is broadcast only when it is installed
     from tf2_msgs.msg import TFMessage
@@ -58,7 +73,10 @@ DIAGNOSTIC_NAME = 'initsel_ros: selector'
 SKIPPED_IMAGE = 'image skipped'
 INTERNAL_ERROR = 'internal error'
 #: Reasons reported with level WARN (everything else is OK).
-WARN_REASONS = frozenset({Reason.TOO_FEW_TRACKS.value, Reason.POSE_FAILED.value, SKIPPED_IMAGE})
+WARN_REASONS = frozenset({Reason.TOO_FEW_TRACKS.value, Reason.POSE_FAILED.value, SKIPPED_IMAGE,
+                          INTERNAL_ERROR})
+#: Suffix of the compressed image topic (image_transport's convention).
+COMPRESSED_SUFFIX = '/compressed'
 
 #: Images: best effort (accepts best-effort and reliable publishers), newest two only.
 IMAGE_QOS = QoSProfile(
@@ -83,11 +101,14 @@ TF_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-#: A stamp this far (seconds) before the previous one is a restart (bag loop): start over.
-TIME_JUMP_BACK_S = 1.0
 WARN_THROTTLE_S = 5.0
 #: The executor's wait slice in main(), seconds: how soon a stop signal is seen.
 SPIN_SLICE_S = 0.1
+#: How to give the node real intrinsics (logged and put in ~/status when they are guessed).
+CALIBRATE_HINT = (
+    'calibrate (ros2 run camera_calibration cameracalibrator) and publish the camera_info, '
+    'or set camera.fx/fy/cx/cy/width/height/distortion (docs/node.md, Intrinsics)'
+)
 
 
 class SelectorNode(Node):
@@ -105,19 +126,28 @@ class SelectorNode(Node):
         models = ModelSet.load(model_path)
         self._selector = Selector(models, self._settings.intrinsics,
                                   self._settings.selector_config())
-        self._intrinsics_source = 'parameters'
+        # The parameters' current values (the parameter callbacks' own copy; the worker uses
+        # self._settings, replaced between frames).
+        self._values = dict(self._settings.values)
+        self._intrinsics_source = 'parameters'  # or 'camera_info'
+        self._info_intrinsics: Intrinsics | None = None  # from the last valid camera_info
+        self._camera_info_seen = False  # read by the parameter callback (camera.* live until)
 
-        # State shared between the subscription callbacks and the worker.
+        # State shared between the callbacks and the worker.
         self._lock = threading.Lock()
-        self._pending: Image | None = None
+        self._pending: Image | CompressedImage | None = None
         self._pending_intrinsics: Intrinsics | None = None
+        self._pending_settings: NodeSettings | None = None
         self._reset_requested = False
         self._received = 0
         self._dropped = 0
         self._skipped = 0
         # Worker-only state.
-        self._last_stamp = -math.inf
+        self._stamps = StampMonitor()
         self._initializations = 0
+        self._auto_bits = 0  # bit_depth 0: the most significant bits seen so far
+        self._intrinsics_warning = ''
+        self._guess_logged = False
 
         self._method_pub = self.create_publisher(String, 'init/method', LATCHED_QOS)
         self._pose_pub = self.create_publisher(PoseStamped, 'init/pose', LATCHED_QOS)
@@ -127,8 +157,7 @@ class SelectorNode(Node):
         # Drawn only while someone subscribes, after the decision has been published.
         self._debug_pub = self.create_publisher(Image, '~/debug_image', DEBUG_QOS)
         self._tf_pub = None
-        if self._settings.publish_tf and TFMessage is not None:
-            self._tf_pub = self.create_publisher(TFMessage, '/tf', TF_QOS)
+        self._tf_publisher()
 
         # Callbacks only store data; a worker thread of the node's own processes the newest
         # frame, so frames keep arriving (and being counted) while one is processed. (A guard
@@ -140,8 +169,15 @@ class SelectorNode(Node):
         self._worker = threading.Thread(
             target=self._run_worker, name='initsel-selector-worker', daemon=True
         )
+        if self._settings.image_transport is ImageTransport.COMPRESSED:
+            self._image_topic = self.resolve_topic_name('image_raw') + COMPRESSED_SUFFIX
+            image_type: type = CompressedImage
+        else:
+            self._image_topic = self.resolve_topic_name('image_raw')
+            image_type = Image
         self.create_subscription(
-            Image, 'image_raw', self._on_image, IMAGE_QOS, callback_group=self._input_group
+            image_type, self._image_topic, self._on_image, IMAGE_QOS,
+            callback_group=self._input_group,
         )
         if self._settings.use_camera_info:
             self.create_subscription(
@@ -151,9 +187,12 @@ class SelectorNode(Node):
         self.create_service(
             Trigger, '~/reset', self._on_reset, callback_group=self._input_group
         )
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
         thresholds = self._selector.thresholds
         self.get_logger().info(
-            f'ready: model file {model_path}, thresholds '
+            f'ready: model file {model_path}, {image_type.__name__} on {self._image_topic}, '
+            'thresholds '
             + ' '.join(f'{m}={thresholds[m]:.2f}' for m in sorted(thresholds))
             + f', R veto {sorted(self._settings.r_veto)}, mode {self._settings.mode.value}, '
             f'intrinsics from {"camera_info, else " if self._settings.use_camera_info else ""}'
@@ -163,19 +202,24 @@ class SelectorNode(Node):
         )
         self._worker.start()
 
+    # ---------------------------------------------------------------------------- parameters
     def _declare_parameters(self) -> dict[str, Any]:
         """Declare every parameter of :data:`PARAMETERS`; their values by name.
+
+        Live parameters can be set while the node runs; the others are read-only.
 
         Raises:
             ConfigError: a value of the wrong type (e.g. ``-p max_features:=many``).
         """
         values: dict[str, Any] = {}
         for spec in PARAMETERS:
+            descriptor = ParameterDescriptor(
+                description=spec.description + ('' if spec.live else ' (read-only: restart)'),
+                additional_constraints=spec.constraints, read_only=not spec.live,
+            )
             try:
-                self.declare_parameter(
-                    spec.name, spec.default, ParameterDescriptor(description=spec.description)
-                )
-                values[spec.name] = self.get_parameter(spec.name).value
+                self.declare_parameter(spec.name, spec.default, descriptor)
+                values[spec.name] = _plain(self.get_parameter(spec.name).value)
             except ParameterUninitializedException:
                 # An empty list ('r_veto: []') has no type, so ROS leaves it unset.
                 values[spec.name] = []
@@ -185,8 +229,60 @@ class SelectorNode(Node):
                 ) from exc
         return values
 
+    def _validate_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        """On-set callback: accept a change only when the whole new set is valid.
+
+        rclpy has already refused read-only parameters and wrong types; this runs the start-up
+        validation (:meth:`NodeSettings.from_values`) on the current values plus the changes.
+        """
+        changes = _own(parameters)
+        camera = sorted(CAMERA_PARAMETERS & changes.keys())
+        if camera and self._camera_info_seen:
+            return SetParametersResult(
+                successful=False,
+                reason=f'{", ".join(camera)}: the intrinsics come from camera_info now; '
+                'camera.* apply only until the first camera_info arrives',
+            )
+        try:
+            NodeSettings.from_values({**self._values, **changes})
+        except ConfigError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters: list[Parameter]) -> None:
+        """Post-set callback: hand the new settings to the worker (used from the next frame)."""
+        changes = _own(parameters)
+        if not changes:
+            return
+        self._values.update(changes)
+        settings = NodeSettings.from_values(self._values)
+        with self._lock:
+            self._pending_settings = settings
+        self._wakeup.set()
+        self.get_logger().info(
+            'parameters set (from the next frame on): '
+            + ', '.join(f'{name}={value!r}' for name, value in sorted(changes.items()))
+        )
+
+    def _apply_settings(self, settings: NodeSettings) -> None:
+        """Worker: use validated live settings from this frame on."""
+        previous, self._settings = self._settings, settings
+        self._selector.update_config(settings.selector_config())
+        if (self._intrinsics_source == 'parameters'
+                and not settings.intrinsics.same_camera(previous.intrinsics)):
+            self.get_logger().info(
+                f'camera.* changed the intrinsics to {settings.intrinsics}: new reference'
+            )
+        self._tf_publisher()
+
+    def _tf_publisher(self) -> Any:
+        """The /tf publisher, created on first need; None when off or tf2_msgs is missing."""
+        if self._tf_pub is None and self._settings.publish_tf and TFMessage is not None:
+            self._tf_pub = self.create_publisher(TFMessage, '/tf', TF_QOS)
+        return self._tf_pub if self._settings.publish_tf else None
+
     # ----------------------------------------------------------------------------- callbacks
-    def _on_image(self, msg: Image) -> None:
+    def _on_image(self, msg: Image | CompressedImage) -> None:
         """Keep only the newest frame; an overwritten, unprocessed frame counts as dropped."""
         with self._lock:
             self._received += 1
@@ -206,6 +302,7 @@ class SelectorNode(Node):
             return
         with self._lock:
             self._pending_intrinsics = intrinsics
+        self._camera_info_seen = True
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -245,31 +342,45 @@ class SelectorNode(Node):
             with self._lock:
                 msg, self._pending = self._pending, None
                 intrinsics, self._pending_intrinsics = self._pending_intrinsics, None
+                settings, self._pending_settings = self._pending_settings, None
                 reset, self._reset_requested = self._reset_requested, False
                 dropped = self._dropped
+            if settings is not None:
+                self._apply_settings(settings)
             if reset:
                 self._selector.reset()
-                self._last_stamp = -math.inf
-            if intrinsics is not None and intrinsics != self._selector.intrinsics:
-                if self._intrinsics_source != 'camera_info':
-                    self.get_logger().info(f'intrinsics from camera_info: {intrinsics}')
-                self._intrinsics_source = 'camera_info'
-                self._selector.set_intrinsics(intrinsics)
+                self._stamps.forget_last()
+            if intrinsics is not None:
+                self._use_camera_info(intrinsics)
             if msg is None:
                 return
             self._process(msg, dropped)
 
-    def _process(self, msg: Image, dropped: int) -> None:
-        stamp = conv.stamp_to_seconds(msg.header.stamp)
-        stamp_ns = conv.stamp_to_ns(msg.header.stamp)
+    def _use_camera_info(self, intrinsics: Intrinsics) -> None:
+        """Worker: intrinsics of a valid camera_info (another camera starts a new reference)."""
+        if self._intrinsics_source != 'camera_info' or self._info_intrinsics is None:
+            self.get_logger().info(f'intrinsics from camera_info: {intrinsics}')
+        elif not intrinsics.same_camera(self._info_intrinsics):
+            self.get_logger().info(
+                f'camera_info changed the intrinsics from {self._info_intrinsics} to '
+                f'{intrinsics}: new reference'
+            )
+        self._intrinsics_source = 'camera_info'
+        self._info_intrinsics = intrinsics
+
+    def _base_intrinsics(self) -> Intrinsics:
+        """The intrinsics as given (camera_info or camera.*), before fitting the image size."""
+        if self._intrinsics_source == 'camera_info' and self._info_intrinsics is not None:
+            return self._info_intrinsics
+        return self._settings.intrinsics
+
+    def _process(self, msg: Image | CompressedImage, dropped: int) -> None:
+        stamp = msg.header.stamp
+        stamp_ns = conv.stamp_to_ns(stamp)
         try:
-            image = conv.image_to_cv(msg)
-            self._match_image_size(image.shape[1], image.shape[0])
-            if stamp < self._last_stamp - TIME_JUMP_BACK_S:
-                self.get_logger().info(
-                    f'time jumped back {self._last_stamp - stamp:.1f} s (bag loop?): start over'
-                )
-                self._selector.reset()
+            image = self._to_image(msg)
+            self._fit_intrinsics(image.shape[1], image.shape[0])
+            self._check_stamp(stamp, stamp_ns)
             result = self._selector.process(image, stamp_ns)
         except ImageConversionError as exc:
             self._skipped += 1
@@ -286,15 +397,100 @@ class SelectorNode(Node):
             )
             self._publish_status(stamp, None, dropped, INTERNAL_ERROR, repr(exc))
             return
-        self._last_stamp = stamp
-        self._publish_status(stamp, result, dropped, result.decision.reason.value,
-                             result.decision.detail)
+        reason, detail = result.decision.reason.value, result.decision.detail
         if result.initialization is not None:
-            self._publish_initialization(result.initialization, msg.header.frame_id)
+            try:
+                self._publish_initialization(result.initialization, stamp, msg.header.frame_id)
+            except Exception as exc:  # never claim an initialization nobody received
+                self._selector.reset()
+                self.get_logger().error(
+                    f'publishing the initialization failed: {type(exc).__name__}: {exc}; '
+                    'starting over', throttle_duration_sec=WARN_THROTTLE_S,
+                )
+                reason, detail = INTERNAL_ERROR, f'publishing the initialization failed: {exc!r}'
+                result = FrameResult(result.frame_index, result.stamp_ns,
+                                     result.reference_stamp_ns, result.decision)
+        self._publish_status(stamp, result, dropped, reason, detail)
         if self._debug_pub.get_subscription_count() > 0:
             self._publish_debug_image(image, result, msg)
 
-    def _publish_debug_image(self, image: np.ndarray, result: FrameResult, msg: Image) -> None:
+    def _to_image(self, msg: Image | CompressedImage) -> np.ndarray:
+        """The selector's input (uint8 grey or BGR); 16-bit pixels scaled by ``bit_depth``."""
+        if isinstance(msg, CompressedImage):
+            pixels = conv.compressed_to_numpy(msg)
+            encoding = ''
+        else:
+            pixels = conv.image_to_numpy(msg)
+            encoding = msg.encoding
+        if pixels.dtype == np.uint16:
+            return conv.to_8bit(pixels, self._bits(pixels))
+        return pixels if isinstance(msg, CompressedImage) else conv.pixels_to_cv(pixels, encoding)
+
+    def _bits(self, pixels: np.ndarray) -> int:
+        """Significant bits of a 16-bit frame: ``bit_depth``, or the most seen so far (0)."""
+        if self._settings.bit_depth:
+            return self._settings.bit_depth
+        bits = conv.significant_bits(pixels)
+        if bits > self._auto_bits:
+            self.get_logger().info(
+                f'16-bit images: scaling {bits} significant bits to 8 (bit_depth 0: the '
+                'highest bit set so far; set bit_depth to fix it)'
+            )
+            self._auto_bits = bits
+        return self._auto_bits
+
+    def _check_stamp(self, stamp: Time, stamp_ns: int) -> None:
+        """Log each kind of unusual stamp once; time going backwards starts a new reference."""
+        check = self._stamps.check(stamp_ns)
+        for issue in check.new:
+            detail = (f' by {check.back_ns / 1e9:.9f} s' if issue is StampIssue.BACKWARDS
+                      else '')
+            self.get_logger().warning(
+                f'{issue.value} image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){detail}: '
+                f'{CONSEQUENCES[issue]} (logged once; counted in ~/status stamp_issues)'
+            )
+        if StampIssue.BACKWARDS in check.issues:
+            self._selector.reset()
+
+    def _fit_intrinsics(self, width: int, height: int) -> None:
+        """Give the selector the intrinsics for this image size (scaled when they differ).
+
+        Scaling the untouched TUM defaults to another camera is a guess: warned once, loudly,
+        and reported in every status until real intrinsics arrive.
+        """
+        base = self._base_intrinsics()
+        wanted = base
+        self._intrinsics_warning = ''
+        if (width, height) != (base.width, base.height):
+            guessed = self._intrinsics_source == 'parameters' and self._settings.default_intrinsics
+            if guessed:
+                self._intrinsics_warning = (
+                    f'no camera_info and camera.* are the TUM fr3 defaults: the pose uses '
+                    f'guessed intrinsics (fr3 scaled from {base.width}x{base.height} to '
+                    f'{width}x{height}); {CALIBRATE_HINT}'
+                )
+                if not self._guess_logged:
+                    self._guess_logged = True
+                    self.get_logger().warning(
+                        f'GUESSED INTRINSICS: {self._intrinsics_warning}'
+                    )
+            else:
+                self.get_logger().warning(
+                    f'images are {width}x{height} but the {self._intrinsics_source} intrinsics '
+                    f'are for {base.width}x{base.height}: scaling the intrinsics',
+                    throttle_duration_sec=WARN_THROTTLE_S,
+                )
+            try:
+                wanted = base.scaled(width, height)
+            except ConfigError as exc:
+                raise ImageConversionError(
+                    f'a {width}x{height} image does not fit the intrinsics: {exc}'
+                ) from exc
+        if not wanted.same_camera(self._selector.intrinsics):
+            self._selector.set_intrinsics(wanted)
+
+    def _publish_debug_image(self, image: np.ndarray, result: FrameResult,
+                             msg: Image | CompressedImage) -> None:
         """Tracks, probabilities and the reason drawn on the frame (see overlay.py)."""
         try:
             debug = draw_selector_overlay(image, self._selector, result)
@@ -307,31 +503,21 @@ class SelectorNode(Node):
                 throttle_duration_sec=WARN_THROTTLE_S,
             )
 
-    def _match_image_size(self, width: int, height: int) -> None:
-        """Rescale the intrinsics when the images are not the size they describe."""
-        current = self._selector.intrinsics
-        if (width, height) == (current.width, current.height):
-            return
-        self.get_logger().warning(
-            f'images are {width}x{height} but the {self._intrinsics_source} intrinsics are for '
-            f'{current.width}x{current.height}: scaling the intrinsics',
-            throttle_duration_sec=WARN_THROTTLE_S,
-        )
-        try:
-            self._selector.set_intrinsics(current.scaled(width, height))
-        except ConfigError as exc:
-            raise ImageConversionError(
-                f'a {width}x{height} image does not fit the intrinsics: {exc}'
-            ) from exc
-
     # ---------------------------------------------------------------------------- publishing
     def _publish_status(
-        self, stamp: float, result: FrameResult | None, dropped: int, reason: str, detail: str
+        self, stamp: Time, result: FrameResult | None, dropped: int, reason: str, detail: str
     ) -> None:
+        """``~/status`` (JSON) and ``/diagnostics`` for one frame, stamped with its stamp."""
         decision = result.decision if result is not None else None
         probabilities = dict(decision.probabilities) if decision is not None else {}
+        reference_ns = result.reference_stamp_ns if result is not None else None
+        reference = conv.ns_to_stamp(reference_ns) if reference_ns is not None else None
         status = {
-            'stamp': stamp,
+            'stamp': conv.stamp_to_seconds(stamp),  # for humans; exact: stamp_sec/_nanosec
+            'stamp_sec': int(stamp.sec),
+            'stamp_nanosec': int(stamp.nanosec),
+            'reference_stamp_sec': int(reference.sec) if reference else None,
+            'reference_stamp_nanosec': int(reference.nanosec) if reference else None,
             'frame_index': result.frame_index if result is not None else None,
             'reason': reason,
             'detail': detail,
@@ -346,16 +532,21 @@ class SelectorNode(Node):
             'method': (result.initialization.method.value
                        if result is not None and result.initialization is not None else None),
             'initialized': bool(self._selector.initialized),
-            'initializations': self._initializations
-            + int(result is not None and result.initialization is not None),
+            'initializations': self._initializations,
             'received_frames': self._received,
             'dropped_frames': dropped,
             'skipped_frames': self._skipped,
+            'intrinsics_source': self._intrinsics_source,
+            'intrinsics_guessed': bool(self._intrinsics_warning),
+            'intrinsics_warning': self._intrinsics_warning,
+            'bit_depth': self._settings.bit_depth or self._auto_bits or None,
+            'stamp_issues': dict(self._stamps.counts),
         }
         self._status_pub.publish(String(data=json.dumps(status)))
 
         diag = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if reason in WARN_REASONS else DiagnosticStatus.OK,
+            level=DiagnosticStatus.WARN if reason in WARN_REASONS or self._intrinsics_warning
+            else DiagnosticStatus.OK,
             name=DIAGNOSTIC_NAME, message=reason, hardware_id=self.get_fully_qualified_name(),
         )
         values = {
@@ -365,27 +556,34 @@ class SelectorNode(Node):
             'frames_since_reference': str(status['frames_since_reference']),
             'dropped_frames': str(dropped),
             'reason': reason if not detail else f'{reason}: {detail}',
+            'intrinsics': (f'guessed: {self._intrinsics_warning}' if self._intrinsics_warning
+                           else self._intrinsics_source),
         }
         diag.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         array = DiagnosticArray(status=[diag])
-        array.header.stamp = self.get_clock().now().to_msg()
+        array.header.stamp = stamp
         self._diag_pub.publish(array)
 
-    def _publish_initialization(self, init: Initialization, image_frame_id: str) -> None:
-        self._initializations += 1
+    def _publish_initialization(self, init: Initialization, stamp: Time,
+                                image_frame_id: str) -> None:
+        """init/method, init/pose (current frame's stamp), init/points (reference's), /tf."""
         frame_id = self._settings.reference_frame_id
-        current = Header(stamp=conv.ns_to_stamp(init.stamp_ns), frame_id=frame_id)
+        current_stamp = (stamp if conv.stamp_to_ns(stamp) == init.stamp_ns
+                         else conv.ns_to_stamp(init.stamp_ns))
+        current = Header(stamp=current_stamp, frame_id=frame_id)
         reference = Header(stamp=conv.ns_to_stamp(init.reference_stamp_ns), frame_id=frame_id)
+        pose = conv.make_pose_stamped(init.R, init.t, current)
+        points = conv.make_point_cloud(init.points, init.pixels_ref, init.pixels_cur, reference)
         self._method_pub.publish(String(data=init.method.value))
-        self._pose_pub.publish(conv.make_pose_stamped(init.R, init.t, current))
-        self._points_pub.publish(
-            conv.make_point_cloud(init.points, init.pixels_ref, init.pixels_cur, reference)
-        )
+        self._pose_pub.publish(pose)
+        self._points_pub.publish(points)
         child = self._settings.camera_frame_id or image_frame_id or 'camera_optical_frame'
-        if self._tf_pub is not None and child != frame_id:
-            self._tf_pub.publish(
+        tf_pub = self._tf_publisher()
+        if tf_pub is not None and child != frame_id:
+            tf_pub.publish(
                 TFMessage(transforms=[conv.make_transform(init.R, init.t, current, child)])
             )
+        self._initializations += 1
         _, position = conv.camera_pose_in_reference(init.R, init.t)
         direction = position / max(float(np.linalg.norm(position)), 1e-12)
         p = init.probabilities
@@ -399,28 +597,75 @@ class SelectorNode(Node):
         )
 
 
+def _own(parameters: list[Parameter]) -> dict[str, Any]:
+    """The node's own parameters among ``parameters`` (not rclpy's, e.g. use_sim_time)."""
+    return {p.name: _plain(p.value) for p in parameters if p.name in SPECS}
+
+
+def _plain(value: Any) -> Any:
+    """A parameter value as plain Python (array.array -> list)."""
+    if value is not None and not isinstance(value, (str, bytes, bool, int, float)):
+        try:
+            return list(value)
+        except TypeError:
+            return value
+    return value
+
+
 def _fmt(value: float | None) -> str:
     return '' if value is None else f'{value:.4f}'
 
 
 def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     """Non-ROS command-line flags (only --help); ROS arguments are removed first."""
-    lines = [f'  {s.name} (default {s.default!r}): {s.description}' for s in PARAMETERS]
+    lines = [f'  {s.name} (default {s.default!r}{"" if s.live else ", read-only"}): '
+             f'{s.description}' for s in PARAMETERS]
     parser = argparse.ArgumentParser(
         prog='selector',
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             'initsel_ros selector node: decides when and with which method (F, E, H) a '
             'monocular SLAM system initializes.\n\n'
-            'Topics: subscribes image_raw, camera_info; publishes init/method, init/pose, '
+            'Topics: subscribes image_raw (or image_raw/compressed with '
+            'image_transport:=compressed), camera_info; publishes init/method, init/pose, '
             'init/points, ~/status, /diagnostics, ~/debug_image (while subscribed; and /tf); '
             'service ~/reset.\n'
             'Usage: selector --ros-args -r image_raw:=/camera/image_raw '
-            '--params-file config/selector.yaml -p mode:=continuous'
+            '--params-file config/selector.yaml -p mode:=continuous\n'
+            'Parameters not marked read-only can be changed while it runs (ros2 param set).'
         ),
         epilog='parameters (set with -p NAME:=VALUE or --params-file):\n' + '\n'.join(lines),
     )
     return parser.parse_args(list(argv)[1:])
+
+
+def params_files(argv: Sequence[str]) -> list[str]:
+    """The ``--params-file`` arguments inside ``--ros-args`` sections of ``argv``."""
+    files, in_ros = [], False
+    tokens = list(argv)
+    for i, token in enumerate(tokens):
+        if token == '--ros-args':
+            in_ros = True
+        elif token == '--':
+            in_ros = False
+        elif in_ros and token == '--params-file' and i + 1 < len(tokens):
+            files.append(tokens[i + 1])
+    return files
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _check_ros_arguments(argv: Sequence[str]) -> None:
+    """Parse every ``--params-file`` before rcl does, for a one-line syntax error.
+
+    Raises:
+        ConfigError: an unreadable or syntactically invalid parameter file.
+    """
+    for path in params_files(argv):
+        read_params_yaml(path)
 
 
 def main(args: Sequence[str] | None = None) -> int:
@@ -431,16 +676,30 @@ def main(args: Sequence[str] | None = None) -> int:
     while its executor waited: about one stop in eight hung in a replay test.)
     """
     argv = list(sys.argv if args is None else args)
-    _parse_cli(remove_ros_args(argv))
+    logger = get_logger(NODE_NAME)
+    try:
+        _check_ros_arguments(argv)
+        non_ros = remove_ros_args(argv)
+    except ConfigError as exc:
+        logger.error(f'cannot start: {exc}')
+        return 1
+    except Exception as exc:  # rcl's argument errors (RCLInvalidROSArgsError, ...)
+        logger.error(f'cannot start: invalid ROS arguments: {_first_line(exc)}')
+        return 1
+    _parse_cli(non_ros)
     stop = threading.Event()
     previous = {}
     if threading.current_thread() is threading.main_thread():
         for signum in (signal.SIGINT, signal.SIGTERM):
             previous[signum] = signal.signal(signum, lambda *_: stop.set())
-    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     status = 0
     try:
+        try:
+            rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+        except Exception as exc:  # rcl's argument errors (RCLError, ROSArgsError, ...)
+            logger.error(f'cannot start: invalid ROS arguments: {_first_line(exc)}')
+            return 1
         node = SelectorNode()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
@@ -449,7 +708,7 @@ def main(args: Sequence[str] | None = None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except InitselError as exc:
-        rclpy.logging.get_logger(NODE_NAME).error(f'cannot start: {exc}')
+        logger.error(f'cannot start: {exc}')
         status = 1
     finally:
         if node is not None:
@@ -460,7 +719,8 @@ def main(args: Sequence[str] | None = None) -> int:
     return status
 
 
-__all__ = ['DIAGNOSTIC_NAME', 'IMAGE_QOS', 'LATCHED_QOS', 'Mode', 'SelectorNode', 'main']
+__all__ = ['DIAGNOSTIC_NAME', 'IMAGE_QOS', 'LATCHED_QOS', 'Mode', 'SelectorNode', 'main',
+           'params_files']
 
 if __name__ == '__main__':
     sys.exit(main())

@@ -1,25 +1,35 @@
-"""Parameters of the ``selector`` node: names, defaults, descriptions and validation.
+"""Parameters of the ``selector`` node: names, defaults, descriptions, ranges and validation.
 
-One table (:data:`PARAMETERS`) feeds the node's ``declare_parameter`` calls, ``--help``,
-``config/selector.yaml`` (a test keeps them equal) and ``docs/node.md``. This module imports no
-ROS packages, so the settings can be checked without rclpy.
+One table (:data:`PARAMETERS`) feeds the node's ``declare_parameter`` calls (descriptions,
+read-only flags, constraints), its on-set-parameters callback, ``--help``,
+``config/selector.yaml`` (a test keeps them equal) and ``docs/node.md``. Each entry says
+whether the parameter is *live* (applied while the node runs) or read-only (needs a restart)
+and carries its validator; :meth:`NodeSettings.from_values` runs the same validators at
+start-up and for every live change. A parameter added to the table is live unless it says
+``live=False``. This module imports no ROS packages, so the settings can be checked without
+rclpy.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
-from dataclasses import dataclass
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from initsel_ros.camera import TUM_FR3, Intrinsics
+from initsel_ros.camera import TUM_FR3, Intrinsics, check_distortion
 from initsel_ros.errors import ConfigError
 
 PARAMS_FILE_NAME = 'selector.yaml'
 NODE_NAME = 'selector'
 MODEL_NAMES = ('F', 'E', 'H', 'R')
+#: Keys of a parameter file's node section, in the order they are looked up.
+SECTION_KEYS = (NODE_NAME, f'/{NODE_NAME}', f'/**/{NODE_NAME}', '/**')
+#: Upper bound of ``max_features`` (and of the counts compared with it).
+MAX_FEATURES_LIMIT = 10_000
 
 
 class Mode(str, Enum):
@@ -29,71 +39,274 @@ class Mode(str, Enum):
     CONTINUOUS = 'continuous'  # start over with a new reference and initialize again
 
 
+class ImageTransport(str, Enum):
+    """How images arrive."""
+
+    RAW = 'raw'  # sensor_msgs/Image on image_raw
+    COMPRESSED = 'compressed'  # sensor_msgs/CompressedImage (JPEG, PNG) on image_raw/compressed
+
+
+# ---------------------------------------------------------------------------------- validators
+def _kind(value: Any) -> str:
+    return f'{value!r} ({type(value).__name__})'
+
+
+@dataclass(frozen=True)
+class Number:
+    """A finite number in ``[low, high]`` (None = unbounded), optionally an integer."""
+
+    low: float | None = None
+    high: float | None = None
+    integer: bool = False
+    note: str = ''
+
+    def __call__(self, name: str, value: Any) -> int | float:
+        numeric = isinstance(value, int) if self.integer else isinstance(value, (int, float))
+        if isinstance(value, bool) or not numeric:
+            raise ConfigError(f'{name} must be {self}, got {_kind(value)}')
+        number = int(value) if self.integer else float(value)
+        if (not math.isfinite(number) or (self.low is not None and number < self.low)
+                or (self.high is not None and number > self.high)):
+            raise ConfigError(f'{name} must be {self}, got {value!r}')
+        return number
+
+    def __str__(self) -> str:
+        kind = 'an integer' if self.integer else 'a finite number'
+        if self.low is not None and self.high is not None:
+            bounds = f' in [{self.low:g}, {self.high:g}]'
+        elif self.low is not None:
+            bounds = f' >= {self.low:g}'
+        elif self.high is not None:
+            bounds = f' <= {self.high:g}'
+        else:
+            bounds = ''
+        return kind + bounds + (f' ({self.note})' if self.note else '')
+
+
+@dataclass(frozen=True)
+class Choice:
+    """One of a few values."""
+
+    values: tuple[Any, ...]
+
+    def __call__(self, name: str, value: Any) -> Any:
+        if isinstance(value, bool) or value not in self.values:
+            raise ConfigError(f'{name} must be {self}, got {value!r}')
+        return value
+
+    def __str__(self) -> str:
+        return 'one of ' + ', '.join(repr(v) for v in self.values)
+
+
+@dataclass(frozen=True)
+class Text:
+    """A string, optionally non-empty."""
+
+    non_empty: bool = False
+
+    def __call__(self, name: str, value: Any) -> str:
+        if not isinstance(value, str):
+            raise ConfigError(f'{name} must be a string, got {_kind(value)}')
+        if self.non_empty and not value:
+            raise ConfigError(f'{name} must not be empty')
+        return value
+
+    def __str__(self) -> str:
+        return 'a non-empty string' if self.non_empty else 'a string'
+
+
+@dataclass(frozen=True)
+class Flag:
+    """A boolean."""
+
+    def __call__(self, name: str, value: Any) -> bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f'{name} must be true or false, got {_kind(value)}')
+        return value
+
+    def __str__(self) -> str:
+        return 'true or false'
+
+
+@dataclass(frozen=True)
+class Subset:
+    """A list of distinct names among ``allowed`` (empty allowed)."""
+
+    allowed: tuple[str, ...]
+
+    def __call__(self, name: str, value: Any) -> frozenset[str]:
+        if isinstance(value, str) or not isinstance(value, Sequence):
+            raise ConfigError(f'{name} must be {self}, got {_kind(value)}')
+        names = [v if isinstance(v, str) else repr(v) for v in value]
+        if not set(names) <= set(self.allowed):
+            raise ConfigError(f'{name} must name models among {", ".join(self.allowed)}, '
+                              f'got {sorted(names)}')
+        return frozenset(names)
+
+    def __str__(self) -> str:
+        return f'a list of names among {", ".join(self.allowed)} ([] = none)'
+
+
+@dataclass(frozen=True)
+class Distortion:
+    """OpenCV distortion coefficients: 0, 4, 5, 8, 12 or 14 finite numbers (all-zero = none)."""
+
+    def __call__(self, name: str, value: Any) -> tuple[float, ...]:
+        if isinstance(value, str) or not isinstance(value, Sequence):
+            raise ConfigError(f'{name} must be a list of numbers, got {_kind(value)}')
+        coefficients = []
+        for d in value:
+            if isinstance(d, bool) or not isinstance(d, (int, float)) or not math.isfinite(d):
+                raise ConfigError(f'{name} must be finite numbers, got {list(value)}')
+            coefficients.append(float(d))
+        try:
+            check_distortion(coefficients)
+        except ConfigError as exc:
+            raise ConfigError(f'{name}: {exc}') from exc
+        return tuple(coefficients) if any(coefficients) else ()
+
+    def __str__(self) -> str:
+        return '0, 4, 5, 8, 12 or 14 finite numbers (all zero = none)'
+
+
+@dataclass(frozen=True)
+class BitDepth:
+    """0 (automatic) or 8 to 16."""
+
+    def __call__(self, name: str, value: Any) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or not (
+            value == 0 or 8 <= value <= 16
+        ):
+            raise ConfigError(f'{name} must be {self}, got {value!r}')
+        return int(value)
+
+    def __str__(self) -> str:
+        return '0 (automatic) or an integer in [8, 16]'
+
+
+Validator = Callable[[str, Any], Any]
+
+
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One node parameter: name (dotted for YAML nesting), default value, description."""
+    """One node parameter.
+
+    Attributes:
+        name: dotted for YAML nesting (``thresholds.E``).
+        default: declared default (its type is the parameter's type).
+        description: one line for ``ros2 param describe``, ``--help`` and the docs.
+        check: validator; returns the normalized value or raises ConfigError.
+        live: applied while the node runs; False = declared read-only (needs a restart).
+    """
 
     name: str
     default: Any
     description: str
+    check: Validator = field(default=Text())
+    live: bool = True
 
+    @property
+    def constraints(self) -> str:
+        """The accepted values, in words (the descriptor's ``additional_constraints``)."""
+        return str(self.check)
+
+
+_COUNT = Number(1, MAX_FEATURES_LIMIT, integer=True)
+_THRESHOLD = Number(high=1.0, note="negative = the model file's")
 
 PARAMETERS: tuple[ParameterSpec, ...] = (
-    ParameterSpec('model_file', '', "model file (JSON); '' = the packaged config/models.json"),
+    ParameterSpec('model_file', '', "model file (JSON); '' = the packaged config/models.json",
+                  Text(), live=False),
     *(
         ParameterSpec(
             f'thresholds.{m}', -1.0,
             f"probability threshold of model {m} in [0, 1]; negative = the model file's",
+            _THRESHOLD,
         )
         for m in MODEL_NAMES
     ),
     ParameterSpec(
         'r_veto', ['F', 'E'],
         'models silenced when model R (pure rotation) fires; subset of F, E, H',
+        Subset(('F', 'E', 'H')),
     ),
-    ParameterSpec('max_features', 300, 'Shi-Tomasi corners detected in a reference frame'),
+    ParameterSpec('max_features', 300, 'Shi-Tomasi corners detected in a reference frame',
+                  _COUNT, live=False),
     ParameterSpec(
-        'min_tracks', 50, 'fewer tracked points than this: no decision, pick a new reference'
+        'min_tracks', 50, 'fewer tracked points than this: no decision, pick a new reference',
+        _COUNT,
     ),
-    ParameterSpec('min_points', 50, 'a pose needs at least this many triangulated points'),
-    ParameterSpec('min_parallax_deg', 1.0, 'a pose needs this median parallax, degrees'),
+    ParameterSpec('min_points', 50, 'a pose needs at least this many triangulated points',
+                  _COUNT),
+    ParameterSpec('min_parallax_deg', 1.0, 'a pose needs this median parallax, degrees',
+                  Number(0.0, 90.0)),
     ParameterSpec(
         'max_frames_since_reference', 90,
         "frames after which a new reference frame is taken (the paper's batch length)",
+        Number(1, 1_000_000, integer=True),
     ),
     ParameterSpec(
         'mode', Mode.ONCE.value,
         "'once': initialize once until ~/reset; 'continuous': start over after each",
+        Choice(tuple(m.value for m in Mode)),
     ),
     ParameterSpec(
         'reference_frame_id', 'initsel_reference_optical',
         'frame id of the reference camera (optical frame) for init/pose, init/points, TF',
+        Text(non_empty=True),
     ),
     ParameterSpec(
         'camera_frame_id', '',
         "TF child frame (the current camera); '' = the image's frame id",
     ),
-    ParameterSpec('publish_tf', True, 'broadcast the pose on /tf (when tf2_msgs is installed)'),
+    ParameterSpec('publish_tf', True, 'broadcast the pose on /tf (when tf2_msgs is installed)',
+                  Flag()),
+    ParameterSpec(
+        'image_transport', ImageTransport.RAW.value,
+        "'raw': sensor_msgs/Image on image_raw; 'compressed': sensor_msgs/CompressedImage "
+        '(JPEG, PNG) on image_raw/compressed',
+        Choice(tuple(t.value for t in ImageTransport)), live=False,
+    ),
+    ParameterSpec(
+        'bit_depth', 0,
+        'significant bits of mono16/16UC1 pixels (8-16); 0 = automatic: the highest bit set '
+        'so far on the stream',
+        BitDepth(),
+    ),
     ParameterSpec(
         'use_camera_info', True,
         'take intrinsics and distortion from the camera_info topic when it arrives',
+        Flag(), live=False,
     ),
-    ParameterSpec('camera.fx', TUM_FR3['fx'], 'focal length x, pixels (until camera_info)'),
-    ParameterSpec('camera.fy', TUM_FR3['fy'], 'focal length y, pixels'),
-    ParameterSpec('camera.cx', TUM_FR3['cx'], 'principal point x, pixels'),
-    ParameterSpec('camera.cy', TUM_FR3['cy'], 'principal point y, pixels'),
-    ParameterSpec('camera.width', TUM_FR3['width'], 'image width, pixels'),
-    ParameterSpec('camera.height', TUM_FR3['height'], 'image height, pixels'),
+    ParameterSpec('camera.fx', TUM_FR3['fx'], 'focal length x, pixels (until camera_info)',
+                  Number()),
+    ParameterSpec('camera.fy', TUM_FR3['fy'], 'focal length y, pixels', Number()),
+    ParameterSpec('camera.cx', TUM_FR3['cx'], 'principal point x, pixels', Number()),
+    ParameterSpec('camera.cy', TUM_FR3['cy'], 'principal point y, pixels', Number()),
+    ParameterSpec('camera.width', TUM_FR3['width'], 'image width, pixels',
+                  Number(1, 100_000, integer=True)),
+    ParameterSpec('camera.height', TUM_FR3['height'], 'image height, pixels',
+                  Number(1, 100_000, integer=True)),
     ParameterSpec(
         'camera.distortion', [0.0, 0.0, 0.0, 0.0, 0.0],
-        'OpenCV distortion k1 k2 p1 p2 [k3 ...]; all zero = none',
+        'OpenCV distortion k1 k2 p1 p2 [k3 ...] (0, 4, 5, 8, 12 or 14 values); all zero = none',
+        Distortion(),
     ),
 )
+
+#: The table by name.
+SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
+#: Parameters that describe the camera (live only until a camera_info arrives).
+CAMERA_PARAMETERS = frozenset(name for name in SPECS if name.startswith('camera.'))
 
 
 @dataclass(frozen=True)
 class NodeSettings:
-    """Validated parameter values of the node."""
+    """Validated parameter values of the node.
+
+    ``values`` holds every parameter's value by name as given, defaults filled in (what the
+    node re-validates with a change when a parameter is set).
+    """
 
     model_file: str
     thresholds: dict[str, float]  # only the overrides (non-negative values)
@@ -107,57 +320,55 @@ class NodeSettings:
     reference_frame_id: str
     camera_frame_id: str
     publish_tf: bool
+    image_transport: ImageTransport
+    bit_depth: int
     use_camera_info: bool
     intrinsics: Intrinsics
+    values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> NodeSettings:
         """Validate a name -> value mapping (missing names take their defaults).
 
+        The same checks run at start-up and for every live change.
+
         Raises:
-            ConfigError: naming the parameter and the accepted values.
+            ConfigError: one line naming the parameter and the accepted values.
         """
-        v = {spec.name: spec.default for spec in PARAMETERS}
-        unknown = sorted(set(values) - set(v))
+        raw = {spec.name: spec.default for spec in PARAMETERS}
+        unknown = sorted(set(values) - set(raw))
         if unknown:
             raise ConfigError(f'unknown selector parameters: {", ".join(unknown)}')
-        v.update(values)
-        thresholds: dict[str, float] = {}
-        for m in MODEL_NAMES:
-            value = float(v[f'thresholds.{m}'])
-            if value > 1.0:
-                raise ConfigError(f'thresholds.{m} must be <= 1 (negative = file), got {value}')
-            if value >= 0.0:
-                thresholds[m] = value
-        r_veto = frozenset(str(m) for m in v['r_veto'])
-        if not r_veto <= {'F', 'E', 'H'}:
-            raise ConfigError(f'r_veto must name models among F, E, H, got {sorted(r_veto)}')
-        try:
-            mode = Mode(v['mode'])
-        except ValueError as exc:
-            raise ConfigError(f"mode must be 'once' or 'continuous', got {v['mode']!r}") from exc
-        for name in ('max_features', 'min_tracks', 'min_points', 'max_frames_since_reference'):
-            if int(v[name]) < 1:
-                raise ConfigError(f'{name} must be >= 1, got {v[name]}')
-        if float(v['min_parallax_deg']) < 0:
-            raise ConfigError(f'min_parallax_deg must be >= 0, got {v["min_parallax_deg"]}')
-        if not v['reference_frame_id']:
-            raise ConfigError('reference_frame_id must not be empty')
-        distortion = tuple(float(d) for d in v['camera.distortion'])
+        raw.update(values)
+        v = {name: SPECS[name].check(name, value) for name, value in raw.items()}
+        for name in ('min_tracks', 'min_points'):
+            if v[name] > v['max_features']:
+                raise ConfigError(
+                    f'{name} ({v[name]}) > max_features ({v["max_features"]}): no frame could '
+                    'ever have enough'
+                )
         intrinsics = Intrinsics(
-            float(v['camera.fx']), float(v['camera.fy']), float(v['camera.cx']),
-            float(v['camera.cy']), int(v['camera.width']), int(v['camera.height']),
-            distortion if any(distortion) else (),
+            v['camera.fx'], v['camera.fy'], v['camera.cx'], v['camera.cy'],
+            v['camera.width'], v['camera.height'], v['camera.distortion'],
         )
         return cls(
-            model_file=str(v['model_file']), thresholds=thresholds, r_veto=r_veto,
-            max_features=int(v['max_features']), min_tracks=int(v['min_tracks']),
-            min_points=int(v['min_points']), min_parallax_deg=float(v['min_parallax_deg']),
-            max_frames_since_reference=int(v['max_frames_since_reference']), mode=mode,
-            reference_frame_id=str(v['reference_frame_id']),
-            camera_frame_id=str(v['camera_frame_id']), publish_tf=bool(v['publish_tf']),
-            use_camera_info=bool(v['use_camera_info']), intrinsics=intrinsics,
+            model_file=v['model_file'],
+            thresholds={m: v[f'thresholds.{m}'] for m in MODEL_NAMES
+                        if v[f'thresholds.{m}'] >= 0.0},
+            r_veto=v['r_veto'], max_features=v['max_features'], min_tracks=v['min_tracks'],
+            min_points=v['min_points'], min_parallax_deg=v['min_parallax_deg'],
+            max_frames_since_reference=v['max_frames_since_reference'], mode=Mode(v['mode']),
+            reference_frame_id=v['reference_frame_id'], camera_frame_id=v['camera_frame_id'],
+            publish_tf=v['publish_tf'], image_transport=ImageTransport(v['image_transport']),
+            bit_depth=v['bit_depth'], use_camera_info=v['use_camera_info'],
+            intrinsics=intrinsics, values=raw,
         )
+
+    @property
+    def default_intrinsics(self) -> bool:
+        """True when ``camera.*`` are still the TUM fr3 defaults (nobody set them)."""
+        return all(self.values.get(name, SPECS[name].default) == SPECS[name].default
+                   for name in CAMERA_PARAMETERS)
 
     def model_path(self) -> Path:
         """The model file to load: ``model_file`` or the packaged default.
@@ -198,20 +409,34 @@ def default_params_file() -> Path:
     return find_config_file(PARAMS_FILE_NAME)
 
 
-def load_params_file(path: Path) -> dict[str, Any]:
-    """Flattened ``selector: ros__parameters:`` values of a ROS 2 parameter file.
+def read_params_yaml(path: Path) -> Any:
+    """Parse a ROS 2 parameter file as YAML.
 
     Raises:
-        ConfigError: unreadable file or no ``selector``/``/**`` section.
+        ConfigError: one line: unreadable file, or the syntax error with line and column.
     """
     import yaml
 
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
+        return yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f'{path}: cannot read parameters: {exc}') from exc
-    for key in (NODE_NAME, f'/{NODE_NAME}', f'/**/{NODE_NAME}', '/**'):
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, 'problem_mark', None)
+        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
+        problem = getattr(exc, 'problem', None) or str(exc).splitlines()[0]
+        raise ConfigError(f'{path}: YAML syntax error{where}: {problem}') from exc
+
+
+def load_params_file(path: Path) -> dict[str, Any]:
+    """Flattened ``selector: ros__parameters:`` values of a ROS 2 parameter file.
+
+    Raises:
+        ConfigError: unreadable file, YAML syntax error, or no node section.
+    """
+    data = read_params_yaml(path)
+    for key in SECTION_KEYS:
         section = (data or {}).get(key, {}) if isinstance(data, dict) else {}
         if isinstance(section, dict) and 'ros__parameters' in section:
             return _flatten(section['ros__parameters'] or {})
@@ -230,13 +455,18 @@ def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
 
 
 __all__ = [
+    'CAMERA_PARAMETERS',
+    'MAX_FEATURES_LIMIT',
     'MODEL_NAMES',
     'NODE_NAME',
     'PARAMETERS',
     'PARAMS_FILE_NAME',
+    'SPECS',
+    'ImageTransport',
     'Mode',
     'NodeSettings',
     'ParameterSpec',
     'default_params_file',
     'load_params_file',
+    'read_params_yaml',
 ]

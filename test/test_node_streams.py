@@ -1,0 +1,400 @@
+"""The node on real-world streams: exact Unix stamps, odd stamps, compressed and 16-bit images,
+changing and guessed intrinsics, bad distortion vectors. In-process (node_harness.py)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+pytest.importorskip('rclpy')
+pytest.importorskip('sensor_msgs.msg')
+
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
+from node_harness import as_sequence, double_model_file, harnesses, play, ros_context
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CompressedImage, Image
+from test_tracking import shifted, texture
+
+from initsel_ros.camera import Intrinsics
+from initsel_ros.geometry import relative_pose, translation_chordal_error
+from initsel_ros.ros import conversions as conv
+from initsel_ros.ros import node as node_module
+from initsel_ros.ros.node import INTERNAL_ERROR, SKIPPED_IMAGE
+
+#: Realistic Unix stamps with odd nanoseconds: 1700000000.666666985 s, then +33333333 ns.
+UNIX_START_NS = 1_700_000_000 * 10**9 + 666_666_985
+FRAME_NS = 33_333_333
+
+
+@pytest.fixture(scope='module')
+def context():
+    yield from ros_context()
+
+
+@pytest.fixture
+def harness_factory(context):
+    yield from harnesses(context)
+
+
+def unix_stamps(n: int, start_ns: int = UNIX_START_NS) -> list[Time]:
+    return [conv.ns_to_stamp(start_ns + k * FRAME_NS) for k in range(n)]
+
+
+def same(a: Time, b: Time) -> bool:
+    return (a.sec, a.nanosec) == (b.sec, b.nanosec)
+
+
+def index_of(stamp: Time, stamps: list[Time]) -> int:
+    """The frame whose sent stamp equals ``stamp`` field by field (fails if none does)."""
+    matches = [i for i, s in enumerate(stamps) if same(s, stamp)]
+    assert len(matches) == 1, f'stamp {stamp.sec}.{stamp.nanosec:09d} matches {matches}'
+    return matches[0]
+
+
+def init_and_reference(statuses: list[dict]) -> tuple[int, int]:
+    """Indices (in sending order) of the initializing frame and of its reference frame."""
+    cur = next(i for i, s in enumerate(statuses) if s['method'])
+    ref = max(i for i in range(cur) if statuses[i]['new_reference'])
+    return cur, ref
+
+
+def assert_good_direction(sequence, pose, ref: int, cur: int) -> None:
+    q = pose.pose.orientation
+    R_est = conv.quaternion_to_rotation([q.x, q.y, q.z, q.w]).T
+    p = pose.pose.position
+    t_est = -R_est @ np.array([p.x, p.y, p.z])
+    _, t_gt = relative_pose(sequence.frames[ref].pose, sequence.frames[cur].pose)
+    assert translation_chordal_error(t_gt, t_est) < 0.8
+
+
+class _FakeTfPublisher:
+    def __init__(self) -> None:
+        self.messages: list = []
+
+    def publish(self, msg) -> None:
+        self.messages.append(msg)
+
+
+# ------------------------------------------------------------------------------------ stamps
+def test_every_output_carries_the_exact_image_stamps_of_its_frames(
+    harness_factory, near_sequence, monkeypatch
+):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    # /tf: tf2_msgs is not among the PyPI wheels; record what the node would broadcast.
+    monkeypatch.setattr(node_module, 'TFMessage', lambda transforms: list(transforms))
+    tf = _FakeTfPublisher()
+    h.node._tf_pub = tf
+    debug: list[Image] = []
+    h.client.create_subscription(Image, 'selector/debug_image', debug.append,
+                                 QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
+    h.spin_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
+                 what='debug image subscriber')
+    stamps = unix_stamps(len(sequence))
+    statuses = play(h, sequence, stamps, until_initialized=True)
+    h.spin_until(lambda: h.pose and h.points, what='init/pose and init/points')
+    h.spin_until(lambda: len(h.diagnostic_stamps) >= len(statuses), what='diagnostics')
+
+    cur, ref = init_and_reference(statuses)
+    assert ref < cur
+    pose, cloud = h.pose[0], h.points[0]
+    # Field by field, against the stamps the images were sent with.
+    assert same(pose.header.stamp, stamps[cur]) and index_of(pose.header.stamp, stamps) == cur
+    assert same(cloud.header.stamp, stamps[ref]) and index_of(cloud.header.stamp, stamps) == ref
+    for i, status in enumerate(statuses):
+        assert (status['stamp_sec'], status['stamp_nanosec']) == (
+            stamps[i].sec, stamps[i].nanosec)
+        assert status['stamp'] == pytest.approx(stamps[i].sec + stamps[i].nanosec * 1e-9)
+    init_status = statuses[cur]
+    assert (init_status['reference_stamp_sec'], init_status['reference_stamp_nanosec']) == (
+        stamps[ref].sec, stamps[ref].nanosec)
+    assert [(s.sec, s.nanosec) for s in h.diagnostic_stamps[:len(statuses)]] == [
+        (s.sec, s.nanosec) for s in stamps[:len(statuses)]]
+    h.spin_until(lambda: debug, what='debug images')
+    sent = [index_of(d.header.stamp, stamps) for d in debug]
+    assert sent == sorted(sent) and sent[-1] < len(statuses)
+    transform = tf.messages[0][0]
+    assert same(transform.header.stamp, stamps[cur])
+    assert_good_direction(sequence, pose, ref, cur)
+
+
+def test_negative_stamps_lose_no_initialization_and_are_logged_once(
+    harness_factory, near_sequence, capfd
+):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    stamps = unix_stamps(len(sequence), start_ns=-3 * 10**9 - 123_456_789)
+    statuses = play(h, sequence, stamps, until_initialized=True)
+    h.spin_until(lambda: h.method and h.pose and h.points, what='init/* on negative stamps')
+    cur, ref = init_and_reference(statuses)
+    assert statuses[cur]['initialized'] and statuses[cur]['initializations'] == 1
+    assert same(h.pose[0].header.stamp, stamps[cur]) and h.pose[0].header.stamp.sec < 0
+    assert same(h.points[0].header.stamp, stamps[ref])
+    assert statuses[-1]['stamp_issues']['negative'] == len(statuses)
+    assert capfd.readouterr().err.count('negative image stamp') == 1
+
+
+def test_a_replay_restart_starts_a_new_reference_and_initializes_again(
+    harness_factory, near_sequence, capfd
+):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    first = play(h, sequence, unix_stamps(len(sequence)), until_initialized=True)
+    assert first[-1]['method']
+    # The bag starts over: time goes back by the length of the first run.
+    stamps = unix_stamps(len(sequence))
+    second = play(h, sequence, stamps, until_initialized=True)
+    assert second[0]['new_reference'] and second[0]['stamp_issues']['backwards'] == 1
+    assert second[-1]['method'] and second[-1]['initializations'] == 2
+    h.spin_until(lambda: len(h.pose) >= 2, what='the second init/pose')
+    cur, _ = init_and_reference(second)
+    assert same(h.pose[-1].header.stamp, stamps[cur])
+    assert capfd.readouterr().err.count('backwards image stamp') == 1
+
+
+def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kind(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(11)
+
+    def send(k: int, ns: int) -> dict:
+        return h.send_array(shifted(img, k, 0.0), conv.ns_to_stamp(ns))
+
+    t = 10 * 10**9
+    assert send(0, t)['new_reference']
+    assert send(1, t + FRAME_NS)['frames_since_reference'] == 1
+    back = send(2, t + FRAME_NS - 1)  # 1 ns backwards (any amount counts)
+    assert back['new_reference'] and back['reason'] == 'new reference'
+    duplicate = send(3, t + FRAME_NS - 1)
+    assert duplicate['reason'] == 'no model fired' and duplicate['frames_since_reference'] == 1
+    assert send(4, t + 2 * FRAME_NS)['frames_since_reference'] == 2
+    back_again = send(5, t - 5 * 10**9)
+    assert back_again['new_reference']
+    zero = send(6, 0)  # also backwards
+    zero_again = send(7, 0)
+    assert zero['new_reference'] and zero_again['frames_since_reference'] == 1
+    assert zero_again['stamp_issues'] == {'negative': 0, 'zero': 2, 'duplicate': 1,
+                                          'backwards': 3}
+    err = capfd.readouterr().err
+    for kind in ('backwards', 'duplicate', 'zero'):
+        assert err.count(f'{kind} image stamp') == 1, kind
+    assert 'negative image stamp' not in err
+
+
+# ------------------------------------------------------------------------ compressed images
+def test_a_compressed_stream_initializes_like_the_raw_one(harness_factory, near_sequence):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory(image_transport='compressed')
+    assert h.client.count_subscribers(f'{h.namespace}/image_raw/compressed') == 1
+    assert h.client.count_subscribers(f'{h.namespace}/image_raw') == 0
+    stamps = unix_stamps(len(sequence))
+    statuses = play(h, sequence, stamps, until_initialized=True)
+    assert statuses[-1]['method'] in ('F', 'E', 'H')
+    assert not any(s['reason'] in (SKIPPED_IMAGE, INTERNAL_ERROR) for s in statuses)
+    h.spin_until(lambda: h.pose and h.points, what='init/pose and init/points')
+    cur, ref = init_and_reference(statuses)
+    assert same(h.pose[0].header.stamp, stamps[cur])
+    assert same(h.points[0].header.stamp, stamps[ref])
+    assert_good_direction(sequence, h.pose[0], ref, cur)
+
+
+def test_compressed_subscription_follows_the_image_remapping(context, tmp_path):
+    import rclpy
+
+    from initsel_ros.ros.node import SelectorNode
+
+    node = SelectorNode(context=context, namespace='/remapped', cli_args=[
+        '--ros-args', '-r', 'image_raw:=/cam7/image', '-p', 'image_transport:=compressed',
+        '-p', f'model_file:={double_model_file(tmp_path)}'])
+    probe = rclpy.create_node('remap_probe', context=context)
+    try:
+        assert node._image_topic == '/cam7/image/compressed'
+        names = dict(node.get_subscriber_names_and_types_by_node('selector', '/remapped'))
+        assert names['/cam7/image/compressed'] == ['sensor_msgs/msg/CompressedImage']
+    finally:
+        probe.destroy_node()
+        node.destroy_node()
+
+
+def test_corrupt_or_foreign_compressed_data_is_a_skipped_frame_with_a_reason(
+    harness_factory, tmp_path
+):
+    h = harness_factory(model_file=double_model_file(tmp_path), image_transport='compressed')
+    good = conv.numpy_to_compressed(texture(12), 'png')
+    truncated = conv.numpy_to_compressed(texture(12), 'jpeg')
+    truncated.data = bytes(truncated.data)[:300]
+    cases = [
+        (CompressedImage(format='jpeg', data=b'not an image at all'), 'not JPEG or PNG'),
+        (CompressedImage(format='jpeg', data=b''), 'not JPEG or PNG'),
+        (truncated, 'compressed image'),
+        (CompressedImage(format='16UC1; compressedDepth png', data=bytes(good.data)),
+         'compressedDepth'),
+    ]
+    for msg, match in cases:
+        status = h.send(msg)
+        assert status['reason'] == SKIPPED_IMAGE and status['level'] == 'WARN', status
+        assert match in status['detail']
+    status = h.send(good)
+    assert status['reason'] == 'new reference' and status['skipped_frames'] == len(cases)
+
+
+# ------------------------------------------------------------------------------ 16-bit images
+@pytest.mark.parametrize('exposure', [1.0, 0.25])
+def test_a_12_bit_mono16_stream_initializes(harness_factory, near_sequence, exposure):
+    """A 12-bit camera (0..4095 in mono16), exposed to its full range or to a quarter of it (a
+    dim scene: with only the high byte kept, that is 0..3 and nothing initializes)."""
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    rng = np.random.default_rng(3)
+    highest = []
+
+    def to_12_bit(bgr: np.ndarray) -> np.ndarray:
+        gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY).astype(np.float64)
+        noisy = gray * 16 * exposure + rng.normal(0.0, 4.0, gray.shape)
+        pixels = np.clip(noisy, 0, 4095).astype(np.uint16)
+        highest.append(int(pixels.max()).bit_length())
+        return pixels
+
+    statuses = play(h, sequence, unix_stamps(len(sequence)), convert=to_12_bit,
+                    until_initialized=True)
+    assert statuses[-1]['method'] in ('F', 'E', 'H')
+    assert statuses[-1]['bit_depth'] == max(highest)
+    h.spin_until(lambda: h.pose, what='init/pose')
+    cur, ref = init_and_reference(statuses)
+    assert_good_direction(sequence, h.pose[0], ref, cur)
+
+
+def test_16_bit_images_are_scaled_by_their_real_range_or_the_bit_depth_parameter():
+    pixels = np.array([[0, 16, 4095], [2048, 1, 4000]], np.uint16)  # 12 bits used
+    mono16 = conv.numpy_to_image(pixels, 'mono16')
+    np.testing.assert_array_equal(conv.image_to_cv(mono16), (pixels >> 4).astype(np.uint8))
+    depth = conv.numpy_to_image(pixels, 'mono16')
+    depth.encoding = '16UC1'
+    np.testing.assert_array_equal(conv.image_to_cv(depth), (pixels >> 4).astype(np.uint8))
+    # A fixed bit depth: 10 bits -> values above 1023 saturate.
+    np.testing.assert_array_equal(conv.image_to_cv(mono16, bit_depth=10),
+                                  (np.minimum(pixels, 1023) >> 2).astype(np.uint8))
+    assert conv.significant_bits(np.array([255], np.uint16)) == 8
+    assert conv.significant_bits(np.array([65535], np.uint16)) == 16
+
+
+def test_automatic_bit_depth_keeps_the_highest_bit_seen_so_far(harness_factory, tmp_path):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(13).astype(np.uint16)
+    assert h.send_array(img << 4, 1.0)['bit_depth'] == 12
+    dark = h.send_array((img << 4) >> 2, 1.033)  # a darker frame: still scaled as 12-bit
+    assert dark['bit_depth'] == 12
+
+
+# ----------------------------------------------------------------------------- intrinsics
+def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(14)
+    tum = Intrinsics.tum_fr3()
+    h.send_camera_info(tum)
+    assert h.send_array(img, 1.0)['new_reference']
+    h.send_camera_info(tum)  # the same camera again: no new reference
+    assert h.send_array(shifted(img, 1, 0), 1.033)['frames_since_reference'] == 1
+    other = Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480)
+    h.send_camera_info(other)
+    status = h.send_array(shifted(img, 2, 0), 1.066)
+    assert status['new_reference'] and status['intrinsics_source'] == 'camera_info'
+    assert h.node._selector.intrinsics == other
+    small = texture(15, shape=(240, 320))
+    half = other.scaled(320, 240)
+    h.send_camera_info(half)
+    assert h.send_array(small, 1.1)['new_reference']
+    assert h.send_array(shifted(small, 1, 0), 1.133)['frames_since_reference'] == 1
+    assert h.node._selector.intrinsics == half
+    assert capfd.readouterr().err.count('camera_info changed the intrinsics') == 2
+
+
+def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    small = texture(16, shape=(240, 320))
+    statuses = [h.send_array(shifted(small, k, 0), 1.0 + k / 30) for k in range(3)]
+    for status in statuses:
+        assert status['intrinsics_guessed'] and status['intrinsics_source'] == 'parameters'
+        assert 'guessed intrinsics' in status['intrinsics_warning']
+        assert 'camera_calibration' in status['intrinsics_warning']
+    h.spin_until(lambda: len(h.diagnostics) >= 3, what='diagnostics')
+    assert h.diagnostics[-1].level == DiagnosticStatus.WARN
+    assert capfd.readouterr().err.count('GUESSED INTRINSICS') == 1
+    h.send_camera_info(Intrinsics.tum_fr3().scaled(320, 240))
+    status = h.send_array(shifted(small, 3, 0), 1.1)
+    assert not status['intrinsics_guessed'] and status['intrinsics_warning'] == ''
+
+
+def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed(
+    harness_factory, tmp_path
+):
+    h = harness_factory(model_file=double_model_file(tmp_path), camera__fx=500.0,
+                        camera__fy=500.0)
+    status = h.send_array(texture(17, shape=(240, 320)), 1.0)
+    assert status['reason'] == 'new reference' and not status['intrinsics_guessed']
+
+
+@pytest.mark.parametrize('coefficients', [[0.01, 0.001, 0.0], [0.01, 0.001, 0.0, 0.0, 0.0, 0.1]])
+def test_camera_info_with_a_distortion_length_opencv_rejects_is_ignored(
+    harness_factory, tmp_path, coefficients, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    good = Intrinsics(600.0, 600.0, 320.0, 240.0, 640, 480, (0.01, 0.0, 0.0, 0.0, 0.0))
+    h.send_camera_info(good)
+    img = texture(18)
+    h.send_array(img, 1.0)
+    bad = conv.intrinsics_to_camera_info(Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480))
+    bad.d = [float(c) for c in coefficients]
+    h.send_camera_info(bad)
+    statuses = [h.send_array(shifted(img, k, 0.5), 1.0 + k / 30) for k in range(1, 4)]
+    assert [s['reason'] for s in statuses] == ['no model fired'] * 3
+    assert h.node._selector.intrinsics == good
+    assert f'camera_info D has {len(coefficients)} distortion coefficients' in (
+        capfd.readouterr().err)
+
+
+def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(context, tmp_path):
+    from initsel_ros.errors import ConfigError
+    from initsel_ros.ros.node import SelectorNode
+
+    with pytest.raises(ConfigError, match=r'camera\.distortion: 3 distortion coefficients'):
+        SelectorNode(context=context, namespace='/baddist', cli_args=[
+            '--ros-args', '-p', 'camera.distortion:=[0.01, 0.001, 0.0]',
+            '-p', f'model_file:={double_model_file(tmp_path)}'])
+
+
+def test_a_failed_publication_is_never_reported_as_an_initialization(
+    harness_factory, near_sequence, monkeypatch
+):
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    failures = []
+
+    def broken(msg):
+        failures.append(msg)
+        raise RuntimeError('publisher gone')
+
+    monkeypatch.setattr(h.node._pose_pub, 'publish', broken)
+    h.send_camera_info(sequence.intrinsics)
+    stamps = unix_stamps(len(sequence))
+    statuses = []
+    for i in range(len(sequence)):
+        statuses.append(h.send_array(sequence.image(i), stamps[i]))
+        if statuses[-1]['reason'] == INTERNAL_ERROR:
+            break
+    failed = statuses[-1]
+    assert failures and failed['reason'] == INTERNAL_ERROR and failed['method'] is None
+    assert not failed['initialized'] and failed['initializations'] == 0
+    assert 'publishing the initialization failed' in failed['detail']
+    monkeypatch.undo()
+    rest = [h.send_array(sequence.image(i), stamps[i])
+            for i in range(len(statuses), len(sequence))]
+    assert any(s['method'] for s in rest) and rest[-1]['initialized']
+    h.spin_until(lambda: h.pose, what='init/pose after the failure')

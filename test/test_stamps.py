@@ -1,0 +1,56 @@
+"""Stamp checks of a stream (ROS-free): negative, zero, duplicate and backwards stamps."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+from test_core_without_ros import BLOCKER
+
+from initsel_ros.stamps import StampIssue, StampMonitor
+
+SECOND = 1_000_000_000
+
+
+def test_a_rising_stream_has_no_issues():
+    monitor = StampMonitor()
+    for k in range(5):
+        assert monitor.check(1_700_000_000 * SECOND + 666_666_985 + k * 33_333_333).issues == ()
+    assert set(monitor.counts.values()) == {0}
+
+
+def test_each_kind_is_new_only_the_first_time_and_counted_every_time():
+    monitor = StampMonitor()
+    first = monitor.check(-2 * SECOND)
+    assert first.issues == first.new == (StampIssue.NEGATIVE,)
+    again = monitor.check(-SECOND)
+    assert again.issues == (StampIssue.NEGATIVE,) and again.new == ()
+    duplicate = monitor.check(-SECOND)
+    assert duplicate.issues == (StampIssue.NEGATIVE, StampIssue.DUPLICATE)
+    assert duplicate.new == (StampIssue.DUPLICATE,)
+    back = monitor.check(-SECOND - 1)
+    assert StampIssue.BACKWARDS in back.new and back.back_ns == 1
+    zero = monitor.check(0)
+    assert zero.issues == (StampIssue.ZERO,)
+    assert monitor.check(0).issues == (StampIssue.ZERO,)  # repeated zeros: not duplicates
+    assert monitor.counts == {'negative': 4, 'zero': 2, 'duplicate': 1, 'backwards': 1}
+
+
+def test_forgetting_the_last_stamp_accepts_any_next_one():
+    monitor = StampMonitor()
+    monitor.check(10 * SECOND)
+    monitor.forget_last()
+    assert monitor.check(SECOND).issues == ()
+
+
+def test_params_stamps_and_transport_import_without_ros():
+    blocked = {'rclpy', 'sensor_msgs', 'std_msgs', 'geometry_msgs', 'builtin_interfaces'}
+    code = BLOCKER.format(blocked=blocked) + (
+        'import initsel_ros.stamps, initsel_ros.ros.params, initsel_ros.ros.transport\n'
+        'initsel_ros.ros.params.NodeSettings.from_values({})\nprint("ok")\n')
+    env = {k: v for k, v in os.environ.items() if k != 'PYTHONPATH'}
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == 'ok'
