@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import signal
 import sys
 import threading
@@ -398,6 +399,8 @@ class SelectorNode(Node):
             self._publish_status(stamp, None, dropped, INTERNAL_ERROR, repr(exc))
             return
         reason, detail = result.decision.reason.value, result.decision.detail
+        if result.decision.reason is Reason.VERIFICATION_FAILED:
+            self.get_logger().info(f'{reason}: {detail}; looking on')
         if result.initialization is not None:
             try:
                 self._publish_initialization(result.initialization, stamp, msg.header.frame_id)
@@ -512,6 +515,8 @@ class SelectorNode(Node):
         probabilities = dict(decision.probabilities) if decision is not None else {}
         reference_ns = result.reference_stamp_ns if result is not None else None
         reference = conv.ns_to_stamp(reference_ns) if reference_ns is not None else None
+        init_stamp = (conv.ns_to_stamp(result.initialization.stamp_ns)
+                      if result is not None and result.initialization is not None else None)
         status = {
             'stamp': conv.stamp_to_seconds(stamp),  # for humans; exact: stamp_sec/_nanosec
             'stamp_sec': int(stamp.sec),
@@ -531,6 +536,9 @@ class SelectorNode(Node):
             'new_reference': bool(result.new_reference) if result else False,
             'method': (result.initialization.method.value
                        if result is not None and result.initialization is not None else None),
+            # the frame the published initialization belongs to (earlier with verification)
+            'initializing_stamp_sec': init_stamp.sec if init_stamp is not None else None,
+            'initializing_stamp_nanosec': init_stamp.nanosec if init_stamp is not None else None,
             'initialized': bool(self._selector.initialized),
             'initializations': self._initializations,
             'received_frames': self._received,
@@ -541,6 +549,8 @@ class SelectorNode(Node):
             'intrinsics_warning': self._intrinsics_warning,
             'bit_depth': self._settings.bit_depth or self._auto_bits or None,
             'stamp_issues': dict(self._stamps.counts),
+            'selection': _selection_dict(result),
+            'verification': _verification_dict(result),
         }
         self._status_pub.publish(String(data=json.dumps(status)))
 
@@ -559,6 +569,8 @@ class SelectorNode(Node):
             'intrinsics': (f'guessed: {self._intrinsics_warning}' if self._intrinsics_warning
                            else self._intrinsics_source),
         }
+        if status['selection'] is not None:
+            values['selection'] = status['selection']['why']
         diag.values = [KeyValue(key=k, value=v) for k, v in values.items()]
         array = DiagnosticArray(status=[diag])
         array.header.stamp = stamp
@@ -594,7 +606,33 @@ class SelectorNode(Node):
             f'({direction[0]:+.2f}, {direction[1]:+.2f}, {direction[2]:+.2f}) in {frame_id}, '
             f'{len(init.points)} points, parallax {init.parallax_deg:.1f} deg, '
             f'{init.frames_since_reference} frames since the reference'
+            + (f'; chosen because {init.selection.why} [{init.selection.summary()}]'
+               if init.selection is not None else '')
+            + (f'; refined: RMS {init.refinement.rms_before_px:.2f} -> '
+               f'{init.refinement.rms_after_px:.2f} px' if init.refinement is not None else '')
+            + (f'; verified on {len(init.verification)} frames (last RMS '
+               f'{init.verification[-1].rms_px:.2f} px)' if init.verification else '')
         )
+
+
+def _selection_dict(result: FrameResult | None) -> dict[str, Any] | None:
+    """The fire-time candidates of this frame (or of the initialization it publishes)."""
+    if result is None:
+        return None
+    init = result.initialization
+    selection = init.selection if init is not None else result.selection
+    return None if selection is None else selection.to_dict()
+
+
+def _verification_dict(result: FrameResult | None) -> dict[str, Any] | None:
+    """This frame's PnP check of a held-back candidate, if any."""
+    step = result.verification if result is not None else None
+    if step is None:
+        return None
+    return {'ok': step.ok, 'tracked': step.tracked, 'inliers': step.inliers,
+            'fraction': round(step.fraction, 3),
+            'rms_px': round(step.rms_px, 3) if math.isfinite(step.rms_px) else None,
+            'detail': step.detail}
 
 
 def _own(parameters: list[Parameter]) -> dict[str, Any]:

@@ -251,6 +251,26 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Choice(tuple(m.value for m in Mode)),
     ),
     ParameterSpec(
+        'refine', True,
+        'bundle-adjust the chosen pose and points before publishing (docs/initialization.md)',
+        Flag(),
+    ),
+    ParameterSpec(
+        'verify_frames', 3,
+        'frames that must confirm a candidate by PnP before it is published; 0 = off',
+        Number(0, 100, integer=True),
+    ),
+    ParameterSpec(
+        'verify_min_fraction', 0.5,
+        'share of the map points that must stay PnP inliers in every verification frame',
+        Number(0.01, 1.0),
+    ),
+    ParameterSpec(
+        'verify_max_rms_px', 1.0,
+        'largest PnP reprojection RMS of those inliers in a verification frame, pixels',
+        Number(0.01, 100.0),
+    ),
+    ParameterSpec(
         'reference_frame_id', 'initsel_reference_optical',
         'frame id of the reference camera (optical frame) for init/pose, init/points, TF',
         Text(non_empty=True),
@@ -317,6 +337,10 @@ class NodeSettings:
     min_parallax_deg: float
     max_frames_since_reference: int
     mode: Mode
+    refine: bool
+    verify_frames: int
+    verify_min_fraction: float
+    verify_max_rms_px: float
     reference_frame_id: str
     camera_frame_id: str
     publish_tf: bool
@@ -358,6 +382,9 @@ class NodeSettings:
             r_veto=v['r_veto'], max_features=v['max_features'], min_tracks=v['min_tracks'],
             min_points=v['min_points'], min_parallax_deg=v['min_parallax_deg'],
             max_frames_since_reference=v['max_frames_since_reference'], mode=Mode(v['mode']),
+            refine=v['refine'], verify_frames=v['verify_frames'],
+            verify_min_fraction=v['verify_min_fraction'],
+            verify_max_rms_px=v['verify_max_rms_px'],
             reference_frame_id=v['reference_frame_id'], camera_frame_id=v['camera_frame_id'],
             publish_tf=v['publish_tf'], image_transport=ImageTransport(v['image_transport']),
             bit_depth=v['bit_depth'], use_camera_info=v['use_camera_info'],
@@ -385,6 +412,7 @@ class NodeSettings:
         from initsel_ros.policy import PolicyConfig
         from initsel_ros.selector import SelectorConfig
         from initsel_ros.tracking import TrackerConfig
+        from initsel_ros.verify import VerifyConfig
 
         return SelectorConfig(
             tracker=dataclasses.replace(TrackerConfig(), max_features=self.max_features),
@@ -395,6 +423,9 @@ class NodeSettings:
             ),
             mode=self.mode.value,
             max_frames_since_reference=self.max_frames_since_reference,
+            refine=self.refine,
+            verify=VerifyConfig(frames=self.verify_frames, min_fraction=self.verify_min_fraction,
+                                max_rms_px=self.verify_max_rms_px),
         )
 
 
