@@ -294,6 +294,46 @@ def test_dataset_command_on_a_broken_source_writes_nothing_and_keeps_the_old_tab
     assert sorted(p.name for p in out.parent.iterdir()) == ['pairs.csv']
 
 
+def test_dataset_on_a_tum_folder_without_depth_labels_from_et_and_rotation(
+    static_sequence, tmp_path, capsys
+):
+    """Before: batches without depth were skipped and a 0-pair table was written, exit 0."""
+    from initsel_ros.cli import main
+    from initsel_ros.learn.table import read_table
+
+    folder = tmp_path / 'no_depth'
+    shutil.copytree(static_sequence, folder)
+    (folder / 'depth.txt').unlink()
+    out = tmp_path / 'pairs.csv'
+    assert main(['dataset', str(folder), '--out', str(out), '--batch', '10', '--jobs', '1',
+                 '--quiet', '--no-orbslam']) == 0
+    table = read_table(out)
+    assert len(table) == 27  # 30 frames: 3 batches of 10, 9 pairs each
+    assert set(table['scale_rule']) == {'no_depth'}
+    assert np.all(table['R_label'] == 1)  # the static camera
+    assert '27 pairs labelled without depth' in capsys.readouterr().out
+
+
+def test_dataset_that_can_label_nothing_fails_with_one_line_and_writes_nothing(
+    static_sequence, tmp_path, capsys
+):
+    from initsel_ros.cli import main
+
+    folder = tmp_path / 'no_truth'
+    shutil.copytree(static_sequence, folder)
+    (folder / 'depth.txt').unlink()
+    (folder / 'groundtruth.txt').unlink()
+    out = tmp_path / 'pairs.csv'
+    status = main(['dataset', str(folder), '--out', str(out), '--batch', '10', '--jobs', '1',
+                   '--quiet', '--no-orbslam'])
+    err = capsys.readouterr().err.strip()
+    assert status == 1
+    assert len(err.splitlines()) == 1 and 'Traceback' not in err
+    assert 'no pair could be labelled: no_truth: none of its 30 frames has a ground-truth pose' \
+        in err
+    assert not out.exists()
+
+
 def test_table_writer_interrupted_midway_leaves_no_partial_file(tmp_path, monkeypatch):
     from initsel_ros.learn import table as table_module
 

@@ -49,8 +49,8 @@ def run(args: argparse.Namespace) -> int:
     """Build the table and write it atomically."""
     import numpy as np
 
-    from initsel_ros.learn.labels import NO_DEPTH, LabelConfig, ScaleRule
     from initsel_ros.errors import DatasetError
+    from initsel_ros.learn.labels import NO_DEPTH, LabelConfig, ScaleRule
     from initsel_ros.learn.pairs import (
         BuildStats,
         DatasetConfig,
