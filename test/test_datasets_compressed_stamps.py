@@ -143,3 +143,29 @@ def test_undecodable_compressed_frame_names_the_bag_topic_and_frame(static_seque
     assert seq.frames[0].stamp_ns == 1_000_000_005
     with pytest.raises(DatasetError, match=r'garbage_jpeg.*/cam/compressed frame 0.*decode'):
         seq.image(0)
+
+
+def test_dataset_on_a_png_compressed_bag_gives_the_folder_s_table(static_sequence, near_sequence,
+                                                                  tmp_path):
+    """png is lossless: the compressed ROS 2 bag labels exactly like the TUM folder (with depth),
+    and a TUM folder next to a KITTI root takes --sequence without complaint."""
+    from initsel_ros.cli import main
+    from initsel_ros.datasets.bags import write_bag
+    from initsel_ros.learn.table import read_table
+
+    folder = TumSequence(near_sequence)
+    folder.frames = folder.frames[:20]
+    bag = write_bag(folder, tmp_path / 'near_png', 'ros2', compressed='png')
+    tables = {}
+    for name, source in (('bag', bag), ('folder', near_sequence)):
+        out = tmp_path / f'{name}.csv'
+        assert main(['dataset', str(source), '--out', str(out), '--batch', '20', '--stride', '1',
+                     '--jobs', '1', '--quiet', '--no-orbslam', '--sequence', '00']) == 0
+        tables[name] = read_table(out)
+    bag_table = tables['bag']
+    folder_table = tables['folder'].select(tables['folder']['cur_index'] < 20)
+    assert len(bag_table) == 19 == len(folder_table)
+    assert set(bag_table['scale_rule']) == {'median'}
+    for column in ('n_tracks', 'E_label', 'H_label', 'F_label', 'R_label'):
+        np.testing.assert_array_equal(bag_table[column], folder_table[column])
+    np.testing.assert_allclose(bag_table['E_et'], folder_table['E_et'])

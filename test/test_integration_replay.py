@@ -27,6 +27,7 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets import open_sequence
+from initsel_ros.datasets.bags import write_bag
 from initsel_ros.datasets.euroc import write_euroc
 from initsel_ros.datasets.kitti import write_kitti
 from initsel_ros.datasets.tum import TumSequence
@@ -53,8 +54,8 @@ def _initsel() -> str:
 
 @pytest.fixture(scope='module')
 def sources(near_sequence, tmp_path_factory) -> dict[str, Path]:
-    """20 rendered frames as a TUM folder with odd Unix stamps, as EuRoC (with a distortion
-    vector in sensor.yaml) and as a KITTI root."""
+    """20 rendered frames as a TUM folder with odd Unix stamps, as a ROS 1 bag of jpeg
+    CompressedImages, as EuRoC (with a distortion vector in sensor.yaml) and as a KITTI root."""
     out = tmp_path_factory.mktemp('replay_sources')
     tum = out / 'tum_odd'
     (tum / 'rgb').mkdir(parents=True)
@@ -67,12 +68,13 @@ def sources(near_sequence, tmp_path_factory) -> dict[str, Path]:
         lines.append(f'{ns // 10**9}.{ns % 10**9:09d} {name}')
     (tum / 'rgb.txt').write_text('\n'.join(lines) + '\n')
     seq.frames = seq.frames[:N_FRAMES]
+    write_bag(open_sequence(tum), out / 'jpeg.bag', 'ros1', compressed='jpeg', jpeg_quality=95)
     write_kitti(seq, out / 'kitti', '03')
     cam = seq.intrinsics
     seq.intrinsics = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height,
                                 DISTORTION)
     write_euroc(seq, out / 'euroc')
-    return {'tum': tum, 'euroc': out / 'euroc', 'kitti': out / 'kitti'}
+    return {'tum': tum, 'bag': out / 'jpeg.bag', 'euroc': out / 'euroc', 'kitti': out / 'kitti'}
 
 
 @pytest.fixture(scope='module')
@@ -86,6 +88,7 @@ def listener_context():
 CASES = {
     'tum-raw': ('tum', []),
     'tum-jpeg': ('tum', ['--compressed', '--jpeg-quality', '95']),
+    'compressed-ros1-bag-raw': ('bag', []),
     'euroc-native-mono8': ('euroc', ['--encoding', 'native']),
     'euroc-png': ('euroc', ['--encoding', 'native', '--compressed', '--compressed-format',
                             'png']),
@@ -140,7 +143,7 @@ def test_replay_publishes_every_frame_with_exact_stamps_and_the_calibration(
     expected = [(int(t) // 10**9, int(t) % 10**9) for t in sequence.stamps_ns]
     assert [(m.header.stamp.sec, m.header.stamp.nanosec) for m in images] == expected
     assert [(m.header.stamp.sec, m.header.stamp.nanosec) for m in infos] == expected
-    if layout == 'tum':
+    if layout in ('tum', 'bag'):
         assert expected[1] == (1_700_000_000, 700_000_318)
     if layout == 'kitti':
         assert expected[0] == (0, 0)
@@ -177,7 +180,7 @@ def test_replay_publishes_every_frame_with_exact_stamps_and_the_calibration(
             assert diff.mean() < 3.0
         else:
             assert msg.encoding == 'rgb8'
-            assert np.array_equal(pixels, sequence.image(k)[..., ::-1])
+            assert np.array_equal(pixels, sequence.image(k)[..., ::-1])  # bag: decoded jpeg
 
 
 def test_replay_warns_once_when_frames_exceed_the_shared_memory_segment(sources, tmp_path):

@@ -329,7 +329,8 @@ def _open(path: str, nearest_tolerance: float | None = None,
             options['nearest_tolerance'] = nearest_tolerance
         if image_topic is not None and kind == 'bag':
             options['image_topic'] = image_topic
-        _SEQUENCES[key] = open_sequence(path, sequence=sequence, **options)
+        kitti = kind in ('kitti', 'kitti_root')  # --sequence concerns KITTI sources only
+        _SEQUENCES[key] = open_sequence(path, sequence=sequence if kitti else None, **options)
     return _SEQUENCES[key]
 
 
