@@ -17,12 +17,12 @@ from initsel_ros.errors import InitselError
 #: subcommand -> (module, one-line help). Modules import lazily.
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'synth': ('initsel_ros.synth.cli', 'render a TUM-format sequence with exact ground truth'),
-    'dataset': ('initsel_ros.learn.cli_dataset', 'build labelled pairs from TUM sequences'),
+    'dataset': ('initsel_ros.learn.cli_dataset', 'label pairs of TUM, EuRoC, KITTI, bag sources'),
     'train': ('initsel_ros.learn.cli_train', 'train the F/E/H/R models into a model file'),
     'eval': ('initsel_ros.learn.cli_eval', "print the paper's tables against the baselines"),
     'seedmap': ('initsel_ros.learn.cli_seedmap',
                 'accuracy of the published seed map against the baselines'),
-    'replay': ('initsel_ros.ros.replay', 'publish a TUM folder or bag as image topics'),
+    'replay': ('initsel_ros.ros.replay', 'publish a TUM, EuRoC, KITTI folder or bag as a camera'),
     'bench': ('initsel_ros.bench', 'measure decision, per-frame and baseline costs'),
     'demo': ('initsel_ros.demo', 'render a sequence and initialize on it, end to end'),
     'pictures': ('initsel_ros.pictures', 'overlay videos, probability plots, README pictures'),

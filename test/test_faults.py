@@ -110,6 +110,41 @@ def test_ros2_bag_with_bad_metadata_fails_naming_the_bag(small_bags, tmp_path, t
     assert _assert_clean_failure_or_success(copy, 'bad_meta') == 'error'
 
 
+_LIMITED_CLI = """
+import resource, sys
+limit = int(sys.argv[1]) << 20
+resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+from initsel_ros.cli import main
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize('command', ['replay', 'dataset'])
+def test_ros1_bag_with_an_overwritten_header_length_fails_with_one_line_and_a_reason(
+    small_bags, tmp_path, command
+):
+    """The bag header record's length field claims 2 GiB: under a 1.5 GiB address-space limit
+    (a small machine or container) rosbags raises MemoryError, which has no message."""
+    data = bytearray(small_bags['ros1'].read_bytes())
+    data[13:17] = b'\xff\xff\xff\x7f'  # header_len of the first record, after '#ROSBAG V2.0\n'
+    bag = tmp_path / 'overwritten.bag'
+    bag.write_bytes(bytes(data))
+    args = [str(bag)] if command == 'replay' else [str(bag), '--out', str(tmp_path / 't.csv'),
+                                                   '--jobs', '1', '--quiet']
+    env = {k: v for k, v in os.environ.items()
+           if k not in ('_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')}
+    proc = subprocess.run([sys.executable, '-c', _LIMITED_CLI, '1536', command, *args],
+                          capture_output=True, text=True, timeout=TIMEOUT_S, env=env)
+    err = proc.stderr.strip()
+    assert proc.returncode == 1, err
+    assert 'Traceback' not in err and 'MemoryError' in err
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f'initsel {command}: error: ') and 'overwritten.bag' in err
+    assert 'corrupt length field' in err
+    assert not err.rstrip().endswith(':'), 'the reason is empty'
+    assert not (tmp_path / 't.csv').exists()
+
+
 # ----------------------------------------------------------------------------- TUM folders
 def _tum_folder(path: Path, n: int = 3) -> Path:
     """A tiny TUM folder: n 64x48 textured PNGs, depth, ground truth."""
@@ -257,6 +292,46 @@ def test_dataset_command_on_a_broken_source_writes_nothing_and_keeps_the_old_tab
     assert len(err.strip().splitlines()) == 1
     assert out.read_text() == 'previous table\n'
     assert sorted(p.name for p in out.parent.iterdir()) == ['pairs.csv']
+
+
+def test_dataset_on_a_tum_folder_without_depth_labels_from_et_and_rotation(
+    static_sequence, tmp_path, capsys
+):
+    """Before: batches without depth were skipped and a 0-pair table was written, exit 0."""
+    from initsel_ros.cli import main
+    from initsel_ros.learn.table import read_table
+
+    folder = tmp_path / 'no_depth'
+    shutil.copytree(static_sequence, folder)
+    (folder / 'depth.txt').unlink()
+    out = tmp_path / 'pairs.csv'
+    assert main(['dataset', str(folder), '--out', str(out), '--batch', '10', '--jobs', '1',
+                 '--quiet', '--no-orbslam']) == 0
+    table = read_table(out)
+    assert len(table) == 27  # 30 frames: 3 batches of 10, 9 pairs each
+    assert set(table['scale_rule']) == {'no_depth'}
+    assert np.all(table['R_label'] == 1)  # the static camera
+    assert '27 pairs labelled without depth' in capsys.readouterr().out
+
+
+def test_dataset_that_can_label_nothing_fails_with_one_line_and_writes_nothing(
+    static_sequence, tmp_path, capsys
+):
+    from initsel_ros.cli import main
+
+    folder = tmp_path / 'no_truth'
+    shutil.copytree(static_sequence, folder)
+    (folder / 'depth.txt').unlink()
+    (folder / 'groundtruth.txt').unlink()
+    out = tmp_path / 'pairs.csv'
+    status = main(['dataset', str(folder), '--out', str(out), '--batch', '10', '--jobs', '1',
+                   '--quiet', '--no-orbslam'])
+    err = capsys.readouterr().err.strip()
+    assert status == 1
+    assert len(err.splitlines()) == 1 and 'Traceback' not in err
+    assert 'no pair could be labelled: no_truth: none of its 30 frames has a ground-truth pose' \
+        in err
+    assert not out.exists()
 
 
 def test_table_writer_interrupted_midway_leaves_no_partial_file(tmp_path, monkeypatch):

@@ -128,3 +128,42 @@ def test_relabel_applies_new_thresholds_to_stored_errors():
         1, 1, 0,
     ]
     assert columns['scale_rule'][0] == 'median'  # input untouched
+
+
+def test_without_depth_labels_come_from_et_and_the_rotation_error():
+    rng = np.random.default_rng(0)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(_rot_y(0.03), np.array([0.25, 0.02, 0.05]))
+    p0, p1 = _correspondences(rng, depth, T_cur)
+    labels = label_pair(p0, p1, K, None, np.eye(4), T_cur)
+    assert not labels.has_depth and labels.scale_rule == 'no_depth'
+    e = labels.outcomes['E']
+    assert e.ok and e.et < 0.1 and e.n_gt_points == 0
+    assert math.isnan(e.er_median) and math.isnan(e.er_first_two)
+    assert e.rotation_error_deg < 0.5
+    assert labels.label('E') == 1
+    strict = label_pair(p0, p1, K, None, np.eye(4), T_cur,
+                        LabelConfig(rotation_error_max_deg=e.rotation_error_deg / 2))
+    assert strict.label('E') == 0
+
+
+def test_relabel_keeps_no_depth_rows_and_applies_the_rotation_threshold(caplog):
+    columns = {
+        'gt_baseline_m': np.array([0.2, 0.2, 0.2]),
+        'scale_rule': np.array(['median', 'no_depth', 'no_depth'], dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        columns[f'{m}_ok'] = np.array([1, 1, 1])
+        columns[f'{m}_et'] = np.array([0.1, 0.1, 0.5])
+        columns[f'{m}_er_median'] = np.array([0.2, np.nan, np.nan])
+        columns[f'{m}_er_first_two'] = np.array([0.2, np.nan, np.nan])
+        columns[f'{m}_label'] = np.array([1, 1, 0])  # row 3: rotation error was too large
+    out = relabel(columns, LabelConfig())
+    assert out['E_label'].tolist() == [1, 1, 0]  # stored rotation verdict kept
+    assert out['scale_rule'].tolist() == ['median', 'no_depth', 'no_depth']
+    assert 'rotation-error column' in caplog.text
+    assert relabel(columns, LabelConfig(et_max=0.05))['E_label'].tolist() == [0, 0, 0]
+    with_rot = dict(columns, E_rot_err_deg=np.array([np.nan, 6.0, 1.0]))
+    assert relabel(with_rot, LabelConfig())['E_label'].tolist() == [1, 0, 1]
+    first_two = relabel(columns, LabelConfig(scale_rule=ScaleRule.FIRST_TWO))
+    assert first_two['scale_rule'].tolist() == ['first_two', 'no_depth', 'no_depth']

@@ -1,7 +1,10 @@
-"""Sequences with ground truth: TUM folders, ROS 1 and ROS 2 bags, pose utilities.
+"""Sequences with ground truth: TUM, EuRoC and KITTI folders, ROS 1 and ROS 2 bags, poses.
 
-``open_sequence(path)`` picks the reader: a folder with ``rgb.txt`` is a TUM folder, a ``.bag``
-file a ROS 1 bag, a folder with ``metadata.yaml`` (or a ``.db3``/``.mcap`` file) a ROS 2 bag.
+``open_sequence(path)`` picks the reader: a folder with ``rgb.txt`` is a TUM folder, one with
+``mav0/cam0/data.csv`` (or such a ``mav0``) a EuRoC MAV sequence, one with ``times.txt``,
+``calib.txt`` and ``image_0/`` a KITTI odometry sequence (or a KITTI root with ``sequences/NN``,
+given ``sequence='NN'``), a ``.bag`` file a ROS 1 bag, a folder with ``metadata.yaml`` (or a
+``.db3``/``.mcap`` file) a ROS 2 bag.
 """
 
 from __future__ import annotations
@@ -9,6 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from initsel_ros.datasets.euroc import EurocSequence, is_euroc_folder
+from initsel_ros.datasets.kitti import KittiSequence, is_kitti_root, is_kitti_sequence
 from initsel_ros.datasets.poses import (
     interpolate_pose_matrices,
     interpolate_poses,
@@ -21,6 +26,10 @@ from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.tum import TumSequence, is_tum_folder, read_trajectory
 from initsel_ros.errors import DatasetError
 
+#: The layouts :func:`open_sequence` reads, as named in its error messages and ``--help``.
+LAYOUTS = ('TUM folder', 'EuRoC ASL folder', 'KITTI odometry sequence', 'ROS 1 bag',
+           'ROS 2 bag')
+
 
 def is_bag(path: Path) -> bool:
     """True for a ROS 1 ``.bag`` file or a ROS 2 bag (folder with metadata.yaml, .db3, .mcap)."""
@@ -30,41 +39,76 @@ def is_bag(path: Path) -> bool:
     return path.is_dir() and (path / 'metadata.yaml').is_file()
 
 
-def open_sequence(path: Path | str, **options: Any) -> Sequence:
-    """Open a TUM folder or a bag as a :class:`Sequence`.
+def sequence_kind(path: Path | str) -> str | None:
+    """'tum', 'euroc', 'kitti', 'kitti_root' or 'bag' for a path :func:`open_sequence` reads,
+    else None."""
+    path = Path(path)
+    if is_tum_folder(path):
+        return 'tum'
+    if is_euroc_folder(path):
+        return 'euroc'
+    if is_kitti_sequence(path):
+        return 'kitti'
+    if is_kitti_root(path):
+        return 'kitti_root'
+    if is_bag(path):
+        return 'bag'
+    return None
+
+
+def open_sequence(path: Path | str, sequence: str | None = None, **options: Any) -> Sequence:
+    """Open a TUM, EuRoC or KITTI folder or a bag as a :class:`Sequence`.
 
     Args:
-        path: TUM folder, ROS 1 ``.bag`` file or ROS 2 bag folder/file.
-        **options: passed to :class:`TumSequence` or ``bags.BagSequence``
-            (e.g. ``nearest_tolerance``, ``max_gap``; for bags ``image_topic``, ``depth_topic``,
-            ``info_topic``, ``pose_topic``, ``tf_parent``, ``tf_child``, ``groundtruth``).
+        path: TUM folder, EuRoC folder (holding ``mav0``, or ``mav0`` itself), KITTI
+            ``sequences/NN`` folder or KITTI root, ROS 1 ``.bag`` file or ROS 2 bag.
+        sequence: the KITTI sequence ('NN') when ``path`` is a KITTI root.
+        **options: passed to the reader (:class:`TumSequence`, :class:`EurocSequence`,
+            :class:`KittiSequence`, ``bags.BagSequence``); e.g. ``nearest_tolerance``,
+            ``max_gap``; for bags ``image_topic``, ``depth_topic``, ``info_topic``,
+            ``pose_topic``, ``tf_parent``, ``tf_child``, ``groundtruth``.
 
     Raises:
-        DatasetError: the path does not exist or is neither kind.
+        DatasetError: the path does not exist or is none of these, or ``sequence`` was given
+            for another layout.
     """
     path = Path(path)
     if not path.exists():
         raise DatasetError(f'{path}: no such file or directory')
-    if is_tum_folder(path):
+    kind = sequence_kind(path)
+    if sequence is not None and kind not in ('kitti', 'kitti_root'):
+        raise DatasetError(f'{path}: --sequence {sequence} applies to KITTI odometry only')
+    if kind == 'tum':
         return TumSequence(path, **options)
-    if is_bag(path):
+    if kind == 'euroc':
+        return EurocSequence(path, **options)
+    if kind in ('kitti', 'kitti_root'):
+        return KittiSequence(path, sequence=sequence, **options)
+    if kind == 'bag':
         from initsel_ros.datasets.bags import BagSequence
 
         return BagSequence(path, **options)
     raise DatasetError(
-        f'{path}: not a TUM folder (no rgb.txt) nor a bag (.bag file, or folder with '
-        'metadata.yaml)'
+        f'{path}: not a TUM folder (no rgb.txt), EuRoC folder (no mav0/cam0/data.csv), KITTI '
+        'odometry sequence (no times.txt, calib.txt, image_0/) nor a bag (.bag file, or '
+        'folder with metadata.yaml)'
     )
 
 
 __all__ = [
+    'LAYOUTS',
     'DatasetError',
+    'EurocSequence',
     'Frame',
+    'KittiSequence',
     'Sequence',
     'TumSequence',
     'interpolate_pose_matrices',
     'interpolate_poses',
     'is_bag',
+    'is_euroc_folder',
+    'is_kitti_root',
+    'is_kitti_sequence',
     'is_tum_folder',
     'matrix_to_pose',
     'matrix_to_quaternion',
@@ -72,4 +116,5 @@ __all__ = [
     'pose_matrix',
     'quaternion_to_matrix',
     'read_trajectory',
+    'sequence_kind',
 ]

@@ -1,14 +1,18 @@
 """ROS 1 and ROS 2 bags as sequences (read with rosbags' AnyReader), and bag writers.
 
-Reading: the colour topic (rgb8/bgr8/mono8/... ``sensor_msgs/Image``), an optional depth topic
+Reading: the colour topic (rgb8/bgr8/mono8/... ``sensor_msgs/Image``, or
+``sensor_msgs/CompressedImage`` jpeg/png, on the topic itself or on ``<topic>/compressed``
+when the topic is absent), an optional depth topic
 (32FC1 metres or 16UC1 millimetres), an optional ``CameraInfo`` topic for the intrinsics, and
 ground truth from, in this order: a ``groundtruth`` file given, a ``geometry_msgs/PoseStamped``
 topic (camera-to-world), a ``groundtruth.txt`` beside the bag, or ``/tf`` (the transform
 ``tf_parent`` -> ``tf_child``; TUM's bags publish /world -> /kinect, which is the mocap body
 and not exactly the optical centre, so prefer the groundtruth.txt when you have it).
-Images load lazily: the first pass records only timestamps.
+Images load lazily: the first pass records only timestamps (header stamps kept as exact
+integer nanoseconds in ``Frame.stamp_ns``).
 
-Writing (used by ``initsel synth --bag``): ``/camera/rgb/image_color`` (rgb8),
+Writing (used by ``initsel synth --bag``): ``/camera/rgb/image_color`` (rgb8; or jpeg/png
+``CompressedImage`` on ``/camera/rgb/image_color/compressed``),
 ``/camera/rgb/camera_info``, ``/camera/depth/image`` (32FC1, metres) and ``/groundtruth/pose``
 (PoseStamped, camera-to-world, frame ``world``).
 """
@@ -31,7 +35,8 @@ from initsel_ros.datasets.poses import (
     interpolate_pose_matrices,
     matrix_to_pose,
 )
-from initsel_ros.datasets.sequence import Frame, Sequence
+from initsel_ros.datasets.sequence import Frame, Sequence, without_alpha
+from initsel_ros.datasets.stamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
 from initsel_ros.errors import ConfigError, DatasetError
 
@@ -52,11 +57,51 @@ def _read_errors() -> tuple[type[BaseException], ...]:
     from rosbags.rosbag2 import ReaderError as Ros2ReaderError
 
     return (AnyReaderError, Ros1ReaderError, Ros2ReaderError, OSError, ValueError, KeyError,
-            IndexError, EOFError, struct.error, AssertionError, sqlite3.Error)
+            IndexError, EOFError, struct.error, AssertionError, sqlite3.Error, MemoryError,
+            OverflowError)
+
+
+def read_error_reason(exc: BaseException) -> str:
+    """A readable reason for a reader exception (MemoryError and some others carry no text)."""
+    if isinstance(exc, MemoryError):
+        return ('a record claims more memory than is available (a corrupt length field; '
+                'MemoryError)')
+    text = str(exc).strip()
+    return text if text else type(exc).__name__
+
+
+def _stamp_ns(header: Any) -> int:
+    return stamp_ns(header.stamp.sec, header.stamp.nanosec)
 
 
 def _stamp(header: Any) -> float:
-    return float(header.stamp.sec) + 1e-9 * float(header.stamp.nanosec)
+    return ns_to_seconds(_stamp_ns(header))
+
+
+def is_compressed_type(msgtype: str) -> bool:
+    """True for ``sensor_msgs/(msg/)CompressedImage``."""
+    return msgtype.rsplit('/', 1)[-1] == 'CompressedImage'
+
+
+def image_from_compressed(msg: Any) -> np.ndarray:
+    """A jpeg or png ``sensor_msgs/CompressedImage`` decoded with ``cv2.imdecode``: (H, W, 3)
+    BGR or (H, W) grey, uint8 or uint16 (16-bit png).
+
+    Raises:
+        DatasetError: empty, or not decodable as an image.
+    """
+    data = np.frombuffer(bytes(np.asarray(msg.data, dtype=np.uint8)), dtype=np.uint8)
+    fmt = str(getattr(msg, 'format', ''))
+    if data.size == 0:
+        raise DatasetError(f'empty CompressedImage (format {fmt!r})')
+    try:
+        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error as exc:
+        raise DatasetError(f'cannot decode CompressedImage (format {fmt!r}): {exc}') from exc
+    if img is None or img.size == 0:
+        raise DatasetError(f'cannot decode CompressedImage of {data.size} bytes '
+                           f'(format {fmt!r}; jpeg and png are supported)')
+    return without_alpha(img)
 
 
 def image_from_msg(msg: Any) -> np.ndarray:
@@ -139,28 +184,33 @@ class BagSequence(Sequence):
         if not path.exists():
             raise DatasetError(f'{path}: bag not found')
         errors = _read_errors()
+        self.path = path
         self._reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY))
         try:
             self._reader.open()
         except errors as exc:
-            raise DatasetError(f'{path}: cannot open bag (truncated or corrupt?): {exc}') from exc
+            raise DatasetError(f'{path}: cannot open bag (truncated or corrupt?): '
+                               f'{read_error_reason(exc)}') from exc
         try:
             scan = self._scan(image_topic, depth_topic, info_topic, pose_topic, tf_topic,
                               tf_parent.lstrip('/'), tf_child.lstrip('/'))
         except errors as exc:
             self.close()
-            raise DatasetError(f'{path}: cannot read bag (truncated or corrupt?): {exc}') from exc
+            raise DatasetError(f'{path}: cannot read bag (truncated or corrupt?): '
+                               f'{read_error_reason(exc)}') from exc
         except DatasetError as exc:
             self.close()
             raise DatasetError(f'{path}: {exc}') from exc
-        img_times, img_stamps, depth_times, depth_stamps, info, gt_bag, gt_source = scan
+        img_times, img_ns, depth_times, depth_stamps, info, gt_bag, gt_source = scan
+        img_stamps = [ns_to_seconds(t) for t in img_ns]
         if not img_stamps:
             self.close()
             topics = sorted({c.topic for c in self._reader.connections})
             raise DatasetError(f'{path}: no messages on image topic {image_topic!r} '
                                f'(topics: {", ".join(topics)})')
-        order = np.argsort(img_stamps, kind='stable')
+        order = np.argsort(np.asarray(img_ns, dtype=np.int64), kind='stable')
         stamps = np.asarray(img_stamps)[order]
+        stamps_ns = [img_ns[k] for k in order]
         self._img_times = np.asarray(img_times)[order]
         self._depth_times = np.asarray(depth_times, dtype=np.int64)
         depth_stamps_arr = np.asarray(depth_stamps, dtype=np.float64)
@@ -191,15 +241,21 @@ class BagSequence(Sequence):
         if intrinsics is None:
             intrinsics = info if info is not None else Intrinsics.tum_fr3()
         frames = [Frame(i, float(s), poses[i],
-                        float(depth_stamps_arr[match[i]]) if match[i] >= 0 else None)
+                        float(depth_stamps_arr[match[i]]) if match[i] >= 0 else None,
+                        stamp_ns=stamps_ns[i])
                   for i, s in enumerate(stamps)]
         name = path.stem if path.is_file() else path.name
         super().__init__(name, intrinsics, frames, path)
-        self._image_topic, self._depth_topic = image_topic, depth_topic
+        self._depth_topic = depth_topic
 
     def _scan(self, image_topic: str, depth_topic: str, info_topic: str, pose_topic: str,
               tf_topic: str, tf_parent: str, tf_child: str) -> tuple[Any, ...]:
         reader = self._reader
+        topics = {c.topic for c in reader.connections}
+        if image_topic not in topics and f'{image_topic}/compressed' in topics:
+            _LOG.info('%s: no %s; reading %s/compressed', self.path, image_topic, image_topic)
+            image_topic = f'{image_topic}/compressed'
+        self.image_topic = image_topic
         conns = [c for c in reader.connections
                  if c.topic in (image_topic, depth_topic, info_topic, pose_topic, tf_topic)]
         self._img_conns = [c for c in conns if c.topic == image_topic]
@@ -214,7 +270,7 @@ class BagSequence(Sequence):
                 header = reader.deserialize(raw, conn.msgtype).header
                 if topic == image_topic:
                     img_times.append(t_ns)
-                    img_stamps.append(_stamp(header))
+                    img_stamps.append(_stamp_ns(header))
                 else:
                     depth_times.append(t_ns)
                     depth_stamps.append(_stamp(header))
@@ -255,15 +311,21 @@ class BagSequence(Sequence):
                                                       stop=int(t_ns) + 1):
                 return self._reader.deserialize(raw, conn.msgtype)
         except _read_errors() as exc:
-            raise DatasetError(f'{self.path}: cannot read message at {t_ns} ns: {exc}') from exc
+            raise DatasetError(f'{self.path}: cannot read message at {t_ns} ns: '
+                               f'{read_error_reason(exc)}') from exc
         raise DatasetError(f'{self.path}: message at {t_ns} ns disappeared')
 
-    def _load_image(self, i: int) -> np.ndarray:
-        img = image_from_msg(self._message(self._img_conns, self._img_times[i]))
-        if img.dtype == np.uint16:
-            img = (img >> 8).astype(np.uint8)
-        if img.ndim == 2:
-            img = cv2.cvtColor(img.astype(np.uint8), cv2.COLOR_GRAY2BGR)
+    def _load_native(self, i: int) -> np.ndarray:
+        msg = self._message(self._img_conns, self._img_times[i])
+        try:
+            if is_compressed_type(self._img_conns[0].msgtype):
+                return image_from_compressed(msg)
+            img = image_from_msg(msg)
+        except DatasetError as exc:
+            raise DatasetError(f'{self.path}: {self.image_topic} frame {i}: {exc}') from exc
+        if img.dtype == np.float32:
+            raise DatasetError(f'{self.path}: {self.image_topic} is a depth image (32FC1), '
+                               'not a camera image')
         return img
 
     def _load_depth(self, i: int) -> np.ndarray | None:
@@ -290,14 +352,20 @@ class BagSequence(Sequence):
 def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
               storage: str = 'sqlite3', image_topic: str = IMAGE_TOPIC,
               depth_topic: str = DEPTH_TOPIC, info_topic: str = INFO_TOPIC,
-              pose_topic: str = POSE_TOPIC) -> Path:
+              pose_topic: str = POSE_TOPIC, compressed: str | None = None,
+              jpeg_quality: int = 90) -> Path:
     """Write a sequence to a ROS 1 bag file (``fmt='ros1'``) or a ROS 2 bag folder.
+
+    Header stamps are the frames' exact ``stamp_ns``.
 
     Args:
         sequence: frames with images, optional depth and poses.
         path: output ``.bag`` file (ros1) or folder (ros2); must not exist.
         fmt: 'ros1' or 'ros2'.
         storage: ROS 2 storage plugin, 'sqlite3' or 'mcap'.
+        compressed: None (rgb8 ``Image`` on ``image_topic``), or 'jpeg' / 'png':
+            ``CompressedImage`` on ``<image_topic>/compressed`` instead.
+        jpeg_quality: 0-100, for ``compressed='jpeg'``.
 
     Returns:
         ``path``.
@@ -307,6 +375,8 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
     path = Path(path)
     if fmt not in ('ros1', 'ros2'):
         raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {fmt!r}")
+    if compressed not in (None, 'jpeg', 'png'):
+        raise ConfigError(f"compressed must be None, 'jpeg' or 'png', got {compressed!r}")
     if path.exists():
         raise DatasetError(f'{path}: already exists')
     if fmt == 'ros1':
@@ -331,11 +401,12 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
     Pose, PoseStamped = T['geometry_msgs/msg/Pose'], T['geometry_msgs/msg/PoseStamped']
     Point, Quat = T['geometry_msgs/msg/Point'], T['geometry_msgs/msg/Quaternion']
     Roi = T['sensor_msgs/msg/RegionOfInterest']
+    Compressed = T['sensor_msgs/msg/CompressedImage']
     ros1 = fmt == 'ros1'
 
-    def header(stamp: float, frame: str, seq: int) -> Any:
-        sec = int(np.floor(stamp))
-        t = Time(sec=sec, nanosec=min(round((stamp - sec) * 1e9), 999_999_999))
+    def header(t_ns: int, frame: str, seq: int) -> Any:
+        sec, nanosec = split_ns(t_ns)
+        t = Time(sec=sec, nanosec=nanosec)
         return Header(seq=seq, stamp=t, frame_id=frame) if ros1 else Header(stamp=t,
                                                                            frame_id=frame)
 
@@ -348,18 +419,29 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
         dist = np.zeros(5)
     try:
         writer.open()
-        c_img = writer.add_connection(image_topic, Image.__msgtype__, typestore=store)
+        if compressed is None:
+            c_img = writer.add_connection(image_topic, Image.__msgtype__, typestore=store)
+        else:
+            c_img = writer.add_connection(f'{image_topic}/compressed', Compressed.__msgtype__,
+                                          typestore=store)
         c_info = writer.add_connection(info_topic, Info.__msgtype__, typestore=store)
         c_depth = writer.add_connection(depth_topic, Image.__msgtype__, typestore=store)
         c_pose = writer.add_connection(pose_topic, PoseStamped.__msgtype__, typestore=store)
         for f in sequence.frames:
-            t_ns = round(f.stamp * 1e9)
-            rgb = cv2.cvtColor(sequence.image(f.index), cv2.COLOR_BGR2RGB)
-            h, w = rgb.shape[:2]
-            hd = header(f.stamp, CAMERA_FRAME, f.index)
-            msg = Image(header=hd, height=h, width=w, encoding='rgb8', is_bigendian=0,
-                        step=w * 3, data=rgb.reshape(-1))
-            writer.write(c_img, t_ns, serialize(msg, Image.__msgtype__))
+            t_ns = int(f.stamp_ns)
+            hd = header(t_ns, CAMERA_FRAME, f.index)
+            if compressed is None:
+                rgb = cv2.cvtColor(sequence.image(f.index), cv2.COLOR_BGR2RGB)
+                h, w = rgb.shape[:2]
+                msg = Image(header=hd, height=h, width=w, encoding='rgb8', is_bigendian=0,
+                            step=w * 3, data=rgb.reshape(-1))
+                writer.write(c_img, t_ns, serialize(msg, Image.__msgtype__))
+            else:
+                native = sequence.native_image(f.index)
+                h, w = native.shape[:2]
+                cmsg = Compressed(header=hd, format=compressed_format(native, compressed),
+                                  data=encode_image(native, compressed, jpeg_quality))
+                writer.write(c_img, t_ns, serialize(cmsg, Compressed.__msgtype__))
             roi = Roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
             mats = {'D' if ros1 else 'd': dist, 'K' if ros1 else 'k': K,
                     'R' if ros1 else 'r': np.eye(3).reshape(-1),
@@ -370,7 +452,7 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
             depth = sequence.depth(f.index)
             if depth is not None:
                 d_ns = round(f.depth_stamp * 1e9)
-                dmsg = Image(header=header(f.depth_stamp, CAMERA_FRAME, f.index), height=h,
+                dmsg = Image(header=header(d_ns, CAMERA_FRAME, f.index), height=h,
                              width=w, encoding='32FC1', is_bigendian=0, step=w * 4,
                              data=np.ascontiguousarray(depth, '<f4').view(np.uint8).reshape(-1))
                 writer.write(c_depth, d_ns, serialize(dmsg, Image.__msgtype__))
@@ -378,11 +460,54 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
                 t, q = matrix_to_pose(f.pose)
                 pose = Pose(position=Point(x=t[0], y=t[1], z=t[2]),
                             orientation=Quat(x=q[0], y=q[1], z=q[2], w=q[3]))
-                pmsg = PoseStamped(header=header(f.stamp, WORLD_FRAME, f.index), pose=pose)
+                pmsg = PoseStamped(header=header(t_ns, WORLD_FRAME, f.index), pose=pose)
                 writer.write(c_pose, t_ns, serialize(pmsg, PoseStamped.__msgtype__))
     finally:
         writer.close()
     return path
 
 
-__all__ = ['BagSequence', 'image_from_msg', 'write_bag']
+def encode_image(image: np.ndarray, fmt: str, jpeg_quality: int = 90) -> np.ndarray:
+    """Encode a grey or BGR image as 'jpeg' or 'png' bytes (uint8 array) with ``cv2.imencode``.
+
+    16-bit images are always png (jpeg is 8-bit only).
+
+    Raises:
+        ConfigError: unknown format or quality outside 0-100.
+        DatasetError: OpenCV could not encode the image.
+    """
+    if fmt not in ('jpeg', 'png'):
+        raise ConfigError(f"image compression must be 'jpeg' or 'png', got {fmt!r}")
+    if not 0 <= int(jpeg_quality) <= 100:
+        raise ConfigError(f'jpeg quality must be in 0-100, got {jpeg_quality}')
+    if image.dtype == np.uint16:
+        fmt = 'png'
+    if fmt == 'jpeg':
+        ok, data = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
+    else:
+        ok, data = cv2.imencode('.png', image, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    if not ok:
+        raise DatasetError(f'cannot encode a {image.shape} {image.dtype} image as {fmt}')
+    return np.asarray(data, dtype=np.uint8).reshape(-1)
+
+
+def compressed_format(image: np.ndarray, fmt: str) -> str:
+    """The ``CompressedImage.format`` string of compressed_image_transport, e.g.
+    ``'bgr8; jpeg compressed bgr8'`` or ``'mono16; png compressed mono16'``."""
+    if image.dtype == np.uint16:
+        fmt = 'png'
+    bits = 16 if image.dtype == np.uint16 else 8
+    encoding = f'mono{bits}' if image.ndim == 2 else f'bgr{bits}'
+    return f'{encoding}; {fmt} compressed {encoding}'
+
+
+__all__ = [
+    'BagSequence',
+    'compressed_format',
+    'encode_image',
+    'image_from_compressed',
+    'image_from_msg',
+    'is_compressed_type',
+    'read_error_reason',
+    'write_bag',
+]

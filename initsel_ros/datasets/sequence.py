@@ -26,21 +26,31 @@ class Frame:
 
     Attributes:
         index: position in the sequence, 0-based.
-        stamp: colour image time, seconds.
+        stamp: colour image time, seconds (float; for timing and interpolation).
         pose: (4, 4) float64 camera-to-world ground truth at ``stamp``, or None when unknown.
         depth_stamp: time of the associated depth map (seconds) or None when there is none.
+        stamp_ns: the exact colour image time, integer nanoseconds, as the source stores it
+            (bag header, EuRoC ns, TUM decimal text); rounded from ``stamp`` when not given.
     """
 
     index: int
     stamp: float
     pose: np.ndarray | None
     depth_stamp: float | None = None
+    stamp_ns: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.stamp_ns is None:
+            object.__setattr__(self, 'stamp_ns', round(self.stamp * 1e9))
+        else:
+            object.__setattr__(self, 'stamp_ns', int(self.stamp_ns))
 
 
 class Sequence:
     """Base class: frames, intrinsics and lazy image access.
 
-    Subclasses implement :meth:`_load_image` (BGR uint8) and :meth:`_load_depth` (metres).
+    Subclasses implement :meth:`_load_native` (the image as stored) or :meth:`_load_image`
+    (BGR uint8), and :meth:`_load_depth` (metres).
     """
 
     def __init__(self, name: str, intrinsics: Intrinsics, frames: list[Frame],
@@ -67,8 +77,13 @@ class Sequence:
 
     @property
     def stamps_ns(self) -> np.ndarray:
-        """(N,) int64 colour image times, integer nanoseconds (rounded from ``stamps``)."""
-        return np.round(self.stamps * 1e9).astype(np.int64)
+        """(N,) int64 colour image times, exact integer nanoseconds (``Frame.stamp_ns``)."""
+        return np.array([f.stamp_ns for f in self.frames], dtype=np.int64)
+
+    @property
+    def has_depth(self) -> bool:
+        """True when at least one frame has a depth map."""
+        return any(f.depth_stamp is not None for f in self.frames)
 
     @property
     def has_pose(self) -> np.ndarray:
@@ -94,7 +109,15 @@ class Sequence:
 
     def gray(self, i: int) -> np.ndarray:
         """Frame ``i`` as (H, W) uint8 grey."""
-        return cv2.cvtColor(self.image(i), cv2.COLOR_BGR2GRAY)
+        native = self.native_image(i)
+        if native.ndim == 2 and native.dtype == np.uint8:
+            return native
+        return cv2.cvtColor(bgr_from_any(native), cv2.COLOR_BGR2GRAY)
+
+    def native_image(self, i: int) -> np.ndarray:
+        """Frame ``i`` as stored: (H, W) grey or (H, W, 3) BGR, uint8 or uint16 (16-bit PNGs,
+        mono16 messages). Readers of grey or 16-bit data override :meth:`_load_native`."""
+        return self._load_native(self._check_index(i))
 
     def depth(self, i: int) -> np.ndarray | None:
         """Depth of frame ``i`` as (H, W) float32 metres (0 = no data), or None if absent."""
@@ -104,7 +127,10 @@ class Sequence:
         return self._load_depth(i)
 
     def _load_image(self, i: int) -> np.ndarray:
-        raise NotImplementedError
+        return bgr_from_any(self._load_native(i))
+
+    def _load_native(self, i: int) -> np.ndarray:
+        return self._load_image(i)
 
     def _load_depth(self, i: int) -> np.ndarray | None:
         raise NotImplementedError
@@ -124,6 +150,15 @@ def read_image_file(path: Path, flags: int = cv2.IMREAD_COLOR) -> np.ndarray:
     return img
 
 
+def without_alpha(img: np.ndarray) -> np.ndarray:
+    """BGRA -> BGR (any depth); grey and BGR images unchanged."""
+    if img.ndim == 3 and img.shape[2] == 4:
+        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
+    if img.ndim == 3 and img.shape[2] == 1:
+        return img[..., 0]
+    return img
+
+
 def bgr_from_any(img: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8 BGR from grey, BGR or BGRA uint8/uint16 images."""
     if img.dtype == np.uint16:
@@ -135,4 +170,4 @@ def bgr_from_any(img: np.ndarray) -> np.ndarray:
     return img
 
 
-__all__ = ['Frame', 'Sequence', 'bgr_from_any', 'read_image_file']
+__all__ = ['Frame', 'Sequence', 'bgr_from_any', 'read_image_file', 'without_alpha']

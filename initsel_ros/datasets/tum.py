@@ -18,7 +18,8 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_pose_matrices
-from initsel_ros.datasets.sequence import Frame, Sequence, bgr_from_any, read_image_file
+from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
+from initsel_ros.datasets.stamps import ns_to_seconds, parse_seconds_ns
 from initsel_ros.errors import ConfigError, DatasetError
 
 _LOG = logging.getLogger(__name__)
@@ -68,16 +69,28 @@ def read_listing(path: Path) -> tuple[np.ndarray, list[str]]:
     Returns:
         ``(stamps (N,) float64 seconds, relative file names)``.
     """
+    stamps_ns, names = read_listing_ns(path)
+    return np.array([ns_to_seconds(t) for t in stamps_ns], dtype=np.float64), names
+
+
+def read_listing_ns(path: Path) -> tuple[list[int], list[str]]:
+    """Read ``rgb.txt`` or ``depth.txt`` with exact times.
+
+    Returns:
+        ``(stamps as integer nanoseconds, parsed from the decimal text exactly, file names)``.
+    """
     path = Path(path)
-    stamps, names = [], []
+    stamps: list[int] = []
+    names: list[str] = []
     for number, fields in _data_lines(path):
         if len(fields) != 2:
             raise DatasetError(
                 f'{path}:{number}: expected 2 columns `{LISTING_FORMAT}`, got {len(fields)}'
             )
-        stamps.append(_float(path, number, fields[0], LISTING_FORMAT))
+        _float(path, number, fields[0], LISTING_FORMAT)  # the error message for bad text
+        stamps.append(parse_seconds_ns(fields[0]))
         names.append(fields[1])
-    return np.array(stamps, dtype=np.float64), names
+    return stamps, names
 
 
 def read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -190,12 +203,13 @@ class TumSequence(Sequence):
             raise DatasetError(f'{path}: not a TUM folder (directory not found)')
         if intrinsics is None:
             intrinsics = self._read_intrinsics(path)
-        rgb_stamps, rgb_names = read_listing(path / 'rgb.txt')
-        if len(rgb_stamps) == 0:
+        rgb_ns, rgb_names = read_listing_ns(path / 'rgb.txt')
+        if len(rgb_ns) == 0:
             raise DatasetError(f'{path / "rgb.txt"}: no frames listed')
-        order = np.argsort(rgb_stamps, kind='stable')
-        rgb_stamps = rgb_stamps[order]
+        order = sorted(range(len(rgb_ns)), key=rgb_ns.__getitem__)
+        rgb_ns = [rgb_ns[i] for i in order]
         rgb_names = [rgb_names[i] for i in order]
+        rgb_stamps = np.array([ns_to_seconds(t) for t in rgb_ns], dtype=np.float64)
 
         depth_match = np.full(len(rgb_stamps), -1)
         depth_stamps, depth_names = np.zeros(0), []
@@ -226,7 +240,8 @@ class TumSequence(Sequence):
 
         frames = [
             Frame(i, float(s), poses[i],
-                  float(depth_stamps[depth_match[i]]) if depth_match[i] >= 0 else None)
+                  float(depth_stamps[depth_match[i]]) if depth_match[i] >= 0 else None,
+                  stamp_ns=rgb_ns[i])
             for i, s in enumerate(rgb_stamps)
         ]
         super().__init__(path.resolve().name, intrinsics, frames, path)
@@ -246,9 +261,8 @@ class TumSequence(Sequence):
         except ConfigError as exc:
             raise DatasetError(str(exc)) from exc
 
-    def _load_image(self, i: int) -> np.ndarray:
-        img = bgr_from_any(read_image_file(self.rgb_files[i], cv2.IMREAD_UNCHANGED))
-        return img
+    def _load_native(self, i: int) -> np.ndarray:
+        return without_alpha(read_image_file(self.rgb_files[i], cv2.IMREAD_UNCHANGED))
 
     def _load_depth(self, i: int) -> np.ndarray | None:
         file = self.depth_files[i]
@@ -277,6 +291,7 @@ __all__ = [
     'associate',
     'is_tum_folder',
     'read_listing',
+    'read_listing_ns',
     'read_trajectory',
     'write_listing',
     'write_trajectory',

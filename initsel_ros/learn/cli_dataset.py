@@ -1,4 +1,5 @@
-"""``initsel dataset``: label every pair of TUM folders or bags into a CSV pair table."""
+"""``initsel dataset``: label every pair of TUM, EuRoC or KITTI folders or bags into a CSV pair
+table."""
 
 from __future__ import annotations
 
@@ -10,7 +11,10 @@ from pathlib import Path
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel dataset``."""
     parser.add_argument('sources', nargs='+', metavar='SOURCE',
-                        help='TUM folder, ROS 1 .bag or ROS 2 bag with ground truth and depth')
+                        help='TUM folder, EuRoC folder (holding mav0), KITTI odometry sequence '
+                             'folder (or root with --sequence), ROS 1 .bag or ROS 2 bag, with '
+                             'ground truth; without depth, labels come from E_t and the '
+                             'rotation error')
     parser.add_argument('--out', required=True, type=Path, help='output CSV (pair table)')
     parser.add_argument('--batch', type=int, default=90,
                         help='frames per batch; each is paired with its first (default 90; '
@@ -29,8 +33,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='E_R scale alignment feeding the labels (both are stored; '
                              'default median)')
     parser.add_argument('--nearest-tolerance', type=float, default=None, metavar='S',
-                        help='TUM: frames outside the ground truth take the nearest pose '
-                             'within S seconds')
+                        help='TUM, EuRoC, bags: frames outside the ground truth take the '
+                             'nearest pose within S seconds')
+    parser.add_argument('--sequence', default=None, metavar='NN',
+                        help='KITTI: the sequence, when a SOURCE is the odometry root')
+    parser.add_argument('--image-topic', default=None,
+                        help='bags: the image topic (Image or CompressedImage; default '
+                             '/camera/rgb/image_color, or <it>/compressed when absent)')
     parser.add_argument('--no-orbslam', action='store_true',
                         help='skip the ORB-SLAM H/F scoring baseline (faster)')
     parser.add_argument('--quiet', action='store_true', help='no progress bar')
@@ -38,8 +47,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build the table and write it atomically."""
-    from initsel_ros.learn.labels import LabelConfig, ScaleRule
-    from initsel_ros.learn.pairs import BuildStats, DatasetConfig, Source, build_table
+    import numpy as np
+
+    from initsel_ros.errors import DatasetError
+    from initsel_ros.learn.labels import NO_DEPTH, LabelConfig, ScaleRule
+    from initsel_ros.learn.pairs import (
+        BuildStats,
+        DatasetConfig,
+        Source,
+        build_table,
+        explain_no_pairs,
+    )
     from initsel_ros.learn.table import write_table
     from initsel_ros.tracking import TrackerConfig
 
@@ -53,14 +71,22 @@ def run(args: argparse.Namespace) -> int:
         orbslam_iterations=0 if args.no_orbslam else 200,
         stride=args.stride,
         nearest_tolerance=args.nearest_tolerance,
+        sequence=args.sequence,
+        image_topic=args.image_topic,
     )
     stats: list[BuildStats] = []
     table = build_table(args.sources, config, progress=not args.quiet, on_stats=stats.append)
+    if len(table) == 0:
+        raise DatasetError(f'{explain_no_pairs(args.sources, config)}; {args.out} not written')
     write_table(table, args.out)
     s = stats[0]
     positives = ', '.join(
         f'{m} {int(table[f"{m}_label"].sum())}' for m in ('F', 'E', 'H')
     ) + f', R {int(table["R_label"].sum())}'
+    no_depth = int(np.sum(np.asarray(table['scale_rule']).astype(str) == NO_DEPTH))
+    if no_depth:
+        positives += (f'; {no_depth} pairs labelled without depth (E_t and rotation error '
+                      f'< {config.label.rotation_error_max_deg:g} deg)')
     print(
         f'{args.out}: {s.pairs} pairs from {s.batches} batches of {len(s.sequences)} '
         f'sequence(s) in {s.seconds:.1f} s ({s.pairs_per_second:.0f} pairs/s); '

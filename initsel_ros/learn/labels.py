@@ -15,6 +15,12 @@ Label(method) = ``E_t < et_max`` and ``E_R < er_max`` (0.8 and 1 in the paper);
 R label = ground-truth baseline <= 0.05 m. A failed estimate (including one that keeps fewer
 than 8 points) is label 0 with NaN errors and a reason. Raw errors are kept so
 :func:`relabel` can apply other thresholds later.
+
+Without depth (EuRoC, KITTI, TUM folders without depth.txt) there are no ground-truth points,
+so E_R is NaN and label(method) = ``E_t < et_max`` and ``rotation error < rotation_error_max_deg``
+(the angle of ``R_gt^T R_est``); the row's ``scale_rule`` is ``no_depth``. The rotation check
+takes E_R's place of rejecting a wrong decomposition whose translation direction happens to
+be close (docs/learning.md gives the threshold's measurement).
 """
 
 from __future__ import annotations
@@ -33,6 +39,12 @@ LOG = logging.getLogger(__name__)
 
 #: The methods that get a pose label, in table order.
 POSE_METHODS = ('F', 'E', 'H')
+
+#: Without depth, the largest rotation error (degrees) of a good pose; see docs/learning.md.
+ROTATION_ERROR_MAX_DEG = 5.0
+
+#: ``scale_rule`` of rows labelled without depth (E_R undefined; E_t and rotation error only).
+NO_DEPTH = 'no_depth'
 
 
 class ScaleRule(str, Enum):
@@ -58,6 +70,9 @@ class LabelConfig:
         Which E_R feeds the labels (both are stored).
     ransac_threshold_px : float
         RANSAC threshold given to ``estimate_pose`` (pixels).
+    rotation_error_max_deg : float
+        Without depth: a pose is good when E_t is below ``et_max`` and its rotation error
+        (degrees) below this.
     """
 
     et_max: float = 0.8
@@ -65,6 +80,7 @@ class LabelConfig:
     rotation_baseline_m: float = 0.05
     scale_rule: ScaleRule = ScaleRule.MEDIAN
     ransac_threshold_px: float = 1.0
+    rotation_error_max_deg: float = ROTATION_ERROR_MAX_DEG
 
 
 @dataclass(frozen=True)
@@ -80,6 +96,7 @@ class MethodOutcome:
     n_gt_points: int = 0
     parallax_deg: float = math.nan
     t: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    rotation_error_deg: float = math.nan
 
     def er(self, rule: ScaleRule) -> float:
         """E_R under ``rule``."""
@@ -89,6 +106,11 @@ class MethodOutcome:
         """1 when both errors are below the thresholds (NaN compares false)."""
         er = self.er(config.scale_rule)
         return int(self.ok and self.et < config.et_max and er < config.er_max)
+
+    def label_without_depth(self, config: LabelConfig) -> int:
+        """1 when E_t and the rotation error are below their thresholds (no E_R)."""
+        return int(self.ok and self.et < config.et_max
+                   and self.rotation_error_deg < config.rotation_error_max_deg)
 
 
 @dataclass(frozen=True)
@@ -101,15 +123,24 @@ class PairLabels:
     t_gt: np.ndarray
     outcomes: dict[str, MethodOutcome]
     config: LabelConfig
+    has_depth: bool = True
 
     @property
     def r_label(self) -> int:
         """1 when the baseline is at most ``rotation_baseline_m``."""
         return int(self.baseline_m <= self.config.rotation_baseline_m)
 
+    @property
+    def scale_rule(self) -> str:
+        """The table's ``scale_rule``: the config's E_R rule, or ``no_depth``."""
+        return self.config.scale_rule.value if self.has_depth else NO_DEPTH
+
     def label(self, method: str) -> int:
         """Label of ``method`` ('F', 'E' or 'H')."""
-        return self.outcomes[method].label(self.config)
+        outcome = self.outcomes[method]
+        if self.has_depth:
+            return outcome.label(self.config)
+        return outcome.label_without_depth(self.config)
 
 
 def backproject(pixels: np.ndarray, depth: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -166,8 +197,12 @@ def method_outcome(
     gt_valid: np.ndarray,
     t_gt: np.ndarray,
     config: LabelConfig,
+    R_gt: np.ndarray | None = None,
 ) -> MethodOutcome:
-    """Estimate with ``method`` and compare with ground truth (see module docstring)."""
+    """Estimate with ``method`` and compare with ground truth (see module docstring).
+
+    ``R_gt`` (reference to current) gives the rotation error; NaN without it.
+    """
     try:
         est = geometry.estimate_pose(
             geometry.Method(method), p0, p1, K, ransac_threshold_px=config.ransac_threshold_px
@@ -188,9 +223,11 @@ def method_outcome(
         er_first, er_median = _reconstruction_errors(gt_points[idx[keep]], est.points[keep])
     else:
         er_first = er_median = math.nan
+    rot_err = (geometry.rotation_angle_deg(np.asarray(R_gt).T @ est.R) if R_gt is not None
+               else math.nan)
     return MethodOutcome(
         True, est.reason or 'ok', et, er_first, er_median, n_points, n_gt,
-        float(est.parallax_deg), np.asarray(est.t, dtype=float).reshape(3),
+        float(est.parallax_deg), np.asarray(est.t, dtype=float).reshape(3), float(rot_err),
     )
 
 
@@ -198,59 +235,97 @@ def label_pair(
     p0: np.ndarray,
     p1: np.ndarray,
     K: np.ndarray,
-    depth_ref: np.ndarray,
+    depth_ref: np.ndarray | None,
     T_w_ref: np.ndarray,
     T_w_cur: np.ndarray,
     config: LabelConfig | None = None,
+    depth_pixels: np.ndarray | None = None,
 ) -> PairLabels:
     """Label one pair.
 
     Parameters
     ----------
     p0, p1 : (N, 2) float32
-        Reference and current pixels of the correspondences.
+        Reference and current pixels of the correspondences (undistorted).
     K : (3, 3) array
         Camera matrix.
-    depth_ref : (H, W) float32
-        Reference frame depth, metres (0 = no data).
+    depth_ref : (H, W) float32 or None
+        Reference frame depth, metres (0 = no data); None labels without depth (E_R NaN,
+        labels from E_t and the rotation error).
     T_w_ref, T_w_cur : (4, 4) array
         Ground-truth camera-to-world poses of the two frames.
+    depth_pixels : (N, 2) array or None
+        Where to read ``depth_ref`` for each correspondence, when the depth map is on another
+        pixel grid than ``p0`` (the distorted image, when ``p0`` is undistorted); default p0.
     """
     config = config or LabelConfig()
     R_gt, t_gt = geometry.relative_pose(np.asarray(T_w_ref), np.asarray(T_w_cur))
     t_gt = np.asarray(t_gt, dtype=float).reshape(3)
     baseline = float(np.linalg.norm(t_gt))
     rotation = float(geometry.rotation_angle_deg(R_gt))
-    gt_points, gt_valid = backproject(p0, depth_ref, K)
+    if depth_ref is None:
+        gt_points = np.full((len(p0), 3), np.nan)
+        gt_valid = np.zeros(len(p0), dtype=bool)
+    else:
+        lookup = p0 if depth_pixels is None else depth_pixels
+        gt_points, gt_valid = backproject(lookup, depth_ref, K)
+        if depth_pixels is not None:  # the ray through the undistorted pixel, at that depth
+            rays = np.column_stack(((np.asarray(p0, float) - K[:2, 2]) / np.diag(K)[:2],
+                                    np.ones(len(p0))))
+            gt_points = rays * gt_points[:, 2:3]
     outcomes = {
-        m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config) for m in POSE_METHODS
+        m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
+        for m in POSE_METHODS
     }
-    return PairLabels(baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config)
+    return PairLabels(baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config,
+                      has_depth=depth_ref is not None)
 
 
 def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np.ndarray]:
     """Recompute ``m_er``, ``m_label``, ``R_label`` and ``scale_rule`` from the raw columns.
 
     ``columns`` is a table's column mapping; a new mapping is returned (input untouched).
+    Rows labelled without depth (``scale_rule == 'no_depth'``) keep that rule and get
+    ``ok and E_t < et_max and m_rot_err_deg < rotation_error_max_deg``; a table without the
+    ``m_rot_err_deg`` column keeps their stored label as the rotation verdict, so only
+    ``et_max`` is re-applied to them (logged once).
     """
     out = dict(columns)
     rule = ScaleRule(config.scale_rule)
+    baseline = np.asarray(columns['gt_baseline_m'], dtype=float)
+    stored_rule = np.asarray(columns.get('scale_rule', np.full(len(baseline), rule.value)),
+                             dtype=object).astype(str)
+    no_depth = stored_rule == NO_DEPTH
+    warned = False
     for m in POSE_METHODS:
         er = np.asarray(columns[f'{m}_er_{rule.value}'], dtype=float)
         et = np.asarray(columns[f'{m}_et'], dtype=float)
         ok = np.asarray(columns[f'{m}_ok']).astype(bool)
         with np.errstate(invalid='ignore'):
             label = ok & (et < config.et_max) & (er < config.er_max)
+            if np.any(no_depth):
+                if f'{m}_rot_err_deg' in columns:
+                    rot = np.asarray(columns[f'{m}_rot_err_deg'], dtype=float)
+                    rotation_ok = rot < config.rotation_error_max_deg
+                else:
+                    rotation_ok = np.asarray(columns[f'{m}_label']).astype(bool)
+                    if not warned:
+                        LOG.warning('relabel: %d rows labelled without depth and no '
+                                    'rotation-error column; their stored labels stand as the '
+                                    'rotation verdict', int(no_depth.sum()))
+                        warned = True
+                label = np.where(no_depth, ok & (et < config.et_max) & rotation_ok, label)
         out[f'{m}_er'] = er
         out[f'{m}_label'] = label.astype(np.int64)
-    baseline = np.asarray(columns['gt_baseline_m'], dtype=float)
     out['R_label'] = (baseline <= config.rotation_baseline_m).astype(np.int64)
-    out['scale_rule'] = np.full(len(baseline), rule.value, dtype=object)
+    out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
     return out
 
 
 __all__ = [
+    'NO_DEPTH',
     'POSE_METHODS',
+    'ROTATION_ERROR_MAX_DEG',
     'LabelConfig',
     'MethodOutcome',
     'PairLabels',

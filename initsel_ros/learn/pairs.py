@@ -7,7 +7,10 @@ test (for sparse or distant frames, such as the real 3-frame sample). Each pair 
 of the pair table (:mod:`initsel_ros.learn.table`): features, ground-truth labels
 (:mod:`initsel_ros.learn.labels`) and the correspondence-based baselines.
 
-Batches are independent, so they run in a process pool.
+Batches are independent, so they run in a process pool. With lens distortion the
+correspondences are undistorted first (as the node does), and depth is read at the distorted
+pixel. Sequences without depth (EuRoC, KITTI) are labelled from E_t and the rotation error
+(``scale_rule`` ``no_depth``, see :mod:`initsel_ros.learn.labels`).
 """
 
 from __future__ import annotations
@@ -29,7 +32,13 @@ import numpy as np
 from initsel_ros.errors import DatasetError, InitselError
 from initsel_ros.features import Scaling, pair_features
 from initsel_ros.learn import baselines
-from initsel_ros.learn.labels import POSE_METHODS, LabelConfig, PairLabels, label_pair
+from initsel_ros.learn.labels import (
+    NO_DEPTH,
+    POSE_METHODS,
+    LabelConfig,
+    PairLabels,
+    label_pair,
+)
 from initsel_ros.learn.table import (
     EXTRA_NAMES,
     FREE_PREFIX,
@@ -97,8 +106,12 @@ class DatasetConfig:
     stride : int
         Use every ``stride``-th frame (1 = all).
     nearest_tolerance : float or None
-        Passed to the TUM reader: frames outside the ground-truth trajectory take the nearest
-        pose within this many seconds (None = the reader's default).
+        Passed to the TUM, EuRoC and bag readers: frames outside the ground-truth trajectory
+        take the nearest pose within this many seconds (None = the reader's default).
+    sequence : str or None
+        KITTI sequence ('NN') for sources that are a KITTI odometry root.
+    image_topic : str or None
+        Image topic of bag sources (None = the reader's default).
     """
 
     batch: int = 90
@@ -113,6 +126,8 @@ class DatasetConfig:
     vins_ransac: bool = True
     stride: int = 1
     nearest_tolerance: float | None = None
+    sequence: str | None = None
+    image_topic: str | None = None
 
 
 def batch_ranges(n_frames: int, batch: int, stride: int = 1) -> list[list[int]]:
@@ -249,7 +264,7 @@ def pair_row(
         'gt_baseline_m': labels.baseline_m,
         'gt_rotation_deg': labels.rotation_deg,
         'R_label': labels.r_label,
-        'scale_rule': labels.config.scale_rule.value,
+        'scale_rule': labels.scale_rule,
     }
     paper = pair_features(p0, p1, width, height, scaling=Scaling.PAPER)
     free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
@@ -291,7 +306,8 @@ def pair_row(
             f'{m}_n_points': o.n_points,
             f'{m}_n_gt_points': o.n_gt_points,
             f'{m}_parallax_deg': o.parallax_deg,
-            f'{m}_label': o.label(labels.config),
+            f'{m}_rot_err_deg': o.rotation_error_deg,  # stored once table.py has the column
+            f'{m}_label': labels.label(m),
         })
     return row
 
@@ -300,17 +316,32 @@ def pair_row(
 _SEQUENCES: dict[str, Any] = {}
 
 
-def _open(path: str, nearest_tolerance: float | None = None) -> Any:
+def _open(path: str, nearest_tolerance: float | None = None,
+          sequence: str | None = None, image_topic: str | None = None) -> Any:
     """open_sequence with a per-process cache (bags are slow to open)."""
-    key = f'{path}\0{nearest_tolerance}'
+    key = f'{path}\0{nearest_tolerance}\0{sequence}\0{image_topic}'
     if key not in _SEQUENCES:
-        from initsel_ros.datasets import is_tum_folder, open_sequence
+        from initsel_ros.datasets import open_sequence, sequence_kind
 
-        options = {}
-        if nearest_tolerance is not None and is_tum_folder(Path(path)):
+        kind = sequence_kind(Path(path))
+        options: dict[str, Any] = {}
+        if nearest_tolerance is not None and kind in ('tum', 'euroc', 'bag'):
             options['nearest_tolerance'] = nearest_tolerance
-        _SEQUENCES[key] = open_sequence(path, **options)
+        if image_topic is not None and kind == 'bag':
+            options['image_topic'] = image_topic
+        kitti = kind in ('kitti', 'kitti_root')  # --sequence concerns KITTI sources only
+        _SEQUENCES[key] = open_sequence(path, sequence=sequence if kitti else None, **options)
     return _SEQUENCES[key]
+
+
+def undistort_pixels(pixels: np.ndarray, intrinsics: Any) -> np.ndarray:
+    """(N, 2) pixels without the lens distortion of ``intrinsics`` (as the node does)."""
+    if not intrinsics.has_distortion or len(pixels) == 0:
+        return np.asarray(pixels, dtype=np.float32)
+    K = intrinsics.K
+    out = cv2.undistortPoints(np.asarray(pixels, np.float32).reshape(-1, 1, 2), K,
+                              np.asarray(intrinsics.distortion, dtype=np.float64), P=K)
+    return out.reshape(-1, 2).astype(np.float32)
 
 
 @dataclass(frozen=True)
@@ -334,11 +365,7 @@ def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
         return []
     intr = sequence.intrinsics
     K = intr.K
-    depth = sequence.depth(ref)
-    if depth is None:
-        LOG.warning('%s batch %d: reference frame %d has no depth map; batch skipped '
-                    '(labels need ground-truth points)', sequence.name, batch, ref)
-        return []
+    depth = sequence.depth(ref)  # None: labels from E_t and the rotation error only
     if config.source is Source.KLT:
         pairs: Iterator[Pair] = klt_pairs(sequence, frames, config.tracker)
     else:
@@ -348,7 +375,13 @@ def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
         T_cur = sequence.frames[pair.cur_index].pose
         if T_cur is None or len(pair.p0) < config.min_tracks:
             continue
-        labels = label_pair(pair.p0, pair.p1, K, depth, T_ref, T_cur, config.label)
+        depth_pixels = None
+        if intr.has_distortion:
+            depth_pixels = pair.p0
+            pair = Pair(pair.ref_index, pair.cur_index, undistort_pixels(pair.p0, intr),
+                        undistort_pixels(pair.p1, intr))
+        labels = label_pair(pair.p0, pair.p1, K, depth, T_ref, T_cur, config.label,
+                            depth_pixels=depth_pixels)
         stamps = (float(sequence.frames[ref].stamp), float(sequence.frames[pair.cur_index].stamp))
         rows.append(pair_row(
             sequence.name, batch, pair, stamps, (intr.width, intr.height), K, labels,
@@ -358,7 +391,8 @@ def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
 
 
 def _run_task(task: BatchTask) -> tuple[BatchTask, list[dict[str, Any]]]:
-    sequence = _open(task.path, task.config.nearest_tolerance)
+    c = task.config
+    sequence = _open(task.path, c.nearest_tolerance, c.sequence, c.image_topic)
     return task, label_sequence_batch(sequence, task.batch, task.frames, task.config)
 
 
@@ -436,11 +470,16 @@ def build_table(
     for source in sources:
         path = str(source)
         try:
-            sequence = _open(path, config.nearest_tolerance)
+            sequence = _open(path, config.nearest_tolerance, config.sequence, config.image_topic)
         except InitselError:
             raise
         except Exception as exc:  # readers may raise anything on foreign files
-            raise DatasetError(f'{path}: cannot open sequence: {exc}') from exc
+            reason = str(exc).strip() or 'no message'
+            raise DatasetError(f'{path}: cannot open sequence: {type(exc).__name__}: '
+                               f'{reason}') from exc
+        if not sequence.has_depth:
+            LOG.info('%s: no depth; pairs are labelled from E_t and the rotation error '
+                     '(scale_rule %s, E_R NaN)', sequence.name, NO_DEPTH)
         names.append(sequence.name)
         for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
             tasks.append(BatchTask(path, b, tuple(frames), config))
@@ -472,6 +511,27 @@ def build_table(
     return PairTable.from_rows(ordered)
 
 
+def explain_no_pairs(sources: Sequence[str | Path], config: DatasetConfig) -> str:
+    """Why :func:`build_table` labelled no pair, one clause per source (for a one-line error)."""
+    reasons = []
+    for source in sources:
+        seq = _open(str(source), config.nearest_tolerance, config.sequence, config.image_topic)
+        n_posed = int(seq.has_pose.sum())
+        batches = batch_ranges(len(seq), config.batch, config.stride)
+        if n_posed == 0:
+            reasons.append(f'{seq.name}: none of its {len(seq)} frames has a ground-truth pose')
+        elif not batches:
+            reasons.append(f'{seq.name}: {len(seq)} frames make no batch of 2 or more '
+                           f'(batch {config.batch}, stride {config.stride})')
+        elif not any(seq.frames[b[0]].pose is not None for b in batches):
+            reasons.append(f'{seq.name}: no batch starts on a frame with a pose '
+                           f'({n_posed} of {len(seq)} frames have one)')
+        else:
+            reasons.append(f'{seq.name}: every pair had fewer than {config.min_tracks} '
+                           'correspondences or no pose')
+    return 'no pair could be labelled: ' + '; '.join(reasons)
+
+
 __all__ = [
     'FREE_PREFIX',
     'PAPER_PREFIX',
@@ -483,10 +543,12 @@ __all__ = [
     'Source',
     'batch_ranges',
     'build_table',
+    'explain_no_pairs',
     'extra_features',
     'klt_pairs',
     'label_sequence_batch',
     'orb_matches',
     'orb_pairs',
     'pair_row',
+    'undistort_pixels',
 ]

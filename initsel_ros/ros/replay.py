@@ -1,15 +1,21 @@
-"""``initsel replay SOURCE``: publish a TUM folder or a ROS 1/2 bag as a live camera.
+"""``initsel replay SOURCE``: publish a TUM, EuRoC or KITTI folder or a ROS 1/2 bag as a camera.
 
-Publishes ``image_raw`` (rgb8 or bgr8) and ``camera_info`` with the recorded stamps at the
-recorded timing times ``--rate``, and optionally the ground truth as a PoseStamped. rclpy is
-imported inside :func:`run`, so ``initsel --help`` works without ROS.
+Publishes ``image_raw`` (rgb8, bgr8, mono8 or as stored) or, with ``--compressed``,
+``image_raw/compressed`` (sensor_msgs/CompressedImage, jpeg or png), and ``camera_info`` from
+the dataset's calibration (with distortion D for EuRoC), at the recorded timing times
+``--rate``, and optionally the ground truth as a PoseStamped. Header stamps are the source's
+exact integer nanoseconds (``Frame.stamp_ns``). A frame larger than the Fast DDS shared-memory
+segment is reported once (:class:`ShmLimit`). rclpy is imported inside :func:`run`, so
+``initsel --help`` works without ROS.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
 import time
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,11 +28,25 @@ log = logging.getLogger(__name__)
 #: Seconds to keep the node alive after the last frame so reliable messages get delivered.
 LINGER_S = 0.5
 
+#: Fast DDS's shared-memory segment when no profile sets one (bytes).
+FASTDDS_DEFAULT_SEGMENT = 512 * 1024
+#: Bytes of a serialized Image or CompressedImage beyond its pixel data (header, fields, CDR).
+MESSAGE_OVERHEAD = 256
+#: Environment variables naming the Fast DDS XML profile, in the order Fast DDS reads them.
+PROFILE_VARIABLES = ('FASTDDS_DEFAULT_PROFILES_FILE', 'FASTRTPS_DEFAULT_PROFILES_FILE')
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel replay``."""
     parser.add_argument('source', type=Path,
-                        help='TUM folder (rgb.txt), ROS 1 .bag file or ROS 2 bag folder')
+                        help='TUM folder (rgb.txt), EuRoC folder (holding mav0, or mav0), KITTI '
+                             'odometry sequence folder (or root with --sequence), ROS 1 .bag '
+                             'file or ROS 2 bag folder')
+    parser.add_argument('--sequence', default=None, metavar='NN',
+                        help='KITTI: the sequence, when SOURCE is the odometry root')
+    parser.add_argument('--bag-image-topic', default=None, metavar='TOPIC',
+                        help='bags: the image topic to read (Image or CompressedImage; default '
+                             '/camera/rgb/image_color, or <it>/compressed when absent)')
     parser.add_argument('--rate', type=float, default=1.0,
                         help='playback speed factor of the recorded timing (default 1)')
     parser.add_argument('--loop', action='store_true', help='start over at the end, until ^C')
@@ -34,8 +54,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='skip this many seconds from the first frame (default 0)')
     parser.add_argument('--duration', type=float, default=None,
                         help='publish only this many seconds of the recording')
-    parser.add_argument('--encoding', choices=('rgb8', 'bgr8'), default='rgb8',
-                        help='image encoding (default rgb8)')
+    parser.add_argument('--encoding', choices=('rgb8', 'bgr8', 'mono8', 'native'),
+                        default='rgb8',
+                        help='image encoding (default rgb8); native = as stored: mono8 or '
+                             'mono16 for grey sources (EuRoC, KITTI, 16-bit PNGs), else bgr8')
+    parser.add_argument('--compressed', action='store_true',
+                        help='publish sensor_msgs/CompressedImage on <image topic>/compressed '
+                             'instead of Image (same stamps and timing; colour is encoded '
+                             'from bgr8, grey from mono8 or mono16)')
+    parser.add_argument('--compressed-format', choices=('jpeg', 'png'), default='jpeg',
+                        help='with --compressed (default jpeg; 16-bit images are always png)')
+    parser.add_argument('--jpeg-quality', type=int, default=90, metavar='0-100',
+                        help='with --compressed jpeg (default 90)')
     parser.add_argument('--image-topic', default='image_raw', help='default image_raw')
     parser.add_argument('--camera-info-topic', default='camera_info', help='default camera_info')
     parser.add_argument('--frame-id', default='camera_optical_frame',
@@ -103,31 +133,137 @@ def plan_replay(
     return ReplayPlan(indices, offsets, float(offsets[-1] + step))
 
 
+def shm_segment_limit(environ: dict[str, str] | None = None) -> tuple[int, str]:
+    """The Fast DDS shared-memory segment size in use (bytes) and where it comes from.
+
+    Read from the XML profile named by ``FASTDDS_DEFAULT_PROFILES_FILE`` or
+    ``FASTRTPS_DEFAULT_PROFILES_FILE`` (the largest ``segment_size`` of its SHM transport
+    descriptors; ``scripts/run.sh``, the demo and the tests point it at
+    ``config/fastdds_shm.xml``, 16 MiB); Fast DDS's default of 512 KiB without a profile or
+    without such a setting.
+    """
+    env = os.environ if environ is None else environ
+    for variable in PROFILE_VARIABLES:
+        name = env.get(variable)
+        if not name:
+            continue
+        try:
+            root = ET.parse(name).getroot()
+        except (OSError, ET.ParseError) as exc:
+            log.warning('%s=%s: cannot read the Fast DDS profile (%s); assuming the default '
+                        'shared-memory segment', variable, name, exc)
+            return FASTDDS_DEFAULT_SEGMENT, f'Fast DDS default ({variable} unreadable)'
+        sizes = []
+        for descriptor in root.iter():
+            if not descriptor.tag.endswith('transport_descriptor'):
+                continue
+            fields = {child.tag.rsplit('}', 1)[-1]: (child.text or '').strip()
+                      for child in descriptor}
+            if fields.get('type', '').upper() == 'SHM' and fields.get('segment_size', ''):
+                try:
+                    sizes.append(int(fields['segment_size']))
+                except ValueError:
+                    log.warning('%s: segment_size %r is not an integer', name,
+                                fields['segment_size'])
+        if sizes:
+            return max(sizes), name
+        return FASTDDS_DEFAULT_SEGMENT, f'Fast DDS default (no SHM segment_size in {name})'
+    return FASTDDS_DEFAULT_SEGMENT, 'Fast DDS default (no profile set)'
+
+
+class ShmLimit:
+    """Warns once when a message cannot travel through the shared-memory segment.
+
+    Such a frame does not reach a subscriber over shared memory: Fast DDS falls back to
+    fragmented UDP (slow, and lossy with best-effort subscribers) or drops it.
+    """
+
+    def __init__(self, limit: int, source: str) -> None:
+        self.limit, self.source = int(limit), source
+        self.warned = False
+
+    def check(self, payload_bytes: int, topic: str) -> bool:
+        """True when ``payload_bytes`` (plus header overhead) fits; logs once when not."""
+        size = int(payload_bytes) + MESSAGE_OVERHEAD
+        if size <= self.limit:
+            return True
+        if not self.warned:
+            self.warned = True
+            log.warning(
+                'frames on %s are %.2f MiB, larger than the Fast DDS shared-memory segment '
+                '(%.2f MiB, %s): they cannot reach a subscriber over shared memory and may '
+                'arrive late or be lost; raise segment_size in the profile (see '
+                'config/fastdds_shm.xml), or use --compressed', topic, size / 2**20,
+                self.limit / 2**20, self.source)
+        return False
+
+
+def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarray, str]:
+    """Frame ``index`` laid out for ``encoding`` ('rgb8', 'bgr8', 'mono8' or 'native'), and the
+    ROS encoding name (native: mono8/mono16 for grey frames, bgr8 for colour)."""
+    if encoding == 'native':
+        native = sequence.native_image(index)  # type: ignore[attr-defined]
+        if native.ndim == 2:
+            return native, 'mono16' if native.dtype == np.uint16 else 'mono8'
+        if native.dtype == np.uint16:
+            native = (native >> 8).astype(np.uint8)
+        return native, 'bgr8'
+    if encoding == 'mono8':
+        return sequence.gray(index), 'mono8'  # type: ignore[attr-defined]
+    bgr = sequence.image(index)  # type: ignore[attr-defined]
+    if encoding == 'bgr8':
+        return bgr, 'bgr8'
+    return np.ascontiguousarray(bgr[..., ::-1]), 'rgb8'
+
+
+def open_source(args: argparse.Namespace) -> object:
+    """The sequence of ``args.source`` (with ``--sequence`` and ``--bag-image-topic``)."""
+    from initsel_ros.datasets import open_sequence, sequence_kind
+
+    options = {}
+    if args.bag_image_topic is not None:
+        if sequence_kind(args.source) != 'bag':
+            raise ConfigError('--bag-image-topic applies to bags only')
+        options['image_topic'] = args.bag_image_topic
+    return open_sequence(args.source, sequence=args.sequence, **options)
+
+
 def run(args: argparse.Namespace) -> int:
     """Publish the sequence; prints the number of frames published. 0 on success."""
+    from initsel_ros.datasets.bags import compressed_format, encode_image
+
+    if not 0 <= args.jpeg_quality <= 100:
+        raise ConfigError(f'--jpeg-quality must be in 0-100, got {args.jpeg_quality}')
+    sequence = open_source(args)  # before rclpy: a bad source fails fast, with one line
+    plan = plan_replay(sequence.stamps, rate=args.rate, start=args.start,
+                       duration=args.duration)
+
     import rclpy
     from geometry_msgs.msg import PoseStamped
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import CameraInfo, Image
+    from sensor_msgs.msg import CameraInfo, CompressedImage, Image
     from std_msgs.msg import Header
 
-    from initsel_ros.datasets import open_sequence
     from initsel_ros.ros import conversions as conv
 
-    sequence = open_sequence(args.source)
-    plan = plan_replay(sequence.stamps, rate=args.rate, start=args.start,
-                       duration=args.duration)
     info_template = conv.intrinsics_to_camera_info(sequence.intrinsics, frame_id=args.frame_id)
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
                      reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.VOLATILE)
+    shm = ShmLimit(*shm_segment_limit())
+    # cv2.imencode takes BGR: compressed colour frames are 'bgr8; jpeg compressed bgr8'
+    layout = 'bgr8' if args.compressed and args.encoding == 'rgb8' else args.encoding
 
     rclpy.init(args=[])
     node = rclpy.create_node(args.node_name)
     published = passes = 0
     started = time.monotonic()
     try:
-        image_pub = node.create_publisher(Image, args.image_topic, qos)
+        if args.compressed:
+            image_topic = f'{args.image_topic.rstrip("/")}/compressed'
+            image_pub = node.create_publisher(CompressedImage, image_topic, qos)
+        else:
+            image_pub = node.create_publisher(Image, args.image_topic, qos)
         info_pub = node.create_publisher(CameraInfo, args.camera_info_topic, qos)
         gt_pub = (node.create_publisher(PoseStamped, args.groundtruth_topic, qos)
                   if args.publish_groundtruth else None)
@@ -136,8 +272,10 @@ def run(args: argparse.Namespace) -> int:
         ):
             log.warning('no subscriber on %s after %.1f s; publishing anyway',
                         image_pub.topic_name, args.wait_for_subscriber)
+        kind = (f'{args.compressed_format} CompressedImage' if args.compressed
+                else args.encoding)
         log.info('replaying %s: %d frames at rate %g on %s (%s) and %s', sequence.name,
-                 plan.indices.size, args.rate, image_pub.topic_name, args.encoding,
+                 plan.indices.size, args.rate, image_pub.topic_name, kind,
                  info_pub.topic_name)
         started = time.monotonic()
         while rclpy.ok():
@@ -146,16 +284,23 @@ def run(args: argparse.Namespace) -> int:
                 if not _sleep_until(pass_start + offset):
                     break
                 frame = sequence.frames[int(index)]
-                bgr = sequence.image(int(index))
                 if args.restamp:
                     stamp = node.get_clock().now().to_msg()
                 else:
-                    stamp = conv.seconds_to_stamp(frame.stamp)
-                pixels = bgr if args.encoding == 'bgr8' else np.ascontiguousarray(bgr[..., ::-1])
-                image = conv.numpy_to_image(pixels, args.encoding, stamp=stamp,
-                                            frame_id=args.frame_id)
+                    stamp = conv.ns_to_stamp(frame.stamp_ns)
+                pixels, encoding = frame_pixels(sequence, int(index), layout)
+                if args.compressed:
+                    message = CompressedImage()
+                    message.header = Header(stamp=stamp, frame_id=args.frame_id)
+                    message.format = compressed_format(pixels, args.compressed_format)
+                    message.data = encode_image(pixels, args.compressed_format,
+                                                args.jpeg_quality).tobytes()
+                else:
+                    message = conv.numpy_to_image(pixels, encoding, stamp=stamp,
+                                                  frame_id=args.frame_id)
+                shm.check(len(message.data), image_pub.topic_name)
                 info_template.header.stamp = stamp
-                image_pub.publish(image)
+                image_pub.publish(message)
                 info_pub.publish(info_template)
                 if gt_pub is not None and frame.pose is not None:
                     gt_pub.publish(_pose_message(
@@ -220,4 +365,14 @@ def _pose_message(T_w_c: np.ndarray, header: object) -> object:
     return msg
 
 
-__all__ = ['ReplayPlan', 'add_arguments', 'plan_replay', 'run']
+__all__ = [
+    'FASTDDS_DEFAULT_SEGMENT',
+    'ReplayPlan',
+    'ShmLimit',
+    'add_arguments',
+    'frame_pixels',
+    'open_source',
+    'plan_replay',
+    'run',
+    'shm_segment_limit',
+]
