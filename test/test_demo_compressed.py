@@ -33,5 +33,5 @@ def test_demo_warns_when_a_frame_exceeds_the_shared_memory_segment(
                         lambda environ=None: transport.ShmLimit(256 * 1024, 'a small profile'))
     assert main(['demo', '--source', str(near_sequence), '--frames', '8']) in (0, 1)
     out = capsys.readouterr().out
-    assert out.count('does not fit the 0.2 MiB Fast DDS shared-memory segment') == 1
-    assert '0.9 MiB' in out and 'a small profile' in out
+    assert out.count('does not fit the 0.25 MiB Fast DDS shared-memory segment') == 1
+    assert '0.88 MiB' in out and 'a small profile' in out

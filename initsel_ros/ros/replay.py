@@ -5,35 +5,28 @@ Publishes ``image_raw`` (rgb8, bgr8, mono8 or as stored) or, with ``--compressed
 the dataset's calibration (with distortion D for EuRoC), at the recorded timing times
 ``--rate``, and optionally the ground truth as a PoseStamped. Header stamps are the source's
 exact integer nanoseconds (``Frame.stamp_ns``). A frame larger than the Fast DDS shared-memory
-segment is reported once (:class:`ShmLimit`). rclpy is imported inside :func:`run`, so
-``initsel --help`` works without ROS.
+segment is reported once (:class:`initsel_ros.ros.transport.OversizeMonitor`). rclpy is
+imported inside :func:`run`, so ``initsel --help`` works without ROS.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import os
 import time
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from initsel_ros.errors import ConfigError
+from initsel_ros.ros.transport import OversizeMonitor
 
 log = logging.getLogger(__name__)
 
 #: Seconds to keep the node alive after the last frame so reliable messages get delivered.
 LINGER_S = 0.5
 
-#: Fast DDS's shared-memory segment when no profile sets one (bytes).
-FASTDDS_DEFAULT_SEGMENT = 512 * 1024
-#: Bytes of a serialized Image or CompressedImage beyond its pixel data (header, fields, CDR).
-MESSAGE_OVERHEAD = 256
-#: Environment variables naming the Fast DDS XML profile, in the order Fast DDS reads them.
-PROFILE_VARIABLES = ('FASTDDS_DEFAULT_PROFILES_FILE', 'FASTRTPS_DEFAULT_PROFILES_FILE')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -133,71 +126,6 @@ def plan_replay(
     return ReplayPlan(indices, offsets, float(offsets[-1] + step))
 
 
-def shm_segment_limit(environ: dict[str, str] | None = None) -> tuple[int, str]:
-    """The Fast DDS shared-memory segment size in use (bytes) and where it comes from.
-
-    Read from the XML profile named by ``FASTDDS_DEFAULT_PROFILES_FILE`` or
-    ``FASTRTPS_DEFAULT_PROFILES_FILE`` (the largest ``segment_size`` of its SHM transport
-    descriptors; ``scripts/run.sh``, the demo and the tests point it at
-    ``config/fastdds_shm.xml``, 16 MiB); Fast DDS's default of 512 KiB without a profile or
-    without such a setting.
-    """
-    env = os.environ if environ is None else environ
-    for variable in PROFILE_VARIABLES:
-        name = env.get(variable)
-        if not name:
-            continue
-        try:
-            root = ET.parse(name).getroot()
-        except (OSError, ET.ParseError) as exc:
-            log.warning('%s=%s: cannot read the Fast DDS profile (%s); assuming the default '
-                        'shared-memory segment', variable, name, exc)
-            return FASTDDS_DEFAULT_SEGMENT, f'Fast DDS default ({variable} unreadable)'
-        sizes = []
-        for descriptor in root.iter():
-            if not descriptor.tag.endswith('transport_descriptor'):
-                continue
-            fields = {child.tag.rsplit('}', 1)[-1]: (child.text or '').strip()
-                      for child in descriptor}
-            if fields.get('type', '').upper() == 'SHM' and fields.get('segment_size', ''):
-                try:
-                    sizes.append(int(fields['segment_size']))
-                except ValueError:
-                    log.warning('%s: segment_size %r is not an integer', name,
-                                fields['segment_size'])
-        if sizes:
-            return max(sizes), name
-        return FASTDDS_DEFAULT_SEGMENT, f'Fast DDS default (no SHM segment_size in {name})'
-    return FASTDDS_DEFAULT_SEGMENT, 'Fast DDS default (no profile set)'
-
-
-class ShmLimit:
-    """Warns once when a message cannot travel through the shared-memory segment.
-
-    Such a frame does not reach a subscriber over shared memory: Fast DDS falls back to
-    fragmented UDP (slow, and lossy with best-effort subscribers) or drops it.
-    """
-
-    def __init__(self, limit: int, source: str) -> None:
-        self.limit, self.source = int(limit), source
-        self.warned = False
-
-    def check(self, payload_bytes: int, topic: str) -> bool:
-        """True when ``payload_bytes`` (plus header overhead) fits; logs once when not."""
-        size = int(payload_bytes) + MESSAGE_OVERHEAD
-        if size <= self.limit:
-            return True
-        if not self.warned:
-            self.warned = True
-            log.warning(
-                'frames on %s are %.2f MiB, larger than the Fast DDS shared-memory segment '
-                '(%.2f MiB, %s): they cannot reach a subscriber over shared memory and may '
-                'arrive late or be lost; raise segment_size in the profile (see '
-                'config/fastdds_shm.xml), or use --compressed', topic, size / 2**20,
-                self.limit / 2**20, self.source)
-        return False
-
-
 def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarray, str]:
     """Frame ``index`` laid out for ``encoding`` ('rgb8', 'bgr8', 'mono8' or 'native'), and the
     ROS encoding name (native: mono8/mono16 for grey frames, bgr8 for colour)."""
@@ -250,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
                      reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.VOLATILE)
-    shm = ShmLimit(*shm_segment_limit())
+    shm = OversizeMonitor()  # warns once when frames exceed the Fast DDS SHM segment
     # cv2.imencode takes BGR: compressed colour frames are 'bgr8; jpeg compressed bgr8'
     layout = 'bgr8' if args.compressed and args.encoding == 'rgb8' else args.encoding
 
@@ -366,13 +294,10 @@ def _pose_message(T_w_c: np.ndarray, header: object) -> object:
 
 
 __all__ = [
-    'FASTDDS_DEFAULT_SEGMENT',
     'ReplayPlan',
-    'ShmLimit',
     'add_arguments',
     'frame_pixels',
     'open_source',
     'plan_replay',
     'run',
-    'shm_segment_limit',
 ]

@@ -8,6 +8,7 @@ of the active profile file (no ROS import) so that publishers can warn before th
 
 from __future__ import annotations
 
+import logging
 import os
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
@@ -62,11 +63,29 @@ def oversize_warning(message_bytes: int, limit: ShmLimit | None = None) -> str |
         return None
     mib, segment_mib = message_bytes / 2**20, limit.segment_bytes / 2**20
     return (
-        f'a frame of {mib:.1f} MiB does not fit the {segment_mib:.1f} MiB Fast DDS '
+        f'a frame of {mib:.2f} MiB does not fit the {segment_mib:.2f} MiB Fast DDS '
         f'shared-memory segment ({limit.source}): it goes over fragmented UDP, '
         'where a best-effort subscriber (the node) loses many frames; raise segment_size and '
         'maxMessageSize in the profile (see docs/node.md, Transport) or send smaller frames'
     )
+
+
+class OversizeMonitor:
+    """Warns once, through ``logging``, when frames cannot cross over shared memory."""
+
+    def __init__(self, limit: ShmLimit | None = None) -> None:
+        self.limit = limit or shm_limit()
+        self.warned = False
+
+    def check(self, message_bytes: int, topic: str = '') -> bool:
+        """True when the message fits the segment; the first time one does not, log why."""
+        text = oversize_warning(message_bytes, self.limit)
+        if text is None:
+            return True
+        if not self.warned:
+            self.warned = True
+            logging.getLogger(__name__).warning('%s%s', f'{topic}: ' if topic else '', text)
+        return False
 
 
 def _segment_size(path: Path) -> int | None:
@@ -84,4 +103,5 @@ def _segment_size(path: Path) -> int | None:
     return max(sizes) if sizes else None
 
 
-__all__ = ['DEFAULT_SEGMENT_BYTES', 'ShmLimit', 'oversize_warning', 'shm_limit']
+__all__ = ['DEFAULT_SEGMENT_BYTES', 'OversizeMonitor', 'ShmLimit', 'oversize_warning',
+           'shm_limit']
