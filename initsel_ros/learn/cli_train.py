@@ -24,6 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--folds', type=int, default=5,
                         help='grouped cross-validation folds over batches (default 5)')
     parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
+    parser.add_argument('--allow-degenerate', action='store_true',
+                        help='write a model whose training labels are all one class (it '
+                             'always or never fires); by default that is an error')
     labels = parser.add_argument_group('relabel (default: the labels stored in the table)')
     labels.add_argument('--et-max', type=float, default=None, help='E_t threshold (0.8)')
     labels.add_argument('--er-max', type=float, default=None, help='E_R threshold, m (1.0)')
@@ -61,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     config = TrainConfig(
         scaling=Scaling(args.scaling), C=args.C, class_weight=ClassWeight(args.class_weight),
         target_precision=args.target_precision, folds=args.folds, seed=args.seed,
-        labels=relabel,
+        labels=relabel, allow_degenerate=args.allow_degenerate,
     )
     table = read_tables(args.tables)
     report = train_models(table, config, description=describe_inputs(

@@ -213,11 +213,17 @@ def read_table(path: Path) -> PairTable:
     """Read a CSV written by :func:`write_table`; raises DatasetError on schema mismatch."""
     path = Path(path)
     try:
-        with path.open(newline='') as handle:
+        with path.open(newline='', encoding='utf-8') as handle:
             reader = csv.reader(handle)
             header = next(reader)
             raw = list(reader)
-    except (OSError, StopIteration, csv.Error) as exc:
+    except UnicodeDecodeError as exc:
+        raise DatasetError(
+            f'{path}: not a text CSV pair table (binary content at byte {exc.start})'
+        ) from exc
+    except StopIteration as exc:
+        raise DatasetError(f'{path}: cannot read pair table: the file is empty') from exc
+    except (OSError, csv.Error) as exc:
         raise DatasetError(f'{path}: cannot read pair table: {exc}') from exc
     cols = schema()
     missing = [name for name, _ in cols if name not in header]

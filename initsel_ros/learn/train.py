@@ -77,6 +77,9 @@ class TrainConfig:
         Seed of the fold assignment and of the estimators.
     labels : LabelConfig or None
         Relabel the table with these thresholds first (None = use its label columns).
+    allow_degenerate : bool
+        Accept a model whose training labels are all one class (it then always or never
+        fires); by default that is a DatasetError.
     """
 
     scaling: Scaling = Scaling.RESOLUTION_FREE
@@ -87,6 +90,7 @@ class TrainConfig:
     min_predicted: int = 5
     seed: int = 0
     labels: LabelConfig | None = None
+    allow_degenerate: bool = False
 
 
 def feature_columns(scaling: Scaling) -> tuple[str, ...]:
@@ -261,6 +265,28 @@ def _logistic_scorer(C: float, class_weight: ClassWeight, seed: int) -> Callable
     return fit
 
 
+def check_classes(table: PairTable, allow_degenerate: bool = False) -> list[str]:
+    """Models whose training labels hold a single class.
+
+    Raises:
+        DatasetError: when there are any and ``allow_degenerate`` is False (one line naming
+            each such model with its class counts).
+    """
+    found, counts = [], []
+    for name in METHODS:
+        y = np.asarray(table[label_column(name)]).astype(int)
+        pos = int(y.sum())
+        if pos in (0, len(y)):
+            found.append(name)
+            counts.append(f'model {name}: {pos} positive, {len(y) - pos} negative')
+    if found and not allow_degenerate:
+        raise DatasetError(
+            f'{"; ".join(counts)} training labels: a model trained on one class always or '
+            'never fires; add pairs of the other class or pass --allow-degenerate'
+        )
+    return found
+
+
 @dataclass(frozen=True)
 class TrainReport:
     """What :func:`train_models` fitted and how it validated."""
@@ -302,12 +328,14 @@ def train_models(
     choices: dict[str, ThresholdChoice] = {}
     positives: dict[str, int] = {}
     fit = _logistic_scorer(config.C, config.class_weight, config.seed)
+    degenerate = check_classes(table, config.allow_degenerate)
     for name in METHODS:
         y = np.asarray(table[label_column(name)]).astype(int)
         positives[name] = int(y.sum())
-        if positives[name] in (0, len(y)):
-            LOG.warning('model %s: all %d training labels are %d; it will never/always fire',
-                        name, len(y), int(y[0]))
+        if name in degenerate:
+            LOG.warning('model %s: all %d training labels are %d; it will %s fire '
+                        '(--allow-degenerate)', name, len(y), int(y[0]),
+                        'always' if y[0] else 'never')
             always = positives[name] == len(y)
             mean, scale, w = X.mean(axis=0), np.ones(X.shape[1]), np.zeros(X.shape[1])
             bias = CONSTANT_LOGIT if always else -CONSTANT_LOGIT
@@ -367,6 +395,7 @@ def train_models(
             'validation': f'grouped {config.folds}-fold cross-validation over batches, '
                           'out-of-fold probabilities; final fit on all pairs',
             'seed': config.seed,
+            'degenerate_models': degenerate,
         },
     }
     model_set = ModelSet(models, scaling=config.scaling, feature_names=FEATURE_NAMES,
@@ -512,6 +541,7 @@ __all__ = [
     'TrainConfig',
     'TrainReport',
     'candidate_columns',
+    'check_classes',
     'choose_threshold',
     'describe_inputs',
     'feature_columns',
