@@ -120,7 +120,7 @@ def _load_in_thread(path, timeout_s: float = 10.0):
     def run():
         try:
             box['value'] = ('returned', ModelSet.load(path))
-        except BaseException as exc:  # noqa: BLE001 - reported to the test
+        except BaseException as exc:  # reported to the test
             box['value'] = ('raised', exc)
 
     thread = threading.Thread(target=run, daemon=True)
