@@ -157,6 +157,16 @@ def _orb_accepts(test: PairTable, method: np.ndarray) -> np.ndarray:
     return out
 
 
+def _pose_ok(test: PairTable, method: np.ndarray) -> np.ndarray:
+    """The selector's pose check on the chosen method: >= 50 points, parallax >= 1 degree."""
+    return _orb_accepts(test, method) | (
+        (method == 'E')
+        & (np.asarray(test['E_ok']) == 1)
+        & (np.asarray(test['E_n_points']) >= ORB_MIN_POINTS)
+        & (np.asarray(test['E_parallax_deg']) >= ORB_MIN_PARALLAX_DEG)
+    )
+
+
 def baseline_rules(test: PairTable) -> dict[str, Rule]:
     """Sequence-level rules of the baselines (yes + chosen method per pair)."""
     n = len(test)
@@ -347,14 +357,9 @@ def evaluate(
     # sequence level
     rules = [model_rule('Models (R veto on F, E)', probs, thr),
              model_rule('Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'))]
-    check = rules[0]
-    pose_ok = _orb_accepts(test, check.method) | (
-        (check.method == 'E')
-        & (np.asarray(test['E_ok']) == 1)
-        & (np.asarray(test['E_n_points']) >= ORB_MIN_POINTS)
-        & (np.asarray(test['E_parallax_deg']) >= ORB_MIN_PARALLAX_DEG)
-    )
-    rules.append(Rule('Models + pose check', check.yes & pose_ok, check.method))
+    for rule, name in ((rules[0], 'Models + pose check'),
+                       (rules[1], 'Models (R veto on F, E, H) + pose check')):
+        rules.append(Rule(name, rule.yes & _pose_ok(test, rule.method), rule.method))
     rules += list(baseline_rules(test).values())
     systems = [system_level(test, r) for r in rules]
     description = describe_models(models)
@@ -512,7 +517,9 @@ def verdict(report: EvalReport, budget_us: float = 50.0) -> str:
         us = max(c.decision_us for c in rows)
         within = us <= budget_us
         line = f'{fam}: after-veto targets met for {", ".join(met) or "none"} of F, E, H; '
-        if not fam.startswith('model file'):
+        if fam == report.model_description:
+            line += "the model file's family; "
+        elif not fam.startswith('model file'):
             line += (f"higher precision at the model file's recall for "
                      f'{", ".join(wins) or "no model"} of {len(rows)}; ')
         out.append(line + f'{us:.0f} us per decision '
