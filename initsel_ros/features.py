@@ -14,14 +14,21 @@ Two scalings map the raw values into the models' input:
   diagonal; identical to ``PAPER`` for 640x480 images and meaningful at any resolution.
 
 In both, the 8 direction counts are divided by their Euclidean norm (zeros stay zeros).
+
+Beyond the paper, :func:`extra_features` computes seven optional, resolution-free features
+(``EXTRA_FEATURE_NAMES``) that a model file may ask for by name: disparity percentiles, grid
+occupancy and entropy of the reference points, and the residuals of affine and homography fits.
+The pair table (``initsel dataset``) stores the same values, computed the same way.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from enum import Enum
 from functools import lru_cache
 
+import cv2
 import numpy as np
 
 from initsel_ros.errors import GeometryError
@@ -33,6 +40,19 @@ FEATURE_NAMES: tuple[str, ...] = (
     *(f'direction_{45 * k}' for k in range(8)),
 )
 N_FEATURES = len(FEATURE_NAMES)
+
+#: Optional features beyond the paper's 23, all resolution-free (see :func:`extra_features`).
+EXTRA_FEATURE_NAMES: tuple[str, ...] = (
+    'x_disp_p10',  # 10th percentile of disparity / image diagonal
+    'x_disp_p50',  # median disparity / image diagonal
+    'x_disp_p90',  # 90th percentile of disparity / image diagonal
+    'x_grid_occupancy',  # fraction of the 16 cells of a 4x4 grid holding a reference point
+    'x_grid_entropy',  # entropy of the reference points over the 4x4 grid / log(16)
+    'x_affine_residual',  # RMS residual of a least-squares affine fit p0 -> p1 / diagonal
+    'x_homography_residual',  # RMS residual of a least-squares homography p0 -> p1 / diagonal
+)
+#: Every feature name a model may read: the paper's 23, then the extra ones.
+ALL_FEATURE_NAMES: tuple[str, ...] = FEATURE_NAMES + EXTRA_FEATURE_NAMES
 
 COUNT_SCALE = 300.0
 _PAPER_WIDTH, _PAPER_HEIGHT, _PAPER_DISPARITY = 640.0, 480.0, 800.0
@@ -225,3 +245,95 @@ def mean_disparity(p0: np.ndarray, p1: np.ndarray) -> float:
     """Mean of |p1 - p0| in pixels (0 for an empty set)."""
     d = _as_points(p1, 'p1') - _as_points(p0, 'p0')
     return float(np.hypot(d[:, 0], d[:, 1]).mean()) if len(d) else 0.0
+
+
+_DISPARITY_PERCENTILES = ('x_disp_p10', 'x_disp_p50', 'x_disp_p90')
+_GRID = ('x_grid_occupancy', 'x_grid_entropy')
+_GRID_CELLS = 4  # per side
+
+
+def extra_features(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    width: int,
+    height: int,
+    names: tuple[str, ...] = EXTRA_FEATURE_NAMES,
+) -> np.ndarray:
+    """The extra features ``names`` of one correspondence set (only those are computed).
+
+    Values (all resolution-free; ``diag`` is the image diagonal in pixels):
+
+    * ``x_disp_p10/p50/p90``: percentiles of the disparity |p1 - p0| / diag;
+    * ``x_grid_occupancy``: fraction of the 16 cells of a 4x4 image grid holding a reference
+      point; ``x_grid_entropy``: entropy of the reference points over those cells / log 16;
+    * ``x_affine_residual``: RMS residual of the least-squares affine map p0 -> p1 / diag
+      (NaN below 3 points);
+    * ``x_homography_residual``: RMS residual of the least-squares homography p0 -> p1
+      (``cv2.findHomography``, method 0) / diag; near 0 for pure rotation and planes (NaN
+      below 4 points or when the fit fails).
+
+    The pair table stores exactly these values (the same operations in the same order).
+
+    Args:
+        p0: (N, 2) reference pixels.
+        p1: (N, 2) current pixels.
+        width: image width, pixels.
+        height: image height, pixels.
+        names: which features, any subset of ``EXTRA_FEATURE_NAMES`` in any order.
+
+    Returns:
+        (len(names),) float64 in the order of ``names``; all NaN for an empty set.
+
+    Raises:
+        GeometryError: an unknown name, or mismatched point arrays.
+    """
+    unknown = [n for n in names if n not in EXTRA_FEATURE_NAMES]
+    if unknown:
+        raise GeometryError(f'unknown extra features {unknown}; known: {EXTRA_FEATURE_NAMES}')
+    p0 = np.asarray(_as_points(p0, 'p0'), dtype=np.float64)
+    p1 = np.asarray(_as_points(p1, 'p1'), dtype=np.float64)
+    if p0.shape != p1.shape:
+        raise GeometryError(f'p0 and p1 differ in shape: {p0.shape} vs {p1.shape}')
+    values: dict[str, float] = {}
+    n = len(p0)
+    wanted = set(names)
+    if n:
+        diag = math.hypot(width, height)
+        if wanted.intersection(_DISPARITY_PERCENTILES):
+            d = np.hypot(*(p1 - p0).T)
+            pct = np.percentile(d, (10, 50, 90)) / diag
+            values.update(zip(_DISPARITY_PERCENTILES, pct.tolist(), strict=True))
+        if wanted.intersection(_GRID):
+            values.update(zip(_GRID, _grid_features(p0, width, height), strict=True))
+        if 'x_affine_residual' in wanted and n >= 3:
+            q0, q1 = p0 / diag, p1 / diag
+            A = np.column_stack((q0, np.ones(n)))
+            sol, *_ = np.linalg.lstsq(A, q1, rcond=None)
+            values['x_affine_residual'] = math.sqrt(
+                float(np.mean(np.sum((q1 - A @ sol) ** 2, axis=1))))
+        if 'x_homography_residual' in wanted and n >= 4:
+            values['x_homography_residual'] = _homography_residual(p0, p1) / diag
+    return np.array([values.get(name, math.nan) for name in names], dtype=np.float64)
+
+
+def _grid_features(p0: np.ndarray, width: int, height: int) -> tuple[float, float]:
+    cells = _GRID_CELLS
+    gx = np.clip((p0[:, 0] * (cells / width)).astype(np.int64), 0, cells - 1)
+    gy = np.clip((p0[:, 1] * (cells / height)).astype(np.int64), 0, cells - 1)
+    counts = np.bincount(gy * cells + gx, minlength=cells * cells)
+    occupancy = np.count_nonzero(counts) / float(cells * cells)
+    prob = counts[counts > 0] / len(p0)
+    entropy = float(-(prob * np.log(prob)).sum() / math.log(cells * cells))
+    return occupancy, entropy
+
+
+def _homography_residual(p0: np.ndarray, p1: np.ndarray) -> float:
+    """RMS transfer residual of the least-squares homography, pixels (NaN on failure)."""
+    H, _ = cv2.findHomography(p0.reshape(-1, 1, 2), p1.reshape(-1, 1, 2), 0)
+    if H is None:
+        return math.nan
+    proj = cv2.perspectiveTransform(p0.reshape(-1, 1, 2), H).reshape(-1, 2)
+    err = np.sum((proj - p1) ** 2, axis=1)
+    if not np.all(np.isfinite(err)):
+        return math.nan
+    return math.sqrt(float(np.mean(err)))

@@ -1,44 +1,81 @@
-"""The four logistic-regression models (F, E, H, R) and their plain-text model file.
+"""The four models (F, E, H, R) and their plain-text model file.
 
 A model file is JSON (never pickle)::
 
     {
-      "format": "initsel_ros/models", "version": 1,
+      "format": "initsel_ros/models", "version": 2,
       "scaling": "resolution_free",
-      "feature_names": [... 23 names ...],
+      "feature_names": [... the 23 paper feature names ...],
       "metadata": {"trained_on": ..., "date": ..., ...},
       "models": {
-        "E": {"weights": [23 floats], "bias": float, "threshold": float,
-              "mean": [23 floats], "scale": [23 floats], "metrics": {...}},
+        "E": {"kind": "logistic", "features": [names], "weights": [floats], "bias": float,
+              "threshold": float, "mean": [floats], "scale": [floats], "metrics": {...}},
+        "F": {"kind": "trees", "features": [names], "bias": float, "threshold": float,
+              "trees": [...], "metrics": {...}},
         ...
       }
     }
 
-A model scores ``sigmoid(w . ((x - mean) / scale) + b)``, where ``x`` are the features of
-:mod:`initsel_ros.features` in the file's scaling; it says yes when the probability is at or
-above ``threshold``.
+Each model declares its inputs by name (``features``): any of the 23 paper features of
+:mod:`initsel_ros.features` (in the file's scaling) and of its extra features
+(``EXTRA_FEATURE_NAMES``: disparity percentiles, grid occupancy and entropy, affine and
+homography residuals). ``kind`` defaults to ``logistic`` and ``features`` to the 23 paper
+features, so version-1 files (23-feature logistic models) load unchanged.
+
+* ``logistic``: ``sigmoid(w . ((x - mean) / scale) + b)``;
+* ``trees``: a gradient-boosted tree ensemble, ``sigmoid(bias + sum of leaf values)``
+  (:mod:`initsel_ros.trees`, evaluated in numpy).
+
+A model says yes when its probability is at or above ``threshold``. The set reads one input
+vector (:attr:`ModelSet.input_names`): the 23 paper features, then the extra features that some
+model needs; :meth:`ModelSet.input_vector` computes it, the extra features only when needed.
+Non-finite extra features (e.g. no homography fit) count as 0, as in training.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import os
 import sys
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from initsel_ros.errors import ModelFileError
-from initsel_ros.features import FEATURE_NAMES, N_FEATURES, Scaling
+from initsel_ros.errors import GeometryError, ModelFileError
+from initsel_ros.features import (
+    ALL_FEATURE_NAMES,
+    EXTRA_FEATURE_NAMES,
+    FEATURE_NAMES,
+    N_FEATURES,
+    Scaling,
+    extra_features,
+    raw_features,
+    scale_features,
+)
+from initsel_ros.modelio import (
+    MAX_FILE_BYTES,
+    MAX_JSON_DEPTH,
+    finite_number,
+    name_list,
+    number_list,
+    parse_json_bounded,
+    read_bounded,
+    unit_number,
+)
+from initsel_ros.trees import FlatTrees, TreeEnsembleModel
+from initsel_ros.trees import prepare as prepare_tree_inputs
 
 METHODS: tuple[str, ...] = ('F', 'E', 'H', 'R')
 FILE_FORMAT = 'initsel_ros/models'
-FILE_VERSION = 1
+FILE_VERSION = 2
+#: Versions this build reads (1: 23-feature logistic models only).
+READABLE_VERSIONS = (1, 2)
 PACKAGE = 'initsel_ros'
 DEFAULT_MODEL_NAME = 'models.json'
+KINDS = ('logistic', 'trees')
 
 
 def _sigmoid(z: np.ndarray) -> np.ndarray:
@@ -47,49 +84,62 @@ def _sigmoid(z: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class LogisticModel:
-    """One logistic-regression classifier over standardized features."""
+    """One logistic-regression classifier over standardized features.
+
+    ``weights``, ``mean`` and ``scale`` follow ``features`` (default: the 23 paper features);
+    ``mean`` and ``scale`` default to 0 and 1.
+    """
 
     name: str
     weights: np.ndarray
     bias: float
     threshold: float = 0.5
-    mean: np.ndarray = field(default_factory=lambda: np.zeros(N_FEATURES))
-    scale: np.ndarray = field(default_factory=lambda: np.ones(N_FEATURES))
+    mean: np.ndarray | None = None
+    scale: np.ndarray | None = None
     metrics: dict[str, Any] = field(default_factory=dict)
+    features: tuple[str, ...] = FEATURE_NAMES
+    kind: str = field(default='logistic', init=False)
 
     def __post_init__(self) -> None:
-        for attr in ('weights', 'mean', 'scale'):
-            arr = np.asarray(getattr(self, attr), dtype=np.float64).reshape(-1)
-            object.__setattr__(self, attr, arr)
         where = f'model {self.name!r}'
+        object.__setattr__(self, 'features', tuple(self.features))
+        n = len(self.features)
+        if self.mean is None:
+            object.__setattr__(self, 'mean', np.zeros(n))
+        if self.scale is None:
+            object.__setattr__(self, 'scale', np.ones(n))
         for attr in ('weights', 'mean', 'scale'):
-            arr = getattr(self, attr)
-            if arr.shape != (N_FEATURES,):
-                raise ModelFileError(
-                    f'{where}: {attr} must have {N_FEATURES} values, got {arr.size}'
-                )
+            arr = np.asarray(getattr(self, attr), dtype=np.float64)
+            if arr.ndim != 1:
+                raise ModelFileError(f'{where}: {attr} must be a flat vector, got shape '
+                                     f'{arr.shape}')
+            object.__setattr__(self, attr, arr)
+            if arr.shape != (n,):
+                raise ModelFileError(f'{where}: {attr} must have {n} values, got {arr.size}')
             if not np.all(np.isfinite(arr)):
                 raise ModelFileError(f'{where}: {attr} contains NaN or infinity')
         if np.any(self.scale <= 0):
             raise ModelFileError(f'{where}: every scale value must be positive')
-        if not math.isfinite(self.bias):
+        if not np.isfinite(self.bias):
             raise ModelFileError(f'{where}: bias must be finite, got {self.bias}')
         if not 0.0 <= self.threshold <= 1.0:
             raise ModelFileError(f'{where}: threshold must be in [0, 1], got {self.threshold}')
 
     def decision_function(self, X: np.ndarray) -> np.ndarray:
-        """Logits of ``X`` ((N, 23) or (23,) scaled features)."""
+        """Logits of ``X`` ((N, D) or (D,) features in ``features`` order)."""
         return ((np.asarray(X, dtype=np.float64) - self.mean) / self.scale) @ self.weights + (
             self.bias
         )
 
     def predict_proba(self, X: np.ndarray) -> np.ndarray:
-        """Probability of 'yes' for each row of ``X`` ((N, 23) -> (N,))."""
+        """Probability of 'yes' for each row of ``X`` ((N, D) -> (N,))."""
         return _sigmoid(self.decision_function(X))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form for the model file."""
         return {
+            'kind': 'logistic',
+            'features': list(self.features),
             'weights': self.weights.tolist(),
             'bias': float(self.bias),
             'threshold': float(self.threshold),
@@ -99,32 +149,53 @@ class LogisticModel:
         }
 
     @classmethod
-    def from_dict(cls, name: str, data: Any) -> LogisticModel:
+    def from_dict(cls, name: str, data: Any,
+                  features: tuple[str, ...] = FEATURE_NAMES) -> LogisticModel:
         """Inverse of :meth:`to_dict`; raises ModelFileError on any malformed entry."""
         if not isinstance(data, dict):
             raise ModelFileError(f'model {name!r}: expected a mapping, got {type(data).__name__}')
         missing = [k for k in ('weights', 'bias') if k not in data]
         if missing:
             raise ModelFileError(f'model {name!r}: missing {", ".join(missing)}')
-        try:
-            return cls(
-                name=name,
-                weights=np.asarray(data['weights'], dtype=np.float64),
-                bias=float(data['bias']),
-                threshold=float(data.get('threshold', 0.5)),
-                mean=np.asarray(data.get('mean', np.zeros(N_FEATURES)), dtype=np.float64),
-                scale=np.asarray(data.get('scale', np.ones(N_FEATURES)), dtype=np.float64),
-                metrics=dict(data.get('metrics', {}) or {}),
-            )
-        except (TypeError, ValueError) as exc:
-            raise ModelFileError(f'model {name!r}: non-numeric values: {exc}') from exc
+        where = f'model {name!r}'
+        metrics = data.get('metrics', {}) or {}
+        if not isinstance(metrics, dict):
+            raise ModelFileError(f'{where}: "metrics" must be a mapping')
+        n = len(features)
+        return cls(
+            name=name,
+            weights=number_list(data['weights'], f'{where}: weights', n),
+            bias=finite_number(data['bias'], f'{where}: bias'),
+            threshold=unit_number(data.get('threshold', 0.5), f'{where}: threshold'),
+            mean=number_list(data.get('mean', [0.0] * n), f'{where}: mean', n),
+            scale=number_list(data.get('scale', [1.0] * n), f'{where}: scale', n),
+            metrics=dict(metrics),
+            features=features,
+        )
+
+
+Model = LogisticModel | TreeEnsembleModel
+
+
+def model_from_dict(name: str, data: Any) -> Model:
+    """One model entry of the file, by its ``kind``; raises ModelFileError."""
+    if not isinstance(data, dict):
+        raise ModelFileError(f'model {name!r}: expected a mapping, got {type(data).__name__}')
+    kind = data.get('kind', 'logistic')
+    if kind not in KINDS:
+        raise ModelFileError(f'model {name!r}: unknown kind {kind!r} (known: {", ".join(KINDS)})')
+    features = name_list(data.get('features', list(FEATURE_NAMES)),
+                         f'model {name!r}: features', ALL_FEATURE_NAMES)
+    if kind == 'trees':
+        return TreeEnsembleModel.from_dict(name, data, features)
+    return LogisticModel.from_dict(name, data, features)
 
 
 @dataclass(frozen=True)
 class ModelSet:
-    """The F, E, H and R models that score one feature vector together."""
+    """The F, E, H and R models that score one input vector together."""
 
-    models: dict[str, LogisticModel]
+    models: dict[str, Model]
     scaling: Scaling = Scaling.RESOLUTION_FREE
     feature_names: tuple[str, ...] = FEATURE_NAMES
     metadata: dict[str, Any] = field(default_factory=dict)
@@ -140,31 +211,130 @@ class ModelSet:
         missing = [m for m in METHODS if m not in self.models]
         if missing:
             raise ModelFileError(f'missing models: {", ".join(missing)} (need F, E, H and R)')
+        used = {f for model in self.models.values() for f in model.features}
+        extra = tuple(n for n in EXTRA_FEATURE_NAMES if n in used)
+        inputs = FEATURE_NAMES + extra
+        column = {n: i for i, n in enumerate(inputs)}
         names = tuple(self.models)
-        W = np.stack([self.models[m].weights / self.models[m].scale for m in names])
-        b = np.array([
-            (model := self.models[m]).bias - model.weights @ (model.mean / model.scale)
-            for m in names
-        ])
-        # Folding the standardization into one matrix keeps a decision to one mat-vec.
+        logistic = [i for i, m in enumerate(names) if self.models[m].kind == 'logistic']
+        trees = [i for i, m in enumerate(names) if self.models[m].kind == 'trees']
+        # Logistic models: the standardization folded into one (L, D) matrix (one mat-vec).
+        W = np.zeros((len(logistic), len(inputs)))
+        b = np.zeros(len(logistic))
+        for row, i in enumerate(logistic):
+            model = self.models[names[i]]
+            W[row, [column[f] for f in model.features]] = model.weights / model.scale
+            b[row] = model.bias - model.weights @ (model.mean / model.scale)
+        # Tree models: every tree of every model in one flat set (one vectorized walk).
+        all_trees, columns, owner, tree_bias = [], [], [], []
+        for k, i in enumerate(trees):
+            model = self.models[names[i]]
+            cols = np.array([column[f] for f in model.features], dtype=np.int64)
+            all_trees += list(model.trees)
+            columns += [cols] * len(model.trees)
+            owner += [k] * len(model.trees)
+            tree_bias.append(model.bias)
         object.__setattr__(self, '_names', names)
+        object.__setattr__(self, '_inputs', inputs)
+        object.__setattr__(self, '_extra', extra)
+        object.__setattr__(self, '_logistic', np.array(logistic, dtype=np.int64))
         object.__setattr__(self, '_W', W)
         object.__setattr__(self, '_b', b)
+        object.__setattr__(self, '_trees', np.array(trees, dtype=np.int64))
+        object.__setattr__(self, '_flat', FlatTrees.build(all_trees, columns) if trees
+                           else None)
+        object.__setattr__(self, '_owner', np.array(owner, dtype=np.int64))
+        object.__setattr__(self, '_tree_bias', np.array(tree_bias))
 
     @property
     def thresholds(self) -> dict[str, float]:
         """Decision threshold of each model, from the file."""
         return {m: self.models[m].threshold for m in self.models}
 
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """Names of the input vector: the 23 paper features, then the needed extra ones."""
+        return self._inputs  # type: ignore[attr-defined]
+
+    @property
+    def extra_names(self) -> tuple[str, ...]:
+        """Extra features some model reads (``EXTRA_FEATURE_NAMES`` order); () for none."""
+        return self._extra  # type: ignore[attr-defined]
+
+    @property
+    def kinds(self) -> dict[str, str]:
+        """Kind of each model: 'logistic' or 'trees'."""
+        return {m: model.kind for m, model in self.models.items()}
+
+    def input_vector(
+        self, p0: np.ndarray, p1: np.ndarray, width: int, height: int,
+        raw: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """The input vector of one correspondence set (see :attr:`input_names`).
+
+        Args:
+            p0: (N, 2) reference pixels.
+            p1: (N, 2) current pixels.
+            width: image width, pixels.
+            height: image height, pixels.
+            raw: ``raw_features(p0, p1)`` when the caller already has it.
+
+        Returns:
+            (len(input_names),) float64; extra features only computed when a model needs them.
+        """
+        x = scale_features(raw_features(p0, p1) if raw is None else raw, width, height,
+                           self.scaling)
+        if not self._extra:  # type: ignore[attr-defined]
+            return x
+        return np.concatenate((x, extra_features(p0, p1, width, height, self._extra)))  # type: ignore[attr-defined]
+
+    def _logits(self, X: np.ndarray) -> np.ndarray:
+        """(N, models) logits of prepared rows, in ``self.models`` order."""
+        out = np.empty((len(X), len(self._names)))  # type: ignore[attr-defined]
+        if len(self._logistic):  # type: ignore[attr-defined]
+            out[:, self._logistic] = X @ self._W.T + self._b  # type: ignore[attr-defined]
+        if self._flat is not None:  # type: ignore[attr-defined]
+            leaves = self._flat.leaf_values_batch(prepare_tree_inputs(X))  # type: ignore[attr-defined]
+            owner = self._owner  # type: ignore[attr-defined]
+            onehot = np.zeros((len(owner), len(self._trees)))  # type: ignore[attr-defined]
+            onehot[np.arange(len(owner)), owner] = 1.0
+            out[:, self._trees] = leaves @ onehot + self._tree_bias  # type: ignore[attr-defined]
+        return out
+
+    def _check_inputs(self, X: np.ndarray) -> np.ndarray:
+        """Inputs as float64 of the right width, non-finite values replaced by 0."""
+        X = np.asarray(X, dtype=np.float64)
+        n = len(self._inputs)  # type: ignore[attr-defined]
+        if X.shape[-1:] != (n,):
+            raise GeometryError(
+                f'the models read {n} inputs ({N_FEATURES} paper features'
+                f'{" + " + ", ".join(self._extra) if self._extra else ""}), '  # type: ignore[attr-defined]
+                f'got shape {X.shape}; see ModelSet.input_vector'
+            )
+        if self._extra or self._flat is not None:  # type: ignore[attr-defined]
+            X = np.where(np.isfinite(X), X, 0.0)  # missing extra features count as 0
+        return X
+
     def predict_proba(self, x: np.ndarray) -> dict[str, float]:
-        """Probabilities of one (23,) feature vector, by model name."""
-        z = self._W @ x + self._b  # type: ignore[attr-defined]
+        """Probabilities of one input vector (``input_names`` order), by model name."""
+        x = self._check_inputs(x)
+        if self._flat is None:  # only logistic models: one mat-vec
+            z = self._W @ x + self._b  # type: ignore[attr-defined]
+        else:
+            z = np.empty(len(self._names))  # type: ignore[attr-defined]
+            if len(self._logistic):  # type: ignore[attr-defined]
+                z[self._logistic] = self._W @ x + self._b  # type: ignore[attr-defined]
+            xt = x.astype(np.float32).astype(np.float64)  # finite already: see _check_inputs
+            leaves = self._flat.leaf_values(xt)  # type: ignore[attr-defined]
+            z[self._trees] = self._tree_bias + np.bincount(  # type: ignore[attr-defined]
+                self._owner, weights=leaves, minlength=len(self._trees))  # type: ignore[attr-defined]
         p = 1.0 / (1.0 + np.exp(-np.clip(z, -500.0, 500.0)))
         return dict(zip(self._names, p.tolist(), strict=True))  # type: ignore[attr-defined]
 
     def predict_proba_batch(self, X: np.ndarray) -> dict[str, np.ndarray]:
-        """Probabilities of (N, 23) feature rows, by model name, each (N,)."""
-        P = _sigmoid(np.asarray(X, dtype=np.float64) @ self._W.T + self._b)  # type: ignore[attr-defined]
+        """Probabilities of (N, D) input rows, by model name, each (N,)."""
+        X = self._check_inputs(X).reshape(-1, len(self._inputs))  # type: ignore[attr-defined]
+        P = _sigmoid(self._logits(X))
         return {m: P[:, i] for i, m in enumerate(self._names)}  # type: ignore[attr-defined]
 
     def to_dict(self) -> dict[str, Any]:
@@ -188,10 +358,10 @@ class ModelSet:
                 f'not an initsel_ros model file (format {data.get("format")!r}, '
                 f'expected {FILE_FORMAT!r})'
             )
-        if data.get('version') != FILE_VERSION:
+        if data.get('version') not in READABLE_VERSIONS:
             raise ModelFileError(
                 f'unsupported model file version {data.get("version")!r} '
-                f'(this build reads {FILE_VERSION})'
+                f'(this build reads {", ".join(map(str, READABLE_VERSIONS))})'
             )
         try:
             scaling = Scaling(data.get('scaling', Scaling.RESOLUTION_FREE.value))
@@ -206,7 +376,7 @@ class ModelSet:
         if not isinstance(data.get('metadata', {}) or {}, dict):
             raise ModelFileError('"metadata" must be a mapping')
         return cls(
-            models={name: LogisticModel.from_dict(name, m) for name, m in models.items()},
+            models={name: model_from_dict(name, m) for name, m in models.items()},
             scaling=scaling,
             feature_names=tuple(names),
             metadata=dict(data.get('metadata', {}) or {}),
@@ -216,30 +386,44 @@ class ModelSet:
         """Write the JSON model file (atomically: temporary file, then rename)."""
         path = Path(path)
         tmp = path.with_name(path.name + '.tmp')
-        tmp.write_text(json.dumps(self.to_dict(), indent=2) + '\n')
+        tmp.write_text(dumps(self.to_dict()))
         os.replace(tmp, path)
 
     @classmethod
     def load(cls, path: Path | str) -> ModelSet:
-        """Read and validate a model file; every problem is a ModelFileError naming it."""
+        """Read and validate a model file; every problem is a ModelFileError naming it.
+
+        The file is opened non-blocking and must be a regular file of at most
+        ``MAX_FILE_BYTES`` whose JSON nests at most ``MAX_JSON_DEPTH`` levels.
+        """
         path = Path(path)
         try:
-            text = path.read_text(encoding='utf-8')
-        except OSError as exc:
-            raise ModelFileError(f'{path}: cannot read model file: {exc.strerror or exc}') from exc
-        except UnicodeDecodeError as exc:
-            raise ModelFileError(
-                f'{path}: not a text model file (binary content at byte {exc.start}); '
-                'model files are plain JSON, never pickles'
-            ) from exc
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ModelFileError(f'{path}: not valid JSON (line {exc.lineno}): {exc.msg}') from exc
-        try:
+            data = parse_json_bounded(read_bounded(path))
             return cls.from_dict(data)
         except ModelFileError as exc:
             raise ModelFileError(f'{path}: {exc}') from exc
+
+
+def dumps(data: Any) -> str:
+    """JSON text, indented, with every flat list of numbers on one line (trees stay short)."""
+    token = uuid.uuid4().hex
+    inline: list[str] = []
+
+    def collapse(value: Any) -> Any:
+        if isinstance(value, dict):
+            return {k: collapse(v) for k, v in value.items()}
+        if isinstance(value, list):
+            if value and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                             for v in value):
+                inline.append(json.dumps(value))
+                return f'{token}:{len(inline) - 1}'
+            return [collapse(v) for v in value]
+        return value
+
+    text = json.dumps(collapse(data), indent=2)
+    for i, body in enumerate(inline):
+        text = text.replace(f'"{token}:{i}"', body, 1)
+    return text + '\n'
 
 
 def _first_difference(a: tuple[str, ...], b: tuple[str, ...]) -> str:
@@ -281,3 +465,23 @@ def find_config_file(name: str) -> Path:
 def default_model_path() -> Path:
     """Path of the packaged default model file ``config/models.json``."""
     return find_config_file(DEFAULT_MODEL_NAME)
+
+
+__all__ = [
+    'DEFAULT_MODEL_NAME',
+    'FILE_FORMAT',
+    'FILE_VERSION',
+    'MAX_FILE_BYTES',
+    'MAX_JSON_DEPTH',
+    'METHODS',
+    'READABLE_VERSIONS',
+    'LogisticModel',
+    'Model',
+    'ModelSet',
+    'TreeEnsembleModel',
+    'config_dirs',
+    'default_model_path',
+    'dumps',
+    'find_config_file',
+    'model_from_dict',
+]

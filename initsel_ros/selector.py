@@ -16,7 +16,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
-from initsel_ros.features import raw_features, scale_features
+from initsel_ros.features import raw_features
 from initsel_ros.geometry import Method, PoseEstimate, estimate_pose
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.models import ModelSet
@@ -183,7 +183,10 @@ def decide_pair(
     width: int,
     height: int,
 ) -> Decision:
-    """The per-frame decision: 23 features, four model probabilities, policy.
+    """The per-frame decision: model inputs, four model probabilities, policy.
+
+    The inputs are the 23 paper features, plus the extra features (homography residual,
+    grid occupancy, ...) only when a model of ``models`` reads them.
 
     Args:
         models: the four models.
@@ -195,7 +198,7 @@ def decide_pair(
         height: image height, pixels.
     """
     raw = raw_features(ref, cur)
-    probabilities = models.predict_proba(scale_features(raw, width, height, models.scaling))
+    probabilities = models.predict_proba(models.input_vector(ref, cur, width, height, raw))
     return decide(probabilities, thresholds, len(ref), float(raw[1]), policy)
 
 

@@ -439,3 +439,31 @@ def test_short_flood_keeps_memory_bounded_and_processes_the_newest_frame(tmp_pat
     assert run.newest_processed, run
     assert run.rss_end_mb - run.rss_mid_mb < 50, run
     assert run.reasons.get('internal error', 0) == 0, run.reasons
+
+
+@pytest.mark.parametrize('kind', ['fifo', 'dev_zero', 'deep_json', 'nested_weights'])
+def test_node_fails_at_once_with_one_line_on_hostile_model_files(tmp_path, kind):
+    """Issue 11: a FIFO hung the node in open(); /dev/zero and deep JSON gave tracebacks."""
+    pytest.importorskip('rclpy')
+    import json
+
+    path = tmp_path / 'models.json'
+    if kind == 'fifo':
+        os.mkfifo(path)
+    elif kind == 'dev_zero':
+        path = Path('/dev/zero')
+    elif kind == 'deep_json':
+        path.write_text('[' * 200_000 + ']' * 200_000)
+    else:
+        data = _valid_model_dict()
+        data['models']['E']['weights'] = [[1.0]] * 23
+        path.write_text(json.dumps(data))
+    proc = subprocess.run(
+        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p',
+         f'model_file:={path}'],
+        capture_output=True, text=True, timeout=TIMEOUT_S, env=_node_env(),
+    )
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 1, output
+    assert str(path) in output and 'Traceback' not in output
+    assert sum(str(path) in line for line in output.splitlines()) == 1

@@ -84,3 +84,48 @@ def test_batch_features_equal_per_pair_features():
     assert batch.shape == (3, 23)
     for row, (p0, p1) in zip(batch, pairs, strict=True):
         np.testing.assert_allclose(row, pair_features(p0, p1, 640, 480))
+
+
+# ------------------------------------------------------------------ extra features (issue 10)
+def _tracks(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    p0 = (rng.uniform(0, 1, (n, 2)) * [640, 480]).astype(np.float32)
+    p1 = (p0 + rng.normal(0, 4, p0.shape) + [6, -3]).astype(np.float32)
+    return p0, p1
+
+
+@pytest.mark.parametrize('n', [0, 1, 2, 3, 4, 9, 300])
+def test_live_extra_features_equal_the_pair_table_values(n):
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
+    from initsel_ros.learn.pairs import extra_features as table_extra_features
+
+    p0, p1 = _tracks(np.random.default_rng(n), n)
+    live = extra_features(p0, p1, 640, 480)
+    assert live.shape == (len(EXTRA_FEATURE_NAMES),)
+    np.testing.assert_array_equal(live, table_extra_features(p0, p1, 640, 480))
+
+
+def test_extra_features_are_computed_for_the_names_asked_in_their_order():
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
+
+    p0, p1 = _tracks(np.random.default_rng(1), 200)
+    full = dict(zip(EXTRA_FEATURE_NAMES, extra_features(p0, p1, 640, 480), strict=True))
+    names = ('x_homography_residual', 'x_disp_p10', 'x_grid_entropy')
+    assert extra_features(p0, p1, 640, 480, names).tolist() == [full[n] for n in names]
+    with pytest.raises(GeometryError, match='unknown extra features'):
+        extra_features(p0, p1, 640, 480, ('x_magic',))
+
+
+def test_homography_and_affine_residuals_vanish_on_their_own_motions():
+    from initsel_ros.features import extra_features
+
+    p0, _ = _tracks(np.random.default_rng(2), 100)
+    H = np.array([[1.02, 0.01, 5.0], [-0.01, 0.99, -3.0], [1e-5, 2e-5, 1.0]])
+    q = np.c_[p0, np.ones(len(p0))] @ H.T
+    planar = (q[:, :2] / q[:, 2:]).astype(np.float64)
+    affine = p0 @ np.array([[1.01, 0.02], [-0.02, 0.98]]).T + [4.0, 2.0]
+    names = ('x_affine_residual', 'x_homography_residual')
+    assert extra_features(p0, planar, 640, 480, names)[1] < 1e-5
+    assert extra_features(p0, affine, 640, 480, names).max() < 1e-5
+    occupancy, entropy = extra_features(np.full((20, 2), 10.0), np.full((20, 2), 12.0), 640, 480,
+                                        ('x_grid_occupancy', 'x_grid_entropy'))
+    assert occupancy == 1 / 16 and entropy == 0.0  # every point in one cell

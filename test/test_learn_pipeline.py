@@ -85,7 +85,8 @@ def test_eval_prints_the_tables_and_writes_files(tables, tmp_path, capsys):
     text = capsys.readouterr().out
     for needle in ('Model E after R veto', 'Butt 2020 H (mean)', 'VINS-Mono rule',
                    'ORB-SLAM2 H', 'ORB-SLAM3 F', '0.5041', 'frames to first yes',
-                   'logistic+extra', 'precision at logistic recall'):
+                   'logistic+extra', 'precision at model-file recall', 'after R veto',
+                   'model file (trees+extra)'):
         assert needle in text
     assert (out_dir / 'eval.md').read_text() in text + '\n'
     assert (out_dir / 'eval.csv').read_text().startswith('classifier,group,label')

@@ -108,3 +108,117 @@ def test_packaged_config_is_found_through_ament_prefix_then_source_tree(tmp_path
     assert find_config_file('fastdds_shm.xml').parent.name == 'config'
     with pytest.raises(ModelFileError, match='looked in'):
         find_config_file('does-not-exist.json')
+
+
+# ------------------------------------------------------------- hostile model files (issue 11)
+def _load_in_thread(path, timeout_s: float = 10.0):
+    """ModelSet.load(path) in a thread: ('returned' | 'raised' | 'hung', value)."""
+    import threading
+
+    box: dict = {}
+
+    def run():
+        try:
+            box['value'] = ('returned', ModelSet.load(path))
+        except BaseException as exc:  # reported to the test
+            box['value'] = ('raised', exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    return box.get('value', ('hung', None)), thread
+
+
+def test_a_fifo_as_model_file_fails_at_once_instead_of_blocking(tmp_path):
+    import os
+
+    fifo = tmp_path / 'models.json'
+    os.mkfifo(fifo)
+    (outcome, value), thread = _load_in_thread(fifo)
+    if outcome == 'hung':  # unblock the reader (open a writer, close it) before failing
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join(5)
+    assert outcome == 'raised', 'ModelSet.load blocked on a FIFO'
+    assert isinstance(value, ModelFileError)
+    assert 'not a regular file' in str(value) and str(fifo) in str(value)
+
+
+@pytest.mark.parametrize('kind', ['dev_zero', 'directory'])
+def test_devices_and_directories_are_one_model_file_error(tmp_path, kind):
+    from pathlib import Path
+
+    path = Path('/dev/zero') if kind == 'dev_zero' else tmp_path
+    with pytest.raises(ModelFileError, match='not a regular file') as info:
+        ModelSet.load(path)
+    assert str(path) in str(info.value)
+    assert '\n' not in str(info.value)
+
+
+def test_an_oversized_model_file_is_refused_before_reading(tmp_path):
+    from initsel_ros.models import MAX_FILE_BYTES
+
+    path = tmp_path / 'huge.json'
+    with path.open('wb') as handle:  # sparse: costs no disk
+        handle.truncate(MAX_FILE_BYTES + 1)
+    with pytest.raises(ModelFileError, match='larger than'):
+        ModelSet.load(path)
+
+
+def test_deeply_nested_json_is_a_model_file_error_not_recursion(tmp_path):
+    path = tmp_path / 'deep.json'
+    path.write_text('[' * 200_000 + ']' * 200_000)
+    with pytest.raises(ModelFileError, match='nested deeper than') as info:
+        ModelSet.load(path)
+    assert str(path) in str(info.value)
+    deep_dict = tmp_path / 'deep_dict.json'
+    deep_dict.write_text('{"a": ' * 100_000 + '1' + '}' * 100_000)
+    with pytest.raises(ModelFileError, match='nested deeper than'):
+        ModelSet.load(deep_dict)
+
+
+def test_brackets_and_escaped_quotes_inside_strings_do_not_count_as_nesting(tmp_path):
+    data = make_set().to_dict()
+    data['metadata'] = {'note': '[' * 5000 + '\\"{{{' + '\\\\', 'other': '}]' * 100}
+    path = tmp_path / 'models.json'
+    path.write_text(json.dumps(data))
+    assert ModelSet.load(path).metadata == data['metadata']
+
+
+def test_eval_on_a_deeply_nested_model_file_prints_one_line(tmp_path, capsys):
+    from initsel_ros.cli import main
+
+    path = tmp_path / 'deep.json'
+    path.write_text('[' * 200_000 + ']' * 200_000)
+    table = tmp_path / 'test.csv'
+    table.write_text('sequence\n')
+    assert main(['eval', str(table), '--models', str(path)]) == 1
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and 'deep.json' in err
+
+
+@pytest.mark.parametrize(
+    ('change', 'message'),
+    [
+        (lambda d: d['models']['E'].update(weights=[[1.0]] * 23), 'weights must be a flat list'),
+        (lambda d: d['models']['E'].update(weights=[[1.0] * 23]), 'weights must be a flat list'),
+        (lambda d: d['models']['F'].update(mean=[[0.0]] * 23), 'mean must be a flat list'),
+        (lambda d: d['models']['F'].update(scale=[[1.0]] * 23), 'scale must be a flat list'),
+        (lambda d: d['models']['H'].update(weights=[True] * 23), 'weights must be a flat list'),
+        (lambda d: d['models']['H'].update(weights=['1.0'] * 23), 'weights must be a flat list'),
+        (lambda d: d['models']['R'].update(weights=5.0), 'weights must be a flat list'),
+        (lambda d: d['models']['R'].update(bias=[1.0]), 'bias must be a finite number'),
+        (lambda d: d['models']['R'].update(bias=None), 'bias must be a finite number'),
+        (lambda d: d['models']['R'].update(threshold=[0.5]), 'threshold must be a number'),
+        (lambda d: d['models']['R'].update(threshold=True), 'threshold must be a number'),
+    ],
+)
+def test_the_schema_accepts_only_flat_lists_of_numbers(tmp_path, change, message):
+    path = _edit(tmp_path, change)
+    with pytest.raises(ModelFileError, match=message) as info:
+        ModelSet.load(path)
+    assert str(path) in str(info.value)
+
+
+def test_logistic_model_refuses_a_two_dimensional_weight_array():
+    with pytest.raises(ModelFileError, match='flat'):
+        LogisticModel('E', np.ones((23, 1)), 0.0)

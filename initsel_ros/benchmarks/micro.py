@@ -47,23 +47,28 @@ def time_decision(models: Any, pairs: Pairs, repeat: int, width: int, height: in
 def time_decision_parts(models: Any, pairs: Pairs, repeat: int, width: int,
                         height: int) -> list[Timing]:
     """The decision split into features, model scores and policy."""
-    from initsel_ros.features import pair_features, raw_features
+    from initsel_ros.features import extra_features, pair_features, raw_features
     from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
 
     config = PolicyConfig()
     thresholds = effective_thresholds(models.thresholds, config)
-    x = pair_features(*pairs[0], width, height, models.scaling)
+    x = models.input_vector(*pairs[0], width, height)
     probs = models.predict_proba(x)
     p0, p1 = pairs[0]
     mean = float(raw_features(p0, p1)[1])
-    return [
+    parts = [
         Timing('  23 features', time_calls(
             lambda i: pair_features(*pairs[i % len(pairs)], width, height, models.scaling),
             repeat)),
-        Timing('  four models', time_calls(lambda i: models.predict_proba(x), repeat)),
-        Timing('  policy', time_calls(
-            lambda i: decide(probs, thresholds, len(p0), mean, config), repeat)),
     ]
+    if models.extra_names:  # only when a model of the file reads them
+        parts.append(Timing(f'  {len(models.extra_names)} extra features', time_calls(
+            lambda i: extra_features(*pairs[i % len(pairs)], width, height,
+                                     models.extra_names), repeat)))
+    parts.append(Timing('  four models', time_calls(lambda i: models.predict_proba(x), repeat)))
+    parts.append(Timing('  policy', time_calls(
+        lambda i: decide(probs, thresholds, len(p0), mean, config), repeat)))
+    return parts
 
 
 def time_orbslam(pairs: Pairs, repeat: int, iterations: int = 200) -> Timing:

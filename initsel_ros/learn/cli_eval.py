@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
+
+from initsel_ros.learn.candidates import Candidate
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -15,11 +18,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out-dir', type=Path, default=None,
                         help='write eval.md, eval.csv and the PNG plots here')
     parser.add_argument('--train', type=Path, nargs='+', default=None, metavar='TRAIN_CSV',
-                        help='training pairs: also fit richer models in memory (logistic + '
-                             'extra features, gradient boosting, MLP) and compare')
+                        help='training pairs: also fit the model families in memory and '
+                             'compare them with the model file (thresholds by grouped '
+                             'cross-validation on these pairs)')
     parser.add_argument('--candidates', nargs='+', default=None, metavar='FAMILY',
-                        choices=('logistic+extra', 'hgb+extra', 'mlp+extra'),
-                        help='richer families to fit with --train (default: all three)')
+                        choices=[c.value for c in Candidate],
+                        help='families to fit with --train: '
+                             + ', '.join(c.value for c in Candidate) + ' (default: all)')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG plots')
 
 
@@ -29,16 +34,13 @@ def run(args: argparse.Namespace) -> int:
 
     from initsel_ros.learn.evaluate import evaluate, report_markdown, results_csv_rows
     from initsel_ros.learn.table import read_tables
-    from initsel_ros.learn.train import Candidate, TrainConfig, prepare
+    from initsel_ros.learn.train import prepare
     from initsel_ros.models import ModelSet, default_model_path
 
     models = ModelSet.load(args.models or default_model_path())
     test = read_tables(args.tables)
     train = None
-    config = TrainConfig(scaling=models.scaling)
-    target = models.metadata.get('training', {}).get('target_precision')
-    if isinstance(target, (int, float)):
-        config = TrainConfig(scaling=models.scaling, target_precision=float(target))
+    config = config_like(models.metadata, models.scaling)
     if args.train:
         train = prepare(read_tables(args.train), config)
     kwargs = {}
@@ -63,3 +65,29 @@ def run(args: argparse.Namespace) -> int:
                 print(f'wrote {path}')
         print(f'wrote {out / "eval.md"} and {out / "eval.csv"}')
     return 0
+
+
+def config_like(metadata: dict, scaling: object) -> object:
+    """The training options a model file records (target precision, trees, extra features),
+    so candidates are fitted as the file was; defaults for anything missing or malformed."""
+    from initsel_ros.errors import ConfigError
+    from initsel_ros.learn.train import TrainConfig, TreeConfig
+
+    training = metadata.get('training', {}) if isinstance(metadata, dict) else {}
+    training = training if isinstance(training, dict) else {}
+    kwargs: dict = {'scaling': scaling}
+    target = training.get('target_precision')
+    if isinstance(target, (int, float)) and 0.0 < target <= 1.0:
+        kwargs['target_precision'] = float(target)
+    trees = training.get('trees')
+    if isinstance(trees, dict):
+        with contextlib.suppress(KeyError, TypeError, ValueError, ConfigError):
+            kwargs['trees'] = TreeConfig(int(trees['n_trees']), int(trees['depth']),
+                                         float(trees['learning_rate']))
+    extra = training.get('extra_features')
+    if isinstance(extra, list) and all(isinstance(n, str) for n in extra):
+        kwargs['extra'] = tuple(extra)
+    try:
+        return TrainConfig(**kwargs)
+    except ConfigError:
+        return TrainConfig(scaling=scaling)

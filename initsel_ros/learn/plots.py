@@ -80,7 +80,7 @@ def plot_precision_recall(
         fig, ax = plt.subplots(figsize=(5.5, 4.5))
         if y.any():
             rec, prec = _pr_curve(y, probs)
-            ax.plot(rec, prec, label=f'Model {m} (logistic)')
+            ax.plot(rec, prec, label=f'Model {m} ({models.models[m].kind})')
             s = binary_scores(y, probs >= models.thresholds[m])
             ax.plot([s.recall], [s.precision], 'k*', ms=12, label='model file threshold')
         for name, pred in _baseline_points(test, m).items():

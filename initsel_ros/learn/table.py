@@ -32,20 +32,13 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.errors import DatasetError
-from initsel_ros.features import FEATURE_NAMES
+from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
 
 METHODS_FEH = ('F', 'E', 'H')
 
-#: Extra cheap features (beyond the paper's 23), all resolution-free.
-EXTRA_NAMES: tuple[str, ...] = (
-    'x_disp_p10',  # 10th percentile of disparity / image diagonal
-    'x_disp_p50',  # median disparity / image diagonal
-    'x_disp_p90',  # 90th percentile of disparity / image diagonal
-    'x_grid_occupancy',  # fraction of the 16 cells of a 4x4 grid holding a reference point
-    'x_grid_entropy',  # entropy of the reference points over the 4x4 grid / log(16)
-    'x_affine_residual',  # RMS residual of a least-squares affine fit p0 -> p1 / diagonal
-    'x_homography_residual',  # RMS residual of a least-squares homography p0 -> p1 / diagonal
-)
+#: Extra cheap features (beyond the paper's 23), all resolution-free: the columns hold
+#: ``features.extra_features`` of each pair.
+EXTRA_NAMES: tuple[str, ...] = EXTRA_FEATURE_NAMES
 
 PAPER_PREFIX = 'paper__'
 FREE_PREFIX = 'free__'
@@ -105,6 +98,24 @@ def paper_feature_columns() -> tuple[str, ...]:
 def free_feature_columns() -> tuple[str, ...]:
     """The 23 feature columns in the resolution-free scaling."""
     return tuple(FREE_PREFIX + name for name in FEATURE_NAMES)
+
+
+def input_columns(names: Sequence[str], scaling: Scaling | str) -> tuple[str, ...]:
+    """Table columns holding the model inputs ``names`` (paper or extra features).
+
+    The 23 paper features come from the ``paper__`` or ``free__`` columns of ``scaling``; the
+    extra features from their own ``x_*`` columns.
+    """
+    prefix = PAPER_PREFIX if Scaling(scaling) is Scaling.PAPER else FREE_PREFIX
+    out = []
+    for name in names:
+        if name in EXTRA_FEATURE_NAMES:
+            out.append(name)
+        elif name in FEATURE_NAMES:
+            out.append(prefix + name)
+        else:
+            raise DatasetError(f'unknown feature {name!r}')
+    return tuple(out)
 
 
 def schema() -> tuple[tuple[str, type], ...]:
@@ -213,11 +224,17 @@ def read_table(path: Path) -> PairTable:
     """Read a CSV written by :func:`write_table`; raises DatasetError on schema mismatch."""
     path = Path(path)
     try:
-        with path.open(newline='') as handle:
+        with path.open(newline='', encoding='utf-8') as handle:
             reader = csv.reader(handle)
             header = next(reader)
             raw = list(reader)
-    except (OSError, StopIteration, csv.Error) as exc:
+    except UnicodeDecodeError as exc:
+        raise DatasetError(
+            f'{path}: not a text CSV pair table (binary content at byte {exc.start})'
+        ) from exc
+    except StopIteration as exc:
+        raise DatasetError(f'{path}: cannot read pair table: the file is empty') from exc
+    except (OSError, csv.Error) as exc:
         raise DatasetError(f'{path}: cannot read pair table: {exc}') from exc
     cols = schema()
     missing = [name for name, _ in cols if name not in header]
@@ -260,6 +277,7 @@ __all__ = [
     'PAPER_PREFIX',
     'PairTable',
     'free_feature_columns',
+    'input_columns',
     'method_columns',
     'paper_feature_columns',
     'read_table',

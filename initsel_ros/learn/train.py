@@ -1,13 +1,16 @@
 """Training the F, E, H and R models from labelled pairs.
 
-Each model is a scikit-learn ``LogisticRegression`` on standardized features (the
-``StandardScaler`` statistics become the model file's ``mean`` and ``scale``). The decision
-threshold is chosen for a target precision on out-of-fold predictions of a grouped K-fold
-cross-validation (folds are whole batches, never single pairs, so neighbouring frames of one
-batch never sit on both sides), then the model is refitted on all pairs. Everything is seeded.
+Each model belongs to a family (:class:`Family`): scikit-learn ``LogisticRegression`` on
+standardized features (the ``StandardScaler`` statistics become the model file's ``mean`` and
+``scale``) or a scikit-learn ``GradientBoostingClassifier`` exported to plain JSON trees
+(:mod:`initsel_ros.trees`, evaluated in numpy), on the 23 paper features with or without the
+extra features. The decision threshold is chosen for a target precision on out-of-fold
+predictions of a grouped K-fold cross-validation (folds are whole batches, never single pairs,
+so neighbouring frames of one batch never sit on both sides), then the model is refitted on all
+pairs. Everything is seeded.
 
-Richer models (logistic regression with extra features, histogram gradient boosting, a small
-MLP) are fitted in memory for comparison only (:func:`fit_candidate`); nothing is pickled.
+Other families (histogram gradient boosting through scikit-learn, a small MLP) are fitted in
+memory for comparison only (:mod:`initsel_ros.learn.candidates`); nothing is pickled.
 """
 
 from __future__ import annotations
@@ -15,24 +18,24 @@ from __future__ import annotations
 import datetime as _dt
 import logging
 import math
-import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
 import numpy as np
 
-from initsel_ros.errors import DatasetError
-from initsel_ros.features import FEATURE_NAMES, Scaling
+from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
 from initsel_ros.learn.labels import LabelConfig, relabel
 from initsel_ros.learn.table import (
-    EXTRA_NAMES,
     PairTable,
     free_feature_columns,
+    input_columns,
     paper_feature_columns,
 )
-from initsel_ros.models import METHODS, LogisticModel, ModelSet
+from initsel_ros.models import METHODS, LogisticModel, Model, ModelSet
+from initsel_ros.trees import Tree, TreeEnsembleModel
 
 LOG = logging.getLogger(__name__)
 
@@ -52,6 +55,58 @@ class ClassWeight(str, Enum):
     def sklearn(self) -> str | None:
         """The value scikit-learn expects."""
         return 'balanced' if self is ClassWeight.BALANCED else None
+
+
+class Family(str, Enum):
+    """What a model is: its kind and whether it reads the extra features."""
+
+    LOGISTIC = 'logistic'  # the paper's: logistic regression on the 23 features
+    LOGISTIC_EXTRA = 'logistic+extra'  # 23 + the extra features
+    TREES = 'trees'  # gradient-boosted trees on the 23 features
+    TREES_EXTRA = 'trees+extra'  # gradient-boosted trees on 23 + the extra features
+
+    @property
+    def kind(self) -> str:
+        """'logistic' or 'trees' (the model file's ``kind``)."""
+        return 'trees' if self.value.startswith('trees') else 'logistic'
+
+    @property
+    def uses_extra(self) -> bool:
+        """Whether the extra features are inputs."""
+        return self.value.endswith('+extra')
+
+
+#: The family ``initsel train`` uses unless told otherwise (the shipped model file's).
+DEFAULT_FAMILY = Family.TREES_EXTRA
+
+
+@dataclass(frozen=True)
+class TreeConfig:
+    """Gradient boosting settings (scikit-learn's ``GradientBoostingClassifier`` defaults).
+
+    Attributes
+    ----------
+    n_trees : int
+        Boosting stages (one regression tree each).
+    depth : int
+        Maximum depth of each tree.
+    learning_rate : float
+        Shrinkage of each tree's contribution (folded into the exported leaf values).
+    """
+
+    n_trees: int = 100
+    depth: int = 3
+    learning_rate: float = 0.1
+
+    def __post_init__(self) -> None:
+        from initsel_ros.trees import MAX_DEPTH, MAX_TREES
+
+        if not 1 <= self.n_trees <= MAX_TREES:
+            raise ConfigError(f'the number of trees must be in [1, {MAX_TREES}]')
+        if not 1 <= self.depth <= MAX_DEPTH:
+            raise ConfigError(f'the tree depth must be in [1, {MAX_DEPTH}]')
+        if not 0.0 < self.learning_rate <= 1.0:
+            raise ConfigError('the learning rate must be in (0, 1]')
 
 
 @dataclass(frozen=True)
@@ -77,6 +132,17 @@ class TrainConfig:
         Seed of the fold assignment and of the estimators.
     labels : LabelConfig or None
         Relabel the table with these thresholds first (None = use its label columns).
+    allow_degenerate : bool
+        Accept a model whose training labels are all one class (it then always or never
+        fires); by default that is a DatasetError.
+    family : Family
+        Family of every model not in ``families``.
+    families : dict
+        Per-model family, e.g. ``{'F': Family.TREES_EXTRA}``.
+    extra : tuple of str
+        The extra features a ``+extra`` family reads (default all of them).
+    trees : TreeConfig
+        Gradient boosting settings of the tree families.
     """
 
     scaling: Scaling = Scaling.RESOLUTION_FREE
@@ -87,6 +153,29 @@ class TrainConfig:
     min_predicted: int = 5
     seed: int = 0
     labels: LabelConfig | None = None
+    allow_degenerate: bool = False
+    family: Family = DEFAULT_FAMILY
+    families: dict[str, Family] = field(default_factory=dict)
+    extra: tuple[str, ...] = EXTRA_FEATURE_NAMES
+    trees: TreeConfig = field(default_factory=TreeConfig)
+
+    def __post_init__(self) -> None:
+        unknown = [n for n in self.extra if n not in EXTRA_FEATURE_NAMES]
+        if unknown:
+            raise ConfigError(f'unknown extra features {unknown}; known: '
+                              f'{", ".join(EXTRA_FEATURE_NAMES)}')
+        bad = [m for m in self.families if m not in METHODS]
+        if bad:
+            raise ConfigError(f'unknown models {bad} (models: {", ".join(METHODS)})')
+
+    def family_of(self, model: str) -> Family:
+        """The family of ``model``."""
+        return Family(self.families.get(model, self.family))
+
+    def features_of(self, family: Family) -> tuple[str, ...]:
+        """Input feature names of a family."""
+        extra = tuple(n for n in EXTRA_FEATURE_NAMES if n in self.extra)
+        return FEATURE_NAMES + extra if Family(family).uses_extra else FEATURE_NAMES
 
 
 def feature_columns(scaling: Scaling) -> tuple[str, ...]:
@@ -253,12 +342,93 @@ def fit_logistic(
     )
 
 
-def _logistic_scorer(C: float, class_weight: ClassWeight, seed: int) -> Callable[..., Any]:
+def impute(X: np.ndarray) -> np.ndarray:
+    """Non-finite values (an extra feature without a fit) -> 0, as the live models do."""
+    return np.where(np.isfinite(X), X, 0.0)
+
+
+def fit_trees(
+    X: np.ndarray, y: np.ndarray, config: TreeConfig, class_weight: ClassWeight, seed: int
+) -> tuple[list[Tree], float]:
+    """Gradient boosting, exported: (trees with the learning rate folded in, bias logit).
+
+    The export is checked against scikit-learn's own ``decision_function`` on ``X``.
+    """
+    from sklearn.ensemble import GradientBoostingClassifier
+    from sklearn.utils.class_weight import compute_sample_weight
+
+    X = impute(X)
+    weight = (compute_sample_weight('balanced', y)
+              if class_weight is ClassWeight.BALANCED else None)
+    clf = GradientBoostingClassifier(
+        n_estimators=config.n_trees, max_depth=config.depth,
+        learning_rate=config.learning_rate, random_state=seed,
+    ).fit(X, y, sample_weight=weight)
+    trees = []
+    for estimator in clf.estimators_[:, 0]:
+        t = estimator.tree_
+        leaf = t.children_left < 0
+        trees.append(Tree(
+            feature=np.where(leaf, -1, t.feature).astype(np.int64),
+            split=np.where(leaf, 0.0, t.threshold),
+            left=np.where(leaf, -1, t.children_left).astype(np.int64),
+            right=np.where(leaf, -1, t.children_right).astype(np.int64),
+            value=np.where(leaf, config.learning_rate * t.value[:, 0, 0], 0.0),
+        ))
+    reference = clf.decision_function(X)
+    probe = TreeEnsembleModel('probe', tuple(map(str, range(X.shape[1]))), tuple(trees), 0.0)
+    sums = probe.decision_function(X)
+    bias = float(np.median(reference - sums))
+    error = float(np.max(np.abs(reference - (sums + bias)))) if len(X) else 0.0
+    if error > 1e-6:
+        raise RuntimeError(f'tree export disagrees with scikit-learn by {error:.3g}')
+    return trees, bias
+
+
+def fit_model(
+    family: Family, name: str, features: tuple[str, ...], X: np.ndarray, y: np.ndarray,
+    config: TrainConfig,
+) -> Model:
+    """One model of ``family`` fitted on ``X`` (columns = ``features``), threshold 0.5."""
+    X = impute(X)
+    if Family(family).kind == 'trees':
+        trees, bias = fit_trees(X, y, config.trees, config.class_weight, config.seed)
+        return TreeEnsembleModel(name, features, tuple(trees), bias)
+    mean, scale, w, b = fit_logistic(X, y, config.C, config.class_weight, config.seed)
+    return LogisticModel(name, w, b, 0.5, mean, np.where(scale > 0, scale, 1.0),
+                         features=features)
+
+
+def _scorer(family: Family, features: tuple[str, ...], config: TrainConfig
+            ) -> Callable[..., Any]:
+    """fit(X, y) -> scoring function, for out-of-fold scores (the exported model scores)."""
     def fit(X: np.ndarray, y: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-        mean, scale, w, b = fit_logistic(X, y, C, class_weight, seed)
-        return lambda Z: 1.0 / (1.0 + np.exp(-(((Z - mean) / scale) @ w + b)))
+        model = fit_model(family, 'fold', features, X, y, config)
+        return lambda Z: model.predict_proba(impute(Z))
 
     return fit
+
+
+def check_classes(table: PairTable, allow_degenerate: bool = False) -> list[str]:
+    """Models whose training labels hold a single class.
+
+    Raises:
+        DatasetError: when there are any and ``allow_degenerate`` is False (one line naming
+            each such model with its class counts).
+    """
+    found, counts = [], []
+    for name in METHODS:
+        y = np.asarray(table[label_column(name)]).astype(int)
+        pos = int(y.sum())
+        if pos in (0, len(y)):
+            found.append(name)
+            counts.append(f'model {name}: {pos} positive, {len(y) - pos} negative')
+    if found and not allow_degenerate:
+        raise DatasetError(
+            f'{"; ".join(counts)} training labels: a model trained on one class always or '
+            'never fires; add pairs of the other class or pass --allow-degenerate'
+        )
+    return found
 
 
 @dataclass(frozen=True)
@@ -295,40 +465,46 @@ def train_models(
     table = prepare(table, config)
     if len(table) == 0:
         raise DatasetError('no labelled pairs to train on')
-    X = table.matrix(feature_columns(config.scaling))
     groups = table.groups()
     n_batches = len(np.unique(groups))
-    models: dict[str, LogisticModel] = {}
+    models: dict[str, Model] = {}
     choices: dict[str, ThresholdChoice] = {}
     positives: dict[str, int] = {}
-    fit = _logistic_scorer(config.C, config.class_weight, config.seed)
+    degenerate = check_classes(table, config.allow_degenerate)
     for name in METHODS:
+        family = config.family_of(name)
+        features = config.features_of(family)
+        X = impute(table.matrix(input_columns(features, config.scaling)))
         y = np.asarray(table[label_column(name)]).astype(int)
         positives[name] = int(y.sum())
-        if positives[name] in (0, len(y)):
-            LOG.warning('model %s: all %d training labels are %d; it will never/always fire',
-                        name, len(y), int(y[0]))
+        if name in degenerate:
+            LOG.warning('model %s: all %d training labels are %d; it will %s fire '
+                        '(--allow-degenerate)', name, len(y), int(y[0]),
+                        'always' if y[0] else 'never')
             always = positives[name] == len(y)
-            mean, scale, w = X.mean(axis=0), np.ones(X.shape[1]), np.zeros(X.shape[1])
-            bias = CONSTANT_LOGIT if always else -CONSTANT_LOGIT
+            model: Model = LogisticModel(
+                name, np.zeros(len(features)), CONSTANT_LOGIT if always else -CONSTANT_LOGIT,
+                0.5, X.mean(axis=0), np.ones(len(features)), features=features)
             choice = choose_threshold(y, np.full(len(y), float(always)), 0.5)
         else:
-            scores = out_of_fold_scores(X, y, groups, fit, config.folds, config.seed)
+            scores = out_of_fold_scores(X, y, groups, _scorer(family, features, config),
+                                        config.folds, config.seed)
             choice = choose_threshold(y, scores, config.target_precision, config.min_predicted)
-            mean, scale, w, bias = fit_logistic(X, y, config.C, config.class_weight, config.seed)
+            model = fit_model(family, name, features, X, y, config)
         choices[name] = choice
-        models[name] = LogisticModel(
-            name=name, weights=w, bias=bias, threshold=choice.threshold, mean=mean,
-            scale=np.where(scale > 0, scale, 1.0),
+        models[name] = replace(
+            model, threshold=choice.threshold,
             metrics={
+                'family': family.value if name not in degenerate else 'constant',
                 'validation': choice.to_dict(),
                 'train_pairs': len(y),
                 'train_positives': positives[name],
             },
         )
         LOG.info(
-            'model %s: %d/%d positive; threshold %.3f, validation precision %.3f recall %.3f%s',
-            name, positives[name], len(y), choice.threshold, choice.precision, choice.recall,
+            'model %s (%s): %d/%d positive; threshold %.3f, validation precision %.3f '
+            'recall %.3f%s', name, family.value, positives[name], len(y), choice.threshold,
+            choice.precision, choice.recall,
             '' if choice.reached else ' (target precision not reached)',
         )
     sequences = {
@@ -338,8 +514,9 @@ def train_models(
     labels = config.labels or LabelConfig()
     rules = sorted(set(np.asarray(table['scale_rule']).astype(str)))
     metadata = {
-        'description': 'Troutman & Tuceryan 2021 models: scikit-learn LogisticRegression per '
-                       'model on standardized features',
+        'description': 'Troutman & Tuceryan 2021 models F, E, H, R; per model: '
+                       'scikit-learn LogisticRegression on standardized features, or '
+                       'GradientBoostingClassifier exported as trees (see "families")',
         'date': _dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds'),
         'sklearn_version': sklearn.__version__,
         'numpy_version': np.__version__,
@@ -367,134 +544,18 @@ def train_models(
             'validation': f'grouped {config.folds}-fold cross-validation over batches, '
                           'out-of-fold probabilities; final fit on all pairs',
             'seed': config.seed,
+            'degenerate_models': degenerate,
+            'families': {m: config.family_of(m).value for m in METHODS},
+            'extra_features': [n for n in EXTRA_FEATURE_NAMES if n in config.extra],
+            'trees': {'n_trees': config.trees.n_trees, 'depth': config.trees.depth,
+                      'learning_rate': config.trees.learning_rate,
+                      'estimator': 'sklearn GradientBoostingClassifier (log-loss), '
+                                   'exported to JSON trees'},
         },
     }
     model_set = ModelSet(models, scaling=config.scaling, feature_names=FEATURE_NAMES,
                          metadata=metadata)
     return TrainReport(model_set, choices, positives, len(table), n_batches)
-
-
-# ----------------------------------------------------------------------------- richer models
-class Candidate(str, Enum):
-    """Model families compared in evaluation (fitted in memory, never saved)."""
-
-    LOGISTIC = 'logistic'  # the shipped kind: 23 features
-    LOGISTIC_EXTRA = 'logistic+extra'  # 23 + extra cheap features
-    HGB_EXTRA = 'hgb+extra'  # HistGradientBoostingClassifier, 23 + extra
-    MLP_EXTRA = 'mlp+extra'  # MLPClassifier (32, 16), 23 + extra
-
-    @property
-    def uses_extra(self) -> bool:
-        """Whether the extra features are inputs."""
-        return self is not Candidate.LOGISTIC
-
-
-def candidate_columns(candidate: Candidate, scaling: Scaling) -> tuple[str, ...]:
-    """Input columns of a candidate."""
-    cols = feature_columns(scaling)
-    return cols + EXTRA_NAMES if candidate.uses_extra else cols
-
-
-@dataclass(frozen=True)
-class FittedCandidate:
-    """A model fitted in memory, with its threshold and a single-row scorer for timing."""
-
-    candidate: Candidate
-    model: str
-    columns: tuple[str, ...]
-    score: Callable[[np.ndarray], np.ndarray] = field(repr=False)
-    score_one: Callable[[np.ndarray], float] = field(repr=False)
-    threshold: ThresholdChoice | None = None
-
-
-def _impute(X: np.ndarray) -> np.ndarray:
-    return np.where(np.isfinite(X), X, 0.0)
-
-
-def _fitter(candidate: Candidate, config: TrainConfig) -> Callable[..., Any]:
-    """fit(X, y) -> (batch scorer, single-row scorer) for a candidate family."""
-    seed = config.seed
-
-    def fit(X: np.ndarray, y: np.ndarray) -> tuple[Callable[..., Any], Callable[..., Any]]:
-        X = _impute(X)
-        if candidate in (Candidate.LOGISTIC, Candidate.LOGISTIC_EXTRA):
-            mean, scale, w, b = fit_logistic(X, y, config.C, config.class_weight, seed)
-            w_eff, b_eff = w / scale, b - w @ (mean / scale)
-
-            def batch(Z: np.ndarray) -> np.ndarray:
-                return 1.0 / (1.0 + np.exp(-(_impute(Z) @ w_eff + b_eff)))
-
-            def one(z: np.ndarray) -> float:
-                return 1.0 / (1.0 + math.exp(-(float(z @ w_eff) + b_eff)))
-
-            return batch, one
-        if candidate is Candidate.HGB_EXTRA:
-            from sklearn.ensemble import HistGradientBoostingClassifier
-
-            clf = HistGradientBoostingClassifier(
-                max_iter=200, learning_rate=0.1, max_leaf_nodes=15,
-                class_weight=config.class_weight.sklearn, random_state=seed,
-            ).fit(X, y)
-
-            def batch(Z: np.ndarray) -> np.ndarray:
-                return clf.predict_proba(_impute(Z))[:, 1]
-
-            def one(z: np.ndarray) -> float:
-                return float(clf.predict_proba(z.reshape(1, -1))[0, 1])
-
-            return batch, one
-        from sklearn.exceptions import ConvergenceWarning
-        from sklearn.neural_network import MLPClassifier
-        from sklearn.preprocessing import StandardScaler
-
-        scaler = StandardScaler().fit(X)
-        weights = None
-        if config.class_weight is ClassWeight.BALANCED:  # MLP has no class_weight: resample
-            pos = np.flatnonzero(y == 1)
-            neg = np.flatnonzero(y == 0)
-            rng = np.random.default_rng(seed)
-            minority, majority = (pos, neg) if len(pos) < len(neg) else (neg, pos)
-            extra = rng.choice(minority, len(majority) - len(minority), replace=True)
-            weights = np.r_[np.arange(len(y)), extra]
-        idx = np.arange(len(y)) if weights is None else weights
-        with warnings.catch_warnings():  # a comparison model: a few unconverged runs are fine
-            warnings.simplefilter('ignore', ConvergenceWarning)
-            clf = MLPClassifier(
-                hidden_layer_sizes=(32, 16), alpha=1e-3, max_iter=500, random_state=seed,
-            ).fit(scaler.transform(X[idx]), y[idx])
-        W = [np.asarray(c) for c in clf.coefs_]
-        B = [np.asarray(c) for c in clf.intercepts_]
-        mu, sd = scaler.mean_, scaler.scale_
-
-        def forward(Z: np.ndarray) -> np.ndarray:
-            h = (_impute(Z) - mu) / sd
-            for Wi, Bi in zip(W[:-1], B[:-1], strict=True):
-                h = np.maximum(h @ Wi + Bi, 0.0)
-            z = h @ W[-1] + B[-1]
-            return (1.0 / (1.0 + np.exp(-z))).reshape(-1)
-
-        return forward, lambda z: float(forward(z.reshape(1, -1))[0])
-
-    return fit
-
-
-def fit_candidate(
-    candidate: Candidate, model: str, train: PairTable, config: TrainConfig
-) -> FittedCandidate | None:
-    """Fit one candidate for one model on ``train`` (threshold from grouped out-of-fold
-    scores, as for the shipped models). None when the labels hold a single class."""
-    columns = candidate_columns(candidate, config.scaling)
-    X = train.matrix(columns)
-    y = np.asarray(train[label_column(model)]).astype(int)
-    if len(np.unique(y)) < 2:
-        return None
-    fitter = _fitter(candidate, config)
-    scores = out_of_fold_scores(
-        X, y, train.groups(), lambda A, b: fitter(A, b)[0], config.folds, config.seed
-    )
-    choice = choose_threshold(y, scores, config.target_precision, config.min_predicted)
-    batch, one = fitter(X, y)
-    return FittedCandidate(candidate, model, columns, batch, one, choice)
 
 
 def describe_inputs(paths: Sequence[str]) -> dict[str, Any]:
@@ -504,20 +565,23 @@ def describe_inputs(paths: Sequence[str]) -> dict[str, Any]:
 
 __all__ = [
     'CONSTANT_LOGIT',
+    'DEFAULT_FAMILY',
     'THRESHOLD_MARGIN',
-    'Candidate',
     'ClassWeight',
-    'FittedCandidate',
+    'Family',
     'ThresholdChoice',
     'TrainConfig',
     'TrainReport',
-    'candidate_columns',
+    'TreeConfig',
+    'check_classes',
     'choose_threshold',
     'describe_inputs',
     'feature_columns',
-    'fit_candidate',
     'fit_logistic',
+    'fit_model',
+    'fit_trees',
     'grouped_folds',
+    'impute',
     'label_column',
     'out_of_fold_scores',
     'prepare',

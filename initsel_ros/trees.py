@@ -1,0 +1,254 @@
+"""Gradient-boosted decision trees, evaluated in numpy (no scikit-learn at inference).
+
+A :class:`TreeEnsembleModel` scores ``sigmoid(bias + sum over trees of leaf(x))``. Its entry in
+the model file (plain JSON)::
+
+    {"kind": "trees", "features": [names], "bias": float, "threshold": float,
+     "trees": [{"feature": [int], "split": [float], "left": [int], "right": [int],
+                "value": [float]}, ...],
+     "metrics": {...}}
+
+Node ``i`` of a tree is a leaf when ``feature[i] == -1`` (then ``left[i] == right[i] == -1``
+and ``value[i]`` is its contribution to the logit); otherwise the row goes to ``left[i]`` when
+``x[feature[i]] <= split[i]`` and to ``right[i]`` else. Children always have larger indices
+than their parent, so every tree is finite and acyclic; node 0 is the root. As in scikit-learn,
+features are rounded to float32 before the comparisons; non-finite inputs count as 0 (the value
+training imputes).
+
+Evaluation is vectorized over all trees at once: the nodes of every tree live in flat arrays
+where a leaf points to itself, so ``depth`` steps of fancy indexing reach every leaf.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from initsel_ros.errors import ModelFileError
+from initsel_ros.modelio import finite_number, int_list, number_list, unit_number
+
+#: Bounds that keep a hostile file from costing much memory or time.
+MAX_TREES = 2000
+MAX_DEPTH = 16
+MAX_NODES_PER_TREE = 4095
+TREE_KEYS = ('feature', 'split', 'left', 'right', 'value')
+
+
+def _sigmoid(z: np.ndarray) -> np.ndarray:
+    return 0.5 * (1.0 + np.tanh(0.5 * z))  # overflow-free logistic
+
+
+@dataclass(frozen=True)
+class Tree:
+    """One regression tree in file form (see module docstring)."""
+
+    feature: np.ndarray  # (K,) int64, -1 for leaves
+    split: np.ndarray  # (K,) float64
+    left: np.ndarray  # (K,) int64, -1 for leaves
+    right: np.ndarray  # (K,) int64, -1 for leaves
+    value: np.ndarray  # (K,) float64, logit contribution of leaves (0 at inner nodes)
+
+    def to_dict(self) -> dict[str, list[Any]]:
+        """Plain data for the model file."""
+        return {k: getattr(self, k).tolist() for k in TREE_KEYS}
+
+    @classmethod
+    def from_dict(cls, data: Any, n_features: int, where: str) -> Tree:
+        """Validate one tree of the file; raises ModelFileError."""
+        if not isinstance(data, dict) or sorted(data) != sorted(TREE_KEYS):
+            raise ModelFileError(f'{where}: a tree must map exactly {", ".join(TREE_KEYS)} '
+                                 'to lists')
+        raw = data['feature']
+        k = len(raw) if isinstance(raw, list) else 0
+        if not 1 <= k <= MAX_NODES_PER_TREE:
+            raise ModelFileError(f'{where}: a tree needs 1 to {MAX_NODES_PER_TREE} nodes')
+        return cls(
+            feature=int_list(raw, f'{where}: feature', k, -1, n_features - 1),
+            split=number_list(data['split'], f'{where}: split', k),
+            left=int_list(data['left'], f'{where}: left', k, -1, k - 1),
+            right=int_list(data['right'], f'{where}: right', k, -1, k - 1),
+            value=number_list(data['value'], f'{where}: value', k),
+        )
+
+    def check(self, where: str) -> None:
+        """Structure: leaves have no children, inner nodes two later ones."""
+        leaf = self.feature < 0
+        nodes = np.arange(len(self.feature))
+        if np.any(leaf & ((self.left != -1) | (self.right != -1))):
+            raise ModelFileError(f'{where}: a leaf (feature -1) must have left = right = -1')
+        inner = ~leaf
+        if np.any(inner & ((self.left <= nodes) | (self.right <= nodes))):
+            raise ModelFileError(f'{where}: children must come after their parent')
+
+    @property
+    def depth(self) -> int:
+        """Longest root-to-leaf path from node 0, in edges (MAX_DEPTH + 1 when deeper)."""
+        frontier = np.zeros(1, dtype=np.int64)
+        for depth in range(MAX_DEPTH + 2):
+            inner = frontier[self.feature[frontier] >= 0]
+            if not len(inner):
+                return depth
+            frontier = np.unique(np.concatenate((self.left[inner], self.right[inner])))
+        return MAX_DEPTH + 1
+
+
+@dataclass(frozen=True)
+class FlatTrees:
+    """Many trees in flat arrays with self-looping leaves, for vectorized evaluation.
+
+    ``feature`` indexes the input vector; a leaf has feature 0 and split +inf, and both of its
+    children are itself, so extra steps keep a row on its leaf. ``child[2 i]`` and
+    ``child[2 i + 1]`` are node i's left and right child.
+    """
+
+    feature: np.ndarray  # (K,) int64
+    split: np.ndarray  # (K,) float64
+    child: np.ndarray  # (2 K,) int64
+    value: np.ndarray  # (K,) float64
+    roots: np.ndarray  # (T,) int64
+    depth: int
+
+    @classmethod
+    def build(cls, trees: Sequence[Tree], columns: Sequence[np.ndarray]) -> FlatTrees:
+        """Flatten ``trees``; ``columns[i][j]`` is the input column of tree i's feature j."""
+        feats, splits, kids, values, roots = [], [], [], [], []
+        offset = 0
+        depth = 0
+        for tree, cols in zip(trees, columns, strict=True):
+            k = len(tree.feature)
+            leaf = tree.feature < 0
+            own = np.arange(k) + offset
+            feats.append(np.where(leaf, 0, cols[np.maximum(tree.feature, 0)]))
+            splits.append(np.where(leaf, np.inf, tree.split))
+            kids.append(np.column_stack((np.where(leaf, own, tree.left + offset),
+                                         np.where(leaf, own, tree.right + offset))).ravel())
+            values.append(np.where(leaf, tree.value, 0.0))
+            roots.append(offset)
+            depth = max(depth, tree.depth)
+            offset += k
+        return cls(
+            np.concatenate(feats).astype(np.int64), np.concatenate(splits),
+            np.concatenate(kids).astype(np.int64), np.concatenate(values),
+            np.asarray(roots, dtype=np.int64), depth,
+        )
+
+    def leaf_values(self, x: np.ndarray) -> np.ndarray:
+        """(T,) leaf value of each tree for one prepared input vector (see :func:`prepare`)."""
+        node = self.roots
+        feature, split, child = self.feature, self.split, self.child
+        for _ in range(self.depth):
+            node = child[2 * node + (x[feature[node]] > split[node])]
+        return self.value[node]
+
+    def leaf_values_batch(self, X: np.ndarray) -> np.ndarray:
+        """(N, T) leaf values for prepared input rows ``X`` (N, D)."""
+        node = np.broadcast_to(self.roots, (len(X), len(self.roots)))
+        rows = np.arange(len(X))[:, None]
+        for _ in range(self.depth):
+            node = self.child[2 * node + (X[rows, self.feature[node]] > self.split[node])]
+        return self.value[node]
+
+
+def prepare(X: np.ndarray) -> np.ndarray:
+    """Inputs as the trees compare them: non-finite -> 0, then rounded to float32."""
+    X = np.asarray(X, dtype=np.float64)
+    return np.where(np.isfinite(X), X, 0.0).astype(np.float32).astype(np.float64)
+
+
+@dataclass(frozen=True)
+class TreeEnsembleModel:
+    """A boosted tree ensemble over the named features (logit = bias + sum of leaves)."""
+
+    name: str
+    features: tuple[str, ...]
+    trees: tuple[Tree, ...]
+    bias: float
+    threshold: float = 0.5
+    metrics: dict[str, Any] = field(default_factory=dict)
+    kind: str = field(default='trees', init=False)
+
+    def __post_init__(self) -> None:
+        where = f'model {self.name!r}'
+        object.__setattr__(self, 'features', tuple(self.features))
+        object.__setattr__(self, 'trees', tuple(self.trees))
+        if not 1 <= len(self.trees) <= MAX_TREES:
+            raise ModelFileError(f'{where}: needs 1 to {MAX_TREES} trees, got {len(self.trees)}')
+        for i, tree in enumerate(self.trees):
+            if np.any(tree.feature >= len(self.features)):
+                raise ModelFileError(f'{where}: tree {i} reads a feature beyond its list')
+            tree.check(f'{where}: tree {i}')
+            if tree.depth > MAX_DEPTH:
+                raise ModelFileError(f'{where}: tree {i} is deeper than {MAX_DEPTH}')
+        if not math.isfinite(self.bias):
+            raise ModelFileError(f'{where}: bias must be finite, got {self.bias}')
+        if not 0.0 <= self.threshold <= 1.0:
+            raise ModelFileError(f'{where}: threshold must be in [0, 1], got {self.threshold}')
+        own = np.arange(len(self.features))
+        flat = FlatTrees.build(self.trees, [own] * len(self.trees))
+        object.__setattr__(self, '_flat', flat)
+
+    @property
+    def depth(self) -> int:
+        """Deepest tree, in edges."""
+        return self._flat.depth  # type: ignore[attr-defined]
+
+    def decision_function(self, X: np.ndarray) -> np.ndarray:
+        """Logits of rows ``X`` ((N, D) or (D,), columns in ``features`` order)."""
+        X = np.asarray(X, dtype=np.float64)
+        flat: FlatTrees = self._flat  # type: ignore[attr-defined]
+        if X.ndim == 1:
+            return np.asarray(self.bias + flat.leaf_values(prepare(X)).sum())
+        return self.bias + flat.leaf_values_batch(prepare(X)).sum(axis=1)
+
+    def predict_proba(self, X: np.ndarray) -> np.ndarray:
+        """Probability of 'yes' for each row of ``X``."""
+        return _sigmoid(self.decision_function(X))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form for the model file."""
+        return {
+            'kind': 'trees',
+            'features': list(self.features),
+            'bias': float(self.bias),
+            'threshold': float(self.threshold),
+            'trees': [t.to_dict() for t in self.trees],
+            'metrics': self.metrics,
+        }
+
+    @classmethod
+    def from_dict(cls, name: str, data: dict[str, Any], features: tuple[str, ...]
+                  ) -> TreeEnsembleModel:
+        """Validate a ``"kind": "trees"`` entry (``features`` already checked)."""
+        where = f'model {name!r}'
+        trees = data.get('trees')
+        if not isinstance(trees, list) or not 1 <= len(trees) <= MAX_TREES:
+            raise ModelFileError(f'{where}: "trees" must be a list of 1 to {MAX_TREES} trees')
+        metrics = data.get('metrics', {}) or {}
+        if not isinstance(metrics, dict):
+            raise ModelFileError(f'{where}: "metrics" must be a mapping')
+        if 'bias' not in data:
+            raise ModelFileError(f'{where}: missing bias')
+        return cls(
+            name=name,
+            features=features,
+            trees=tuple(Tree.from_dict(t, len(features), f'{where}: tree {i}')
+                        for i, t in enumerate(trees)),
+            bias=finite_number(data['bias'], f'{where}: bias'),
+            threshold=unit_number(data.get('threshold', 0.5), f'{where}: threshold'),
+            metrics=dict(metrics),
+        )
+
+
+__all__ = [
+    'MAX_DEPTH',
+    'MAX_NODES_PER_TREE',
+    'MAX_TREES',
+    'FlatTrees',
+    'Tree',
+    'TreeEnsembleModel',
+    'prepare',
+]
