@@ -94,16 +94,23 @@ def test_vectorized_policy_agrees_with_the_live_one(rows, thresholds, veto):
 
 def test_vectorized_policy_agrees_on_a_real_pair_table(near_pair_table):
     """Every pair of a labelled table, with the shipped models' probabilities."""
-    from initsel_ros.learn.table import read_table
-    from initsel_ros.learn.train import feature_columns
+    from initsel_ros.learn.table import input_columns, read_table
     from initsel_ros.models import ModelSet, default_model_path
 
     table = read_table(near_pair_table)
     models = ModelSet.load(default_model_path())
-    probs = models.predict_proba_batch(table.matrix(feature_columns(models.scaling)))
+    probs = models.predict_proba_batch(
+        table.matrix(input_columns(models.input_names, models.scaling)))
     config = PolicyConfig()
     thresholds = effective_thresholds(models.thresholds, config)
     _agree(probs, thresholds, np.asarray(table['n_tracks']), config)
+    # and the evaluation's rule is that policy
+    from initsel_ros.learn.evaluate import model_rule
+
+    rule = model_rule('m', probs, thresholds, veto=tuple(config.r_veto),
+                      n_tracks=np.asarray(table['n_tracks']))
+    batch = decide_batch(probs, thresholds, np.asarray(table['n_tracks']), config)
+    assert np.array_equal(rule.method, batch.first_method())
 
 
 def test_vectorized_pose_check_agrees_with_the_live_one():

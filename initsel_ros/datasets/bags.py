@@ -19,7 +19,6 @@ Writing (used by ``initsel synth --bag``): ``/camera/rgb/image_color`` (rgb8; or
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import sqlite3
 import struct
@@ -345,8 +344,10 @@ class BagSequence(Sequence):
             reader.close()
 
     def __del__(self) -> None:
-        with contextlib.suppress(Exception):  # never raise from a finalizer
+        try:  # never raise from a finalizer (at interpreter exit module globals may be gone)
             self.close()
+        except Exception:  # noqa: SIM105 - contextlib itself may be gone at exit
+            return
 
 
 def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,

@@ -23,6 +23,7 @@ from initsel_ros.learn.candidates import Candidate, FittedCandidate, fit_candida
 from initsel_ros.learn.table import PairTable, input_columns
 from initsel_ros.learn.train import TrainConfig, feature_columns, label_column
 from initsel_ros.models import METHODS, ModelSet
+from initsel_ros.policy import PolicyConfig, check_pose_batch, decide_batch
 
 #: Families compared by default when training pairs are given.
 DEFAULT_CANDIDATES: tuple[Candidate, ...] = tuple(Candidate)
@@ -157,14 +158,20 @@ def _orb_accepts(test: PairTable, method: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pose_ok(test: PairTable, method: np.ndarray) -> np.ndarray:
-    """The selector's pose check on the chosen method: >= 50 points, parallax >= 1 degree."""
-    return _orb_accepts(test, method) | (
-        (method == 'E')
-        & (np.asarray(test['E_ok']) == 1)
-        & (np.asarray(test['E_n_points']) >= ORB_MIN_POINTS)
-        & (np.asarray(test['E_parallax_deg']) >= ORB_MIN_PARALLAX_DEG)
-    )
+def _pose_ok(test: PairTable, method: np.ndarray,
+             config: PolicyConfig | None = None) -> np.ndarray:
+    """The selector's pose check (``policy.check_pose_batch``) on the chosen method's estimate."""
+    config = config or PolicyConfig()
+    out = np.zeros(len(test), dtype=bool)
+    for m in ('F', 'E', 'H'):
+        sel = np.asarray(method) == m
+        if not sel.any():
+            continue
+        reasons = check_pose_batch(np.asarray(test[f'{m}_ok']) == 1,
+                                   np.asarray(test[f'{m}_n_points']),
+                                   np.asarray(test[f'{m}_parallax_deg'], dtype=float), config)
+        out |= sel & np.array([r is None for r in reasons])
+    return out
 
 
 def baseline_rules(test: PairTable) -> dict[str, Rule]:
@@ -189,21 +196,19 @@ def baseline_rules(test: PairTable) -> dict[str, Rule]:
 
 def model_rule(
     name: str, probs: Mapping[str, np.ndarray], thresholds: Mapping[str, float],
-    veto: Sequence[str] = ('F', 'E'),
+    veto: Sequence[str] = ('F', 'E'), n_tracks: np.ndarray | None = None,
 ) -> Rule:
-    """The live policy on table rows: fire, R veto, most confident (margin) method."""
+    """The live policy (``policy.decide_batch``) on table rows: fire, R veto, most confident.
+
+    Args:
+        n_tracks: correspondences per row (None: every row has enough).
+    """
     n = len(next(iter(probs.values())))
-    rotation = probs['R'] >= thresholds['R']
-    margins = np.full((n, 3), -np.inf)
-    order = ('E', 'H', 'F')  # policy.PREFERENCE breaks ties in this order
-    for j, m in enumerate(order):
-        fired = probs[m] >= thresholds[m]
-        if m in veto:
-            fired &= ~rotation
-        margins[:, j] = np.where(fired, probs[m] - thresholds[m], -np.inf)
-    yes = np.isfinite(margins).any(axis=1)
-    method = np.array(order, dtype=object)[np.argmax(margins, axis=1)]
-    return Rule(name, yes, np.where(yes, method, '').astype(object))
+    config = PolicyConfig(r_veto=frozenset(veto))
+    tracks = np.full(n, config.min_tracks) if n_tracks is None else np.asarray(n_tracks)
+    batch = decide_batch(probs, thresholds, tracks, config)
+    yes = batch.n_candidates > 0
+    return Rule(name, yes, batch.first_method())
 
 
 def _good(test: PairTable, method: np.ndarray) -> np.ndarray:
@@ -355,8 +360,10 @@ def evaluate(
                      f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg',
             ))
     # sequence level
-    rules = [model_rule('Models (R veto on F, E)', probs, thr),
-             model_rule('Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'))]
+    tracks = np.asarray(test['n_tracks'])
+    rules = [model_rule('Models (R veto on F, E)', probs, thr, n_tracks=tracks),
+             model_rule('Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'),
+                        n_tracks=tracks)]
     for rule, name in ((rules[0], 'Models + pose check'),
                        (rules[1], 'Models (R veto on F, E, H) + pose check')):
         rules.append(Rule(name, rule.yes & _pose_ok(test, rule.method), rule.method))
