@@ -346,7 +346,7 @@ class BagSequence(Sequence):
     def __del__(self) -> None:
         try:  # never raise from a finalizer (at interpreter exit module globals may be gone)
             self.close()
-        except Exception:  # noqa: SIM105 - contextlib itself may be gone at exit
+        except Exception:
             return
 
 
