@@ -20,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--verify-frames', type=int, default=None,
                         help="override the selector's verification frames (0 = off)")
     parser.add_argument('--no-refine', action='store_true', help='turn the refinement off')
+    parser.add_argument('--r-veto', nargs='*', default=None, metavar='MODEL',
+                        choices=('F', 'E', 'H'),
+                        help="models silenced when model R fires (default: the selector's)")
     parser.add_argument('--no-baselines', action='store_true', help='the selector only')
     parser.add_argument('--jobs', type=int, default=2, help='worker processes')
     parser.add_argument('--out-dir', type=Path, default=None,
@@ -40,6 +43,8 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.selector import SelectorConfig
 
     config = SelectorConfig(refine=not args.no_refine)
+    if args.r_veto is not None:
+        config = replace(config, policy=replace(config.policy, r_veto=frozenset(args.r_veto)))
     if args.verify_frames is not None:
         config = replace(config, verify=replace(config.verify, frames=args.verify_frames))
 
