@@ -7,7 +7,8 @@ writes ``rgb/``, ``depth/``, ``rgb.txt``, ``depth.txt``, ``groundtruth.txt`` and
 
 from __future__ import annotations
 
-from initsel_ros.synth.render import Effects, render_frame
+from initsel_ros.synth.effects import Effects
+from initsel_ros.synth.render import render_frame
 from initsel_ros.synth.scene import Scene, SceneName, build_scene
 from initsel_ros.synth.trajectories import TrajectoryName, look_at, make_trajectory
 from initsel_ros.synth.write import SynthResult, render, render_sequence
