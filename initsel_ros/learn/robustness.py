@@ -281,7 +281,8 @@ class _Cached:
 def tracker_markdown(rows: Sequence[dict[str, Any]]) -> str:
     """The tracker comparison as a Markdown table."""
     head = ('| condition | photometric | tracks at frame 29 | track error px (median) | '
-            'tracks > 2 px | pairs with median error > 2 px | E_t median | E_t p90 | rotation median deg | rotation p90 deg | '
+            'tracks > 2 px | pairs with median error > 2 px | E_t median | E_t p90 | '
+            'rotation median deg | rotation p90 deg | '
             'depth error median | bad seeds (E_t >= 0.2 or rot >= 1 deg) | tracking ms/frame | '
             'frames remapped |')
     lines = [head, '|' + '---|' * 14]
