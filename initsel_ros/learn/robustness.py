@@ -410,8 +410,9 @@ def model_robustness(out_dir: Path, models_path: Path | None = None,
     for effect in names:
         known = EFFECT_LEVELS.get(effect, {'default': {}, 'strong': {}})
         for level in levels:
-            if level == 'strong' and 'strong' not in known:
-                continue
+            if (level == 'strong' and 'strong' not in known) or (
+                    level == 'clean' and any(r['level'] == 'clean' for r in out)):
+                continue  # the clean sequences are the same for every effect: one row
             rows = []
             for kind in ('near', 'rotation'):
                 path = _render_case(out_dir, effect, level, kind)

@@ -14,6 +14,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError
+from initsel_ros.synth.effects import Effects, exposure_gains  # noqa: F401 (former home)
 from initsel_ros.synth.scene import Plane, Scene
 
 NEAR_PLANE = 0.05  # metres
