@@ -3,17 +3,42 @@
 Tracks are carried frame to frame (previous -> current) so that they survive large total
 motion, with a forward-backward check that drops a track when tracking the current point
 back to the previous frame misses by more than ``fb_max_error_px``.
+
+Lucas-Kanade assumes brightness constancy, which auto-exposure and gain changes break: the
+tracks drift. ``TrackerConfig.photometric`` compensates (see :class:`Photometric`):
+``gain_bias`` maps every frame onto the previous one's brightness with a gain and a bias fitted
+to the tracked patches, ``zncc`` tracks on locally zero-mean, unit-variance images.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import Enum
 
 import cv2
 import numpy as np
 
 from initsel_ros.errors import ImageConversionError
+
+
+class Photometric(str, Enum):
+    """Compensation of brightness changes between frames.
+
+    - ``none``: plain KLT on the frames.
+    - ``gain_bias``: after a first KLT pass, a gain and a bias ``prev ~ a * cur + b`` are fitted
+      (least squares with outlier rejection) to the mean intensities of the tracked patches
+      (patches with saturated or black pixels left out); when they change the frame's
+      brightness by more than ``photometric_min_change`` grey levels, the frame is mapped by
+      them and tracked again from the first pass. Each frame is so kept at the reference's
+      brightness; frames without a brightness change are tracked exactly as with ``none``.
+    - ``zncc``: both frames are locally normalized (zero mean, unit variance over the KLT
+      window) before tracking, which removes any local gain and bias.
+    """
+
+    NONE = 'none'
+    GAIN_BIAS = 'gain_bias'
+    ZNCC = 'zncc'
 
 
 @dataclass(frozen=True)
@@ -32,6 +57,10 @@ class TrackerConfig:
         fb_max_error_px: forward-backward error above which a track is dropped, pixels.
         lk_iterations: Lucas-Kanade iterations per pyramid level (at most).
         lk_epsilon_px: Lucas-Kanade stops when an update is smaller than this, pixels.
+        photometric: brightness compensation (:class:`Photometric`).
+        photometric_min_change: ``gain_bias`` maps a frame anew only when the fitted gain and
+            bias change the mean intensity of the tracked patches (5-95 % of them) by more
+            than this, grey levels.
     """
 
     max_features: int = 300
@@ -45,6 +74,11 @@ class TrackerConfig:
     fb_max_error_px: float = 1.0
     lk_iterations: int = 10
     lk_epsilon_px: float = 0.03
+    photometric: Photometric = Photometric.GAIN_BIAS
+    photometric_min_change: float = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'photometric', Photometric(self.photometric))
 
 
 @dataclass(frozen=True)
@@ -123,6 +157,11 @@ class KltTracker:
         self._cur = np.zeros((0, 2), np.float32)
         self._ids = np.zeros(0, np.int64)
         self.frames_since_reference = 0
+        #: gain and bias mapping the last frame onto the reference brightness (gain_bias)
+        self.last_gain_bias = (1.0, 0.0)
+        self._gain_bias = (1.0, 0.0)
+        #: frames that ``gain_bias`` mapped to a new brightness (since construction)
+        self.photometric_remaps = 0
 
     @property
     def has_reference(self) -> bool:
@@ -149,7 +188,8 @@ class KltTracker:
     def reset(self, gray: np.ndarray) -> int:
         """Make ``gray`` ((H, W) uint8) the reference frame; returns the features found."""
         pts = detect_features(gray, self.config)
-        self._prev = gray
+        self._prev = _zncc(gray, self.config.window_px) if self._zncc else gray
+        self._gain_bias = (1.0, 0.0)
         self._ref = pts
         self._cur = pts.copy()
         self._ids = np.arange(len(pts), dtype=np.int64)
@@ -173,20 +213,33 @@ class KltTracker:
                 f'frame size {gray.shape} differs from the reference {self._prev.shape}'
             )
         self.frames_since_reference += 1
+        if self._zncc:
+            gray = _zncc(gray, self.config.window_px)
         if len(self._ids):
-            self._step(gray)
+            gray = self._step(gray)
         self._prev = gray
         return self.tracks()
 
-    def _step(self, gray: np.ndarray) -> None:
+    @property
+    def _zncc(self) -> bool:
+        return self.config.photometric is Photometric.ZNCC
+
+    def _lk(self, prev: np.ndarray, gray: np.ndarray, guess: np.ndarray | None = None,
+            ) -> tuple[np.ndarray, np.ndarray]:
+        """Forward-backward KLT of the current points: (next points (N, 2), keep (N,))."""
         cfg = self.config
         lk = {
             'winSize': (cfg.window_px, cfg.window_px), 'maxLevel': cfg.pyramid_levels,
             'criteria': self._criteria,
         }
         prev_pts = self._cur.reshape(-1, 1, 2)
-        nxt, status, _ = cv2.calcOpticalFlowPyrLK(self._prev, gray, prev_pts, None, **lk)
-        back, status_back, _ = cv2.calcOpticalFlowPyrLK(gray, self._prev, nxt, None, **lk)
+        if guess is None:
+            nxt, status, _ = cv2.calcOpticalFlowPyrLK(prev, gray, prev_pts, None, **lk)
+        else:
+            nxt, status, _ = cv2.calcOpticalFlowPyrLK(
+                prev, gray, prev_pts, guess.reshape(-1, 1, 2).copy(),
+                flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **lk)
+        back, status_back, _ = cv2.calcOpticalFlowPyrLK(gray, prev, nxt, None, **lk)
         nxt = nxt.reshape(-1, 2)
         fb = np.linalg.norm(back.reshape(-1, 2) - self._cur, axis=1)
         h, w = gray.shape
@@ -194,6 +247,115 @@ class KltTracker:
             (status.ravel() == 1) & (status_back.ravel() == 1) & (fb <= cfg.fb_max_error_px)
             & (nxt[:, 0] >= 0) & (nxt[:, 0] <= w - 1) & (nxt[:, 1] >= 0) & (nxt[:, 1] <= h - 1)
         )
+        return nxt, keep
+
+    def _step(self, gray: np.ndarray) -> np.ndarray:
+        """Track into ``gray``; returns the frame to keep as the previous one."""
+        cfg = self.config
+        prev = self._prev
+        assert prev is not None
+        if cfg.photometric is not Photometric.GAIN_BIAS:
+            nxt, keep = self._lk(prev, gray)
+        else:
+            # predict with the last mapping (brightness changes smoothly), fit the new one to
+            # the raw frame, and track again if it differs
+            a, b = self._gain_bias
+            mapped = gray if (a, b) == (1.0, 0.0) else _map(gray, a, b)
+            nxt, keep = self._lk(prev, mapped)
+            # the first tracks are pulled by the brightness change itself: refit on the
+            # tracks found with the new mapping until it settles
+            tolerance = cfg.photometric_min_change
+            for _ in range(_GAIN_BIAS_ROUNDS):
+                if keep.sum() < _MIN_PHOTOMETRIC_POINTS:
+                    break
+                fit = fit_gain_bias(prev, gray, self._cur[keep], nxt[keep], cfg.window_px)
+                if fit is None:
+                    break
+                a_new, b_new, means = fit
+                span = np.percentile(means, (5, 95))  # robust ends of the patch intensities
+                change = np.max(np.abs((a_new - a) * span + (b_new - b)))
+                if change <= tolerance:
+                    break
+                if tolerance == cfg.photometric_min_change:
+                    self.photometric_remaps += 1
+                tolerance = _GAIN_BIAS_SETTLED
+                a, b = a_new, b_new
+                mapped = _map(gray, a, b)
+                nxt, keep = self._lk(prev, mapped, guess=nxt)
+            self._gain_bias = (a, b)
+            self.last_gain_bias = (a, b)
+            gray = mapped
         self._ref = self._ref[keep]
         self._cur = nxt[keep].astype(np.float32)
         self._ids = self._ids[keep]
+        return gray
+
+
+def _map(gray: np.ndarray, a: float, b: float) -> np.ndarray:
+    """``a * gray + b``, rounded and saturated to uint8."""
+    return cv2.LUT(gray, np.clip(np.rint(a * np.arange(256) + b), 0, 255).astype(np.uint8))
+
+
+_MIN_PHOTOMETRIC_POINTS = 20
+_GAIN_BIAS_ROUNDS = 4
+#: refits stop when the mapping changes a patch mean by less than this, grey levels
+_GAIN_BIAS_SETTLED = 0.1
+
+
+def fit_gain_bias(prev: np.ndarray, cur: np.ndarray, p_prev: np.ndarray, p_cur: np.ndarray,
+                  window_px: int, iterations: int = 3,
+                  ) -> tuple[float, float, np.ndarray] | None:
+    """Gain and bias mapping ``cur`` onto ``prev`` brightness: ``prev ~ a * cur + b``.
+
+    Fitted to the mean intensities of ``window_px`` patches around corresponding points by a
+    reduced-major-axis line (the means and spreads of both sides matched: misplaced current
+    points do not bias it as least squares would), leaving out patches with saturated
+    (>= 250) or black (<= 5) pixels and, over ``iterations`` rounds, residuals above 3 robust
+    standard deviations.
+
+    Args:
+        prev, cur: (H, W) uint8 frames.
+        p_prev, p_cur: (N, 2) corresponding pixels.
+        window_px: patch side, pixels.
+        iterations: outlier-rejection rounds.
+
+    Returns:
+        ``(a, b, cur_means)`` (``cur_means``: the patch means used, grey levels), or None when
+        fewer than 20 patches qualify or their intensities span less than 10 grey levels.
+    """
+    k = (window_px, window_px)
+    samples = []
+    for img, pts in ((prev, p_prev), (cur, p_cur)):
+        mean = cv2.blur(img.astype(np.float32), k)
+        hi = cv2.dilate(img, np.ones(k, np.uint8))
+        lo = cv2.erode(img, np.ones(k, np.uint8))
+        xy = np.rint(pts).astype(np.int64)
+        x = np.clip(xy[:, 0], 0, img.shape[1] - 1)
+        y = np.clip(xy[:, 1], 0, img.shape[0] - 1)
+        samples.append((mean[y, x].astype(np.float64), (hi[y, x] < 250) & (lo[y, x] > 5)))
+    (m_prev, ok_prev), (m_cur, ok_cur) = samples
+    use = ok_prev & ok_cur
+    for _ in range(max(1, iterations)):
+        if use.sum() < _MIN_PHOTOMETRIC_POINTS or np.ptp(m_cur[use]) < 10:
+            return None
+        # reduced major axis: both means are noisy (the current points are a first estimate)
+        x, y = m_cur[use], m_prev[use]
+        a = math.copysign(float(y.std() / max(x.std(), 1e-9)), float(np.cov(x, y)[0, 1]))
+        b = float(y.mean() - a * x.mean())
+        residual = m_prev - (a * m_cur + b)
+        scale = 1.4826 * np.median(np.abs(residual[use])) + 1e-3
+        use = use & (np.abs(residual) <= 3 * scale)
+    if not (0.2 < a < 5.0) or use.sum() < _MIN_PHOTOMETRIC_POINTS:
+        return None
+    return float(a), float(b), m_cur[use]
+
+
+def _zncc(gray: np.ndarray, window_px: int) -> np.ndarray:
+    """Locally zero-mean, unit-variance image (over ``window_px`` windows), as uint8 around
+    128 (32 grey levels per standard deviation)."""
+    f = gray.astype(np.float32)
+    k = (window_px, window_px)
+    mean = cv2.blur(f, k)
+    var = cv2.blur(f * f, k) - mean * mean
+    norm = (f - mean) / np.sqrt(np.maximum(var, 0.0) + 4.0)
+    return np.clip(norm * 32.0 + 128.0, 0, 255).astype(np.uint8)

@@ -71,3 +71,61 @@ def test_tracker_rejects_frames_of_another_size_and_track_before_reset():
 def test_blank_and_tiny_images_give_no_features():
     assert len(detect_features(np.zeros((480, 640), np.uint8))) == 0
     assert len(detect_features(np.zeros((1, 1), np.uint8))) == 0
+
+
+def _exposed(img: np.ndarray, gain: float, bias: float = 0.0, seed: int = 0) -> np.ndarray:
+    """``img`` through a camera gain and bias, with 1.5 grey levels of noise, in 8 bits."""
+    rng = np.random.default_rng(seed)
+    out = img.astype(np.float32) * gain + bias + rng.normal(0, 1.5, img.shape)
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+
+
+def _track_ramp(photometric: str, gains: np.ndarray) -> tuple[np.ndarray, KltTracker]:
+    """Track a texture shifted by (2, -1) px per frame while the gain follows ``gains``;
+    returns each track's error against the known motion at the last frame."""
+    img = (texture(4).astype(np.float32) * 0.45 + 30).astype(np.uint8)  # 30-145: no saturation
+    tracker = KltTracker(TrackerConfig(photometric=photometric))
+    tracker.reset(_exposed(img, gains[0], seed=0))
+    for k in range(1, len(gains)):
+        tracks = tracker.track(_exposed(shifted(img, 2.0 * k, -1.0 * k), gains[k], seed=k))
+    k = len(gains) - 1
+    return np.linalg.norm(tracks.cur - tracks.ref - [2.0 * k, -1.0 * k], axis=1), tracker
+
+
+def test_gain_bias_compensation_holds_tracks_through_an_auto_exposure_ramp():
+    gains = np.linspace(0.7, 1.5, 16)  # +5 % per frame
+    plain, _ = _track_ramp('none', gains)
+    compensated, tracker = _track_ramp('gain_bias', gains)
+    zncc, _ = _track_ramp('zncc', gains)
+    assert np.median(plain) > 0.15  # brightness constancy broken: KLT drifts
+    assert np.median(compensated) < 0.5 * np.median(plain)
+    assert np.median(compensated) < 0.08 and np.median(zncc) < 0.08
+    assert len(compensated) >= len(plain) - 5
+    a, b = tracker.last_gain_bias  # the frame mapped back to the reference brightness
+    assert a * 1.5 == pytest.approx(0.7, rel=0.03) and abs(b) < 3
+
+
+def test_gain_bias_mode_tracks_exactly_as_plain_klt_without_brightness_changes():
+    gains = np.ones(8)
+    plain, _ = _track_ramp('none', gains)
+    compensated, tracker = _track_ramp('gain_bias', gains)
+    np.testing.assert_array_equal(plain, compensated)
+    assert tracker.last_gain_bias == (1.0, 0.0)
+
+
+def test_fit_gain_bias_recovers_gain_and_bias_and_ignores_saturated_patches():
+    from initsel_ros.tracking import fit_gain_bias
+
+    prev = (texture(5).astype(np.float32) * 0.6 + 60).astype(np.uint8)  # 60-213
+    cur = _exposed(prev, 1.3, -12.0)  # the brightest patches saturate
+    pts = detect_features(prev, TrackerConfig(max_features=300))
+    a, b, means = fit_gain_bias(prev, cur, pts, pts, 17)
+    assert 1 / a == pytest.approx(1.3, rel=0.02) and -b / a == pytest.approx(-12.0, abs=1.5)
+    assert np.all(means < 250) and 20 <= len(means) < len(pts)
+    flat = np.full_like(prev, 128)
+    assert fit_gain_bias(flat, flat, pts, pts, 17) is None  # no intensity spread to fit
+
+
+def test_unknown_photometric_mode_is_rejected():
+    with pytest.raises(ValueError, match='bogus'):
+        TrackerConfig(photometric='bogus')

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall')
+SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall', 'repeated')
 TRAJECTORIES = ('near', 'far', 'rotation', 'forward', 'static', 'random', 'arc')
 
 
@@ -16,6 +16,17 @@ def _coefficients(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(msg) from exc
     if len(values) not in (4, 5, 8):
         raise argparse.ArgumentTypeError('distortion takes 4, 5 or 8 coefficients (OpenCV order)')
+    return values
+
+
+def _gain_ramp(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(','))
+    except ValueError as exc:
+        msg = f'expected comma-separated numbers, got {text!r}'
+        raise argparse.ArgumentTypeError(msg) from exc
+    if len(values) not in (3, 4):
+        raise argparse.ArgumentTypeError('gain ramp takes FROM,TO,SECONDS[,START]')
     return values
 
 
@@ -33,12 +44,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='also write a bag (may be given twice)')
     parser.add_argument('--width', type=int, default=None, help='image width, pixels')
     parser.add_argument('--height', type=int, default=None, help='image height, pixels')
-    parser.add_argument('--noise', type=float, default=1.5,
-                        help='Gaussian pixel noise sigma, grey levels (0 = off)')
-    parser.add_argument('--blur', type=float, default=0.0, help='Gaussian blur sigma, pixels')
-    parser.add_argument('--exposure', type=float, default=0.0,
-                        help='slow exposure changes, relative amplitude (e.g. 0.15)')
-    parser.add_argument('--distortion', type=_coefficients, default=(),
+    effects = parser.add_argument_group(
+        'camera effects (off unless given; with --realism they replace the drawn values)')
+    effects.add_argument('--realism', action='store_true',
+                         help='draw every effect and the distortion at random from --seed '
+                              '(ranges in docs/synth.md)')
+    effects.add_argument('--noise', type=float, default=None,
+                         help='Gaussian read noise sigma, grey levels (default 1.5; 0 = off)')
+    effects.add_argument('--full-well', type=float, default=None, metavar='ELECTRONS',
+                         help='electrons at grey level 255: shot noise (default 0 = off; '
+                              'a small sensor: 5000-20000)')
+    effects.add_argument('--blur', type=float, default=None,
+                         help='Gaussian defocus blur sigma, pixels')
+    effects.add_argument('--exposure-time', type=float, default=None, metavar='SECONDS',
+                         help='shutter open time: motion blur along the trajectory (e.g. 0.01)')
+    effects.add_argument('--line-delay', type=float, default=None, metavar='SECONDS',
+                         help='rolling shutter, seconds per row (e.g. 3e-5)')
+    effects.add_argument('--gain-ramp', type=_gain_ramp, default=None,
+                         metavar='FROM,TO,SECONDS[,START]',
+                         help='linear gain ramp, e.g. 0.6,1.4,2 (auto-exposure)')
+    effects.add_argument('--exposure', type=float, default=None,
+                         help='slow random exposure changes, relative amplitude (e.g. 0.15)')
+    effects.add_argument('--vignetting', type=float, default=None,
+                         help='fraction of the cos^4 falloff, 0-1')
+    effects.add_argument('--jpeg-quality', type=int, default=None, metavar='1-100',
+                         help='write the colour frames as JPEG of this quality')
+    effects.add_argument('--movers', type=int, default=None,
+                         help='independently moving textured boards in front of the scene')
+    effects.add_argument('--distortion', type=_coefficients, default=(),
                         help='lens distortion k1,k2,p1,p2[,k3] (OpenCV model)')
     parser.add_argument('--png-compression', type=int, default=1, choices=range(10),
                         metavar='0-9', help='zlib level of the colour PNGs (default 1)')
@@ -46,20 +79,40 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
+_EFFECT_OPTIONS = ('noise', 'full_well', 'blur', 'exposure_time', 'line_delay', 'gain_ramp',
+                   'exposure', 'vignetting', 'jpeg_quality', 'movers')
+
+
 def run(args: argparse.Namespace) -> int:
-    """Render and print the measured speed."""
-    from initsel_ros.synth.render import Effects
+    """Render and print the effects and the measured speed."""
+    import dataclasses
+
+    from initsel_ros.synth.effects import Effects
     from initsel_ros.synth.write import render
 
+    given = {name: getattr(args, name) for name in _EFFECT_OPTIONS
+             if getattr(args, name) is not None}
+    distortion = tuple(args.distortion or ())
+    if args.realism:
+        from initsel_ros.synth.realism import draw_realism
+
+        drawn = draw_realism(args.seed)
+        effects = dataclasses.replace(drawn.effects, **given)
+        distortion = distortion or drawn.distortion
+    else:
+        effects = Effects(**given)
     result = render(
         args.out, args.scene, args.trajectory, args.frames, args.seed,
-        width=args.width, height=args.height, distortion=tuple(args.distortion),
-        effects=Effects(noise=args.noise, blur=args.blur, exposure=args.exposure),
+        width=args.width, height=args.height, distortion=distortion, effects=effects,
         bags=tuple(args.bag), png_compression=args.png_compression, workers=args.workers,
-        progress=not args.no_progress, start=args.start,
+        progress=not args.no_progress, start=args.start, realism=args.realism,
     )
+    changed = {k: v for k, v in result.effects.to_dict().items()
+               if v != Effects().to_dict()[k]}
+    print('effects: ' + (', '.join(f'{k}={v}' for k, v in changed.items()) or 'none')
+          + (f', distortion={list(result.distortion)}' if result.distortion else ''))
     print(f'{result.path}: {result.frames} frames, {result.seconds:.1f} s, '
-          f'{result.fps:.1f} frames/s (rendering + PNG writing)')
+          f'{result.fps:.1f} frames/s (rendering + image writing)')
     for bag in result.bags:
         print(f'bag: {bag}')
     return 0

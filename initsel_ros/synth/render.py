@@ -9,12 +9,12 @@ surface is hit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import ConfigError
+from initsel_ros.synth.effects import Effects, exposure_gains  # noqa: F401 (former home)
 from initsel_ros.synth.scene import Plane, Scene
 
 NEAR_PLANE = 0.05  # metres
@@ -37,28 +37,37 @@ def _clip_near(points: np.ndarray, near: float) -> np.ndarray:
 
 
 def render_frame(scene: Scene, intrinsics: Intrinsics, T_wc: np.ndarray,
+                 rows: tuple[int, int] | None = None, color: bool = True,
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Render one ideal (noise-free, pinhole) frame.
+    """Render one ideal (noise-free, pinhole) frame, or a band of its rows.
 
     Args:
         scene: the planes.
         intrinsics: pinhole camera (distortion ignored here).
         T_wc: (4, 4) camera-to-world pose.
+        rows: ``(first, stop)`` renders only image rows ``first <= y < stop`` (a band of a
+            rolling-shutter frame); the arrays returned are that band.
+        color: False skips the texture warps (the image is left at the background colour);
+            depth is still exact.
 
     Returns:
-        ``(image (H, W, 3) uint8 BGR, depth (H, W) float32 metres, 0 = no surface)``.
+        ``(image (h, W, 3) uint8 BGR, depth (h, W) float32 metres, 0 = no surface)``, ``h`` the
+        image height or the band's.
     """
     W, H = intrinsics.width, intrinsics.height
+    row0, row1 = (0, H) if rows is None else (max(int(rows[0]), 0), min(int(rows[1]), H))
+    if row1 <= row0:
+        raise ValueError(f'empty row band {rows} for an image of {H} rows')
     K = intrinsics.K
     K_inv = np.linalg.inv(K)
     T_cw = np.linalg.inv(T_wc)
     R_cw, t_cw = T_cw[:3, :3], T_cw[:3, 3]
-    image = np.empty((H, W, 3), np.uint8)
+    image = np.empty((row1 - row0, W, 3), np.uint8)
     image[:] = scene.background
     # inverse depth buffer (0 = nothing), scaled by (1 + _TIE) so later coplanar planes win
-    wbuf = np.zeros((H, W), np.float32)
+    wbuf = np.zeros((row1 - row0, W), np.float32)
     for plane in scene.planes:
-        _draw_plane(plane, K, K_inv, R_cw, t_cw, image, wbuf)
+        _draw_plane(plane, K, K_inv, R_cw, t_cw, image, wbuf, row0, color)
     with np.errstate(divide='ignore'):
         depth = np.float32(1.0 + _TIE) / wbuf
     depth[wbuf <= 0] = 0.0
@@ -69,7 +78,9 @@ _TIE = 1e-5
 
 
 def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray,
-                t_cw: np.ndarray, image: np.ndarray, wbuf: np.ndarray) -> None:
+                t_cw: np.ndarray, image: np.ndarray, wbuf: np.ndarray, row0: int = 0,
+                color: bool = True) -> None:
+    """Draw one plane into the buffers, which hold image rows ``row0 .. row0 + len(wbuf)``."""
     H, W = wbuf.shape
     corners_c = plane.corners() @ R_cw.T + t_cw
     poly = _clip_near(corners_c, NEAR_PLANE)
@@ -79,7 +90,7 @@ def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray
     px = proj[:, :2] / proj[:, 2:3]
     x0, y0 = np.floor(px.min(axis=0)).astype(int)
     x1, y1 = np.ceil(px.max(axis=0)).astype(int) + 1
-    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+    x0, y0, x1, y1 = max(x0, 0), max(y0, row0), min(x1, W), min(y1, row0 + H)
     if x1 <= x0 or y1 <= y0:
         return
     bw, bh = x1 - x0, y1 - y0
@@ -96,10 +107,13 @@ def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray
     mask = np.zeros((bh, bw), np.uint8)
     pts = np.round((px - [x0, y0]) * (1 << _SHIFT)).astype(np.int32)
     cv2.fillConvexPoly(mask, pts, 1, cv2.LINE_8, _SHIFT)
-    wroi = wbuf[y0:y1, x0:x1]
+    wroi = wbuf[y0 - row0:y1 - row0, x0:x1]
     closer = cv2.compare(w, wroi, cv2.CMP_GE)
     draw = cv2.bitwise_and(mask, closer)
     if not cv2.countNonZero(draw):
+        return
+    cv2.copyTo(w, draw, wroi)  # in place: the ROI views share memory with the buffers
+    if not color:
         return
     # mip level: texture pixels per image pixel at the nearest visible point
     z_near = max(float(poly[:, 2].min()), NEAR_PLANE)
@@ -109,76 +123,80 @@ def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray
     step = (1 << level) / plane.ppm
     Hm = K @ np.column_stack([R_cw @ plane.u * step, R_cw @ plane.v * step, o_c])
     Hm = np.array([[1.0, 0, -x0], [0, 1.0, -y0], [0, 0, 1.0]]) @ Hm
-    color = cv2.warpPerspective(tex, Hm, (bw, bh), flags=cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_REFLECT)
-    cv2.copyTo(w, draw, wroi)  # in place: the ROI views share memory with the buffers
-    cv2.copyTo(color, draw, image[y0:y1, x0:x1])
-
-
-@dataclass(frozen=True)
-class Effects:
-    """Sensor effects applied after rendering (all off = the ideal image).
-
-    Attributes:
-        noise: Gaussian pixel noise standard deviation, grey levels (0-255).
-        blur: Gaussian blur sigma, pixels (0 = none).
-        exposure: amplitude of slow exposure changes, relative gain (e.g. 0.15 = +-15 %).
-    """
-
-    noise: float = 1.5
-    blur: float = 0.0
-    exposure: float = 0.0
-
-
-def exposure_gains(n: int, amplitude: float, rng: np.random.Generator,
-                   rate_hz: float = 30.0) -> np.ndarray:
-    """(n,) smooth random gains around 1 (a sum of slow sinusoids), amplitude relative."""
-    if amplitude <= 0 or n == 0:
-        return np.ones(n)
-    t = np.arange(n) / rate_hz
-    freqs = rng.uniform(0.05, 0.4, 3)
-    phases = rng.uniform(0, 2 * np.pi, 3)
-    wave = np.sum(np.sin(2 * np.pi * freqs[:, None] * t + phases[:, None]), axis=0) / 3
-    return 1.0 + amplitude * wave / max(np.abs(wave).max(), 1e-9)
-
-
-def apply_effects(image: np.ndarray, effects: Effects, gain: float,
-                  rng: np.random.Generator) -> np.ndarray:
-    """Blur, exposure gain and noise on a (H, W, 3) uint8 image; returns uint8."""
-    if effects.blur > 0:
-        image = cv2.GaussianBlur(image, (0, 0), effects.blur)
-    if effects.noise <= 0 and gain == 1.0:
-        return image
-    out = image.astype(np.float32)
-    if gain != 1.0:
-        out *= np.float32(gain)
-    if effects.noise > 0:
-        out += rng.standard_normal(out.shape, dtype=np.float32) * np.float32(effects.noise)
-    return np.clip(out, 0, 255).astype(np.uint8)
+    colour = cv2.warpPerspective(tex, Hm, (bw, bh), flags=cv2.INTER_LINEAR,
+                                 borderMode=cv2.BORDER_REFLECT)
+    cv2.copyTo(colour, draw, image[y0 - row0:y1 - row0, x0:x1])
 
 
 class Distorter:
-    """Applies lens distortion (OpenCV model) to ideal pinhole renders by remapping.
+    """Lens distortion (OpenCV model) of ideal pinhole renders, by remapping.
 
-    Each output pixel takes the ideal pixel that its undistorted ray falls on; colour is
-    interpolated bilinearly, depth by nearest neighbour (kept exact).
+    Each output (sensor) pixel takes the ideal pixel that its undistorted ray falls on; colour
+    is interpolated bilinearly, depth by nearest neighbour (kept exact). The ideal render is
+    made on a larger ``canvas`` (the same focal lengths, the principal point shifted) that
+    holds every undistorted ray, so that barrel-distorted frames have no empty borders.
+
+    Attributes:
+        camera: the distorted camera (sensor image size and coefficients).
+        canvas: the pinhole camera to render ideal frames with.
+        map_x, map_y: (H, W) float32 canvas pixel of each sensor pixel.
+
+    Raises:
+        ConfigError: when the coefficients do not map the image one-to-one (the distortion
+            polynomial folds over inside the field of view).
     """
 
-    def __init__(self, intrinsics: Intrinsics) -> None:
-        W, H = intrinsics.width, intrinsics.height
-        K = intrinsics.K
-        grid = np.mgrid[0:H, 0:W][::-1].reshape(2, -1).T.astype(np.float32)
-        und = cv2.undistortPoints(grid.reshape(-1, 1, 2), K, np.array(intrinsics.distortion),
-                                  P=K).reshape(H, W, 2)
-        self.map_x = np.ascontiguousarray(und[..., 0])
-        self.map_y = np.ascontiguousarray(und[..., 1])
+    def __init__(self, camera: Intrinsics) -> None:
+        W, H = camera.width, camera.height
+        K = camera.K
+        dist = np.array(camera.distortion, np.float64)
+        grid = np.mgrid[0:H, 0:W][::-1].reshape(2, -1).T.astype(np.float64)
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
+        und = cv2.undistortPoints(grid.reshape(-1, 1, 2), K, dist, None, None, K,
+                                  criteria).reshape(-1, 2)
+        rays = np.column_stack([(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy],
+                                np.ones(len(und))])
+        back, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
+        err = np.linalg.norm(back.reshape(-1, 2) - grid, axis=1)
+        if not np.all(np.isfinite(und)) or np.max(err) > 0.05:
+            raise ConfigError(
+                f'distortion {camera.distortion} does not map the {W}x{H} image one-to-one '
+                f'(round trip error up to {np.nanmax(err):.2g} px): use smaller coefficients')
+        left = max(0, int(np.ceil(-und[:, 0].min())) + 2)
+        top = max(0, int(np.ceil(-und[:, 1].min())) + 2)
+        right = max(0, int(np.ceil(und[:, 0].max())) - W + 3)
+        bottom = max(0, int(np.ceil(und[:, 1].max())) - H + 3)
+        self.camera = camera
+        self.canvas = Intrinsics(camera.fx, camera.fy, camera.cx + left, camera.cy + top,
+                                 W + left + right, H + top + bottom)
+        und = und.reshape(H, W, 2).astype(np.float32)
+        self.map_x = np.ascontiguousarray(und[..., 0] + np.float32(left))
+        self.map_y = np.ascontiguousarray(und[..., 1] + np.float32(top))
+
+    def rows_needed(self, first: int, stop: int) -> tuple[int, int]:
+        """Canvas rows ``(first, stop)`` that sensor rows ``first <= y < stop`` sample from."""
+        band = self.map_y[first:stop]
+        lo = max(int(np.floor(band.min())) - 1, 0)
+        hi = min(int(np.ceil(band.max())) + 2, self.canvas.height)
+        return lo, hi
+
+    def image(self, canvas_band: np.ndarray, first: int = 0, stop: int | None = None,
+              canvas_row0: int = 0) -> np.ndarray:
+        """Distort colour: sensor rows ``first:stop`` from a canvas band starting at row
+        ``canvas_row0`` (the whole canvas by default)."""
+        stop = self.camera.height if stop is None else stop
+        return cv2.remap(canvas_band, self.map_x[first:stop],
+                         self.map_y[first:stop] - np.float32(canvas_row0), cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE)
+
+    def depth(self, canvas_depth: np.ndarray) -> np.ndarray:
+        """Distort a whole-canvas depth map (nearest neighbour)."""
+        return cv2.remap(canvas_depth, self.map_x, self.map_y, cv2.INTER_NEAREST,
+                         borderMode=cv2.BORDER_CONSTANT)
 
     def __call__(self, image: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        img = cv2.remap(image, self.map_x, self.map_y, cv2.INTER_LINEAR,
-                        borderMode=cv2.BORDER_CONSTANT)
-        dep = cv2.remap(depth, self.map_x, self.map_y, cv2.INTER_NEAREST,
-                        borderMode=cv2.BORDER_CONSTANT)
-        return img, dep
+        """Distort a whole-canvas colour image and depth map."""
+        return self.image(image), self.depth(depth)
 
 
-__all__ = ['Distorter', 'Effects', 'apply_effects', 'exposure_gains', 'render_frame']
+__all__ = ['Distorter', 'render_frame']

@@ -26,6 +26,7 @@ class SceneName(str, Enum):
     ZIGZAG = 'zigzag'
     LOW_TEXTURE = 'low_texture'
     WALL = 'wall'
+    REPEATED = 'repeated'
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,12 +123,16 @@ def scene_target() -> np.ndarray:
     return np.array([mid[0], mid[1], 0.25])
 
 
-def _poster_planes(rng: np.random.Generator, low: bool, ppm: float) -> list[Plane]:
+def _poster_planes(rng: np.random.Generator, low: bool, ppm: float,
+                   repeated: bool = False) -> list[Plane]:
     seg = np.diff(POSTER_VERTICES, axis=0)
     lengths = np.linalg.norm(seg, axis=1)
     total = float(lengths.sum())
     if low:
         tex = tx.low_texture(rng, round(total * ppm), round(POSTER_HEIGHT * ppm), 170, 20)
+    elif repeated:  # wallpaper, 8 cm period
+        tex = tx.repeated_texture(rng, round(total * ppm), round(POSTER_HEIGHT * ppm),
+                                  round(0.08 * ppm))
     else:
         tex = tx.poster_texture(rng, total, POSTER_HEIGHT, ppm)
     planes = []
@@ -142,7 +147,7 @@ def _poster_planes(rng: np.random.Generator, low: bool, ppm: float) -> list[Plan
 
 
 def _sheet_planes(rng: np.random.Generator, n: int, front: tuple[float, float], low: bool,
-                  ppm: float) -> list[Plane]:
+                  ppm: float, repeated: bool = False) -> list[Plane]:
     """``n`` sheets on the floor in front of the poster line, ``front`` = (near, far) metres."""
     start, d, nrm = _poster_frame()
     length = float(np.linalg.norm(POSTER_VERTICES[-1] - POSTER_VERTICES[0]))
@@ -160,6 +165,9 @@ def _sheet_planes(rng: np.random.Generator, n: int, front: tuple[float, float], 
         v = np.cross(_UP, u)  # in the floor plane; u x v = up
         if low:
             tex = tx.low_texture(rng, round(w * ppm), round(h * ppm), 235, 8)
+        elif repeated:  # a print of one motif, 3-6 cm period
+            tex = tx.repeated_texture(rng, round(w * ppm), round(h * ppm),
+                                      round(rng.uniform(0.03, 0.06) * ppm))
         else:
             tex = tx.paper_texture(rng, w, h, ppm)
         origin = np.array([centre[0], centre[1], 0.0]) - u * w / 2 - v * h / 2
@@ -167,10 +175,15 @@ def _sheet_planes(rng: np.random.Generator, n: int, front: tuple[float, float], 
     return planes
 
 
-def _room_planes(rng: np.random.Generator, floor: bool = True, wall: bool = True) -> list[Plane]:
+def _room_planes(rng: np.random.Generator, floor: bool = True, wall: bool = True,
+                 tiles: bool = False) -> list[Plane]:
     ppm = 60.0
     planes = []
-    if floor:  # 9 m x 9 m floor, z = 0, normal up
+    if floor and tiles:  # 9 m x 9 m floor of 0.3 m tiles
+        tex = tx.repeated_texture(rng, round(9 * ppm), round(9 * ppm), round(0.3 * ppm),
+                                  grout=True)
+        planes.append(make_plane('floor', [-6.5, -4.5, 0.0], [1, 0, 0], [0, 1, 0], tex, ppm))
+    elif floor:  # 9 m x 9 m floor, z = 0, normal up
         tex = tx.low_texture(rng, round(9 * ppm), round(9 * ppm), 120, 14)
         planes.append(make_plane('floor', [-6.5, -4.5, 0.0], [1, 0, 0], [0, 1, 0], tex, ppm))
     if wall:  # wall behind the poster, x = -4, facing +x
@@ -213,7 +226,9 @@ def build_scene(name: str | SceneName = SceneName.STRUCTURE_TEXTURE, seed: int =
         name: 'structure_texture' (sheets, zig-zag poster, room), 'floor' (sheets on the floor
             only: every visible point on z = 0, the homography case), 'zigzag' (poster only),
             'low_texture' (same geometry, nearly textureless surfaces), 'wall' (one upright
-            textured wall through the target, facing the cameras: a single plane).
+            textured wall through the target, facing the cameras: a single plane),
+            'repeated' (the structure_texture geometry printed with repeated motifs: sheets
+            of 3-6 cm tiles, 8 cm wallpaper on the poster, a floor of 0.3 m tiles).
         seed: texture seed.
         ppm: texture resolution of sheets and poster, pixels per metre.
     """
@@ -239,6 +254,11 @@ def _build_scene(name: SceneName, seed: int, ppm: float) -> Scene:
         target = np.array([target[0], target[1], POSTER_HEIGHT / 2])
     elif name is SceneName.WALL:
         planes = _wall_planes(rng, ppm)
+    elif name is SceneName.REPEATED:
+        planes = (_room_planes(rng, tiles=True)
+                  + _sheet_planes(rng, 7, (0.35, 0.95), False, ppm, repeated=True)
+                  + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm, repeated=True)
+                  + _poster_planes(rng, False, ppm, repeated=True))
     else:
         planes = (_room_planes(rng) + _sheet_planes(rng, 7, (0.35, 0.95), True, ppm)
                   + _poster_planes(rng, True, ppm))

@@ -184,6 +184,42 @@ def low_texture(rng: np.random.Generator, width_px: int, height_px: int,
     return np.clip(val[..., None] * tint, 0, 255).astype(np.uint8)
 
 
+def repeated_texture(rng: np.random.Generator, width_px: int, height_px: int,
+                     period_px: int, grout: bool = False) -> np.ndarray:
+    """One random motif tiled with period ``period_px`` (wallpaper, fabric, floor tiles).
+
+    Many strong corners, all alike: descriptor matching finds several equally good candidates
+    and a tracker can slip by one period.
+
+    Args:
+        rng: random generator.
+        width_px, height_px: texture size, pixels.
+        period_px: tile side, pixels (at least 8).
+        grout: tiles separated by dark grout lines instead of a printed motif.
+
+    Returns:
+        (height_px, width_px, 3) uint8 BGR.
+    """
+    p = max(8, int(period_px))
+    paper = float(rng.uniform(160, 235))
+    tile = np.full((p, p, 3), paper, np.uint8)
+    tint = rng.uniform(0.85, 1.0, 3)
+    ink = tuple(int(c) for c in rng.uniform(15, 110) * tint)
+    if grout:
+        cv2.rectangle(tile, (0, 0), (p - 1, p - 1), ink, max(1, p // 16))
+    else:
+        font = int(rng.choice(_FONTS))
+        scale = p / 45.0
+        cv2.putText(tile, _word(rng, 1, 3), (p // 8, (2 * p) // 3), font, scale, ink,
+                    max(1, round(scale * 1.5)), cv2.LINE_AA)
+        r = max(2, p // 8)
+        cx, cy = int(rng.integers(r, p - r)), int(rng.integers(r, p - r))
+        cv2.circle(tile, (cx, cy), r, ink, -1, cv2.LINE_AA)
+        cv2.line(tile, (0, p - 1 - p // 6), (p - 1, p - 1 - p // 6), ink, max(1, p // 20))
+    reps = (-(-height_px // p), -(-width_px // p), 1)
+    return np.ascontiguousarray(np.tile(tile, reps)[:height_px, :width_px])
+
+
 def mip_levels(texture: np.ndarray, min_size: int = 16) -> list[np.ndarray]:
     """The texture and its successive cv2.pyrDown halvings down to ``min_size`` pixels."""
     levels = [texture]
@@ -199,4 +235,5 @@ __all__ = [
     'paper_texture',
     'photo_noise',
     'poster_texture',
+    'repeated_texture',
 ]

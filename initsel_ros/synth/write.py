@@ -8,7 +8,7 @@ import sys
 import time
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -18,12 +18,13 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import matrix_to_pose
 from initsel_ros.datasets.tum import DEPTH_SCALE, write_listing, write_trajectory
 from initsel_ros.errors import ConfigError, DatasetError
-from initsel_ros.synth.render import Distorter, Effects, exposure_gains, render_frame
+from initsel_ros.synth.effects import Effects
+from initsel_ros.synth.movers import make_movers
 from initsel_ros.synth.scene import build_scene
+from initsel_ros.synth.sensor import PoseTrack, SensorRenderer
 from initsel_ros.synth.trajectories import make_trajectory
 
 _LOG = logging.getLogger(__name__)
-_NOISE_BANK = 8
 
 
 @dataclass(frozen=True)
@@ -35,12 +36,18 @@ class SynthResult:
         frames: number of frames written.
         seconds: wall time of rendering and writing (bags excluded), seconds.
         bags: bag paths written.
+        effects: the effects rendered (drawn from the seed with ``realism``).
+        distortion: the lens distortion coefficients rendered.
+        renders: ideal renders (or rolling-shutter bands of them) made.
     """
 
     path: Path
     frames: int
     seconds: float
     bags: tuple[Path, ...] = ()
+    effects: Effects = field(default_factory=Effects)
+    distortion: tuple[float, ...] = ()
+    renders: int = 0
 
     @property
     def fps(self) -> float:
@@ -100,30 +107,40 @@ def render(
     workers: int = 2,
     progress: bool = False,
     start: int = 0,
+    realism: bool = False,
 ) -> SynthResult:
     """Render a sequence as a TUM folder with exact ground truth.
 
     Args:
         out_dir: output folder (created; existing files of the same names are replaced).
-        scene: structure_texture, floor, zigzag or low_texture.
-        trajectory: near, far, rotation, forward, static or random.
+        scene: structure_texture, floor, zigzag, low_texture, wall or repeated.
+        trajectory: near, far, rotation, forward, static, random or arc.
         frames: number of frames (the first N of the trajectory; default all, 1099).
         seed: seeds textures, noise, exposure and the random trajectory.
         width, height: image size in pixels (intrinsics scaled from TUM fr3 or ``intrinsics``).
         intrinsics: camera (default TUM fr3).
         distortion: OpenCV coefficients (k1, k2, p1, p2[, k3]); images and depth are distorted
             and ``intrinsics.yaml`` carries them.
-        effects: noise/blur/exposure (default ``Effects()``: noise 1.5 grey levels).
+        effects: camera effects (default ``Effects()``: read noise 1.5 grey levels only).
         bags: also write 'ros1' and/or 'ros2' bags next to the folder's files.
         png_compression: zlib level 0-9 for the colour PNGs (depth always uses 1).
         workers: PNG writer threads.
         progress: draw a progress bar on stderr.
         start: skip the first ``start`` frames of the trajectory.
+        realism: draw the effects and the distortion at random from ``seed``
+            (:func:`initsel_ros.synth.realism.draw_realism`); ``effects`` and
+            ``distortion``, when given, replace the drawn ones.
 
     Returns:
         A :class:`SynthResult`.
     """
     out = Path(out_dir)
+    if realism:
+        from initsel_ros.synth.realism import draw_realism
+
+        drawn = draw_realism(seed)
+        effects = drawn.effects if effects is None else effects
+        distortion = distortion or drawn.distortion
     effects = Effects() if effects is None else effects
     for b in bags:
         if b not in ('ros1', 'ros2'):
@@ -131,22 +148,21 @@ def render(
     cam = _camera(width, height, intrinsics, distortion)
     stamps, poses = make_trajectory(trajectory, frames, seed, start=start)
     world = build_scene(scene, seed)
+    movers = make_movers(effects.movers, np.random.default_rng([seed, 2]), world.target,
+                         poses[:, :3, 3].mean(axis=0))
+    sensor = SensorRenderer(world, cam, effects, PoseTrack(stamps, poses),
+                            np.random.default_rng(seed + 1), movers)
     try:
         (out / 'rgb').mkdir(parents=True, exist_ok=True)
         (out / 'depth').mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DatasetError(f'{out}: cannot create output folder: {exc}') from exc
 
-    rng = np.random.default_rng(seed + 1)
-    bank = None
-    if effects.noise > 0:
-        bank = [np.round(rng.standard_normal((cam.height, cam.width, 3), dtype=np.float32)
-                         * effects.noise).astype(np.int16) for _ in range(_NOISE_BANK)]
-    gains = exposure_gains(len(stamps), effects.exposure, rng)
-    distorter = Distorter(cam) if cam.has_distortion else None
-    ideal = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
-    names = [f'{s:.6f}.png' for s in stamps]
-    rgb_params = [cv2.IMWRITE_PNG_COMPRESSION, int(png_compression)]
+    names = [f'{s:.6f}' for s in stamps]
+    if effects.jpeg_quality > 0:
+        rgb_ext, rgb_params = '.jpg', [cv2.IMWRITE_JPEG_QUALITY, int(effects.jpeg_quality)]
+    else:
+        rgb_ext, rgb_params = '.png', [cv2.IMWRITE_PNG_COMPRESSION, int(png_compression)]
     depth_params = [cv2.IMWRITE_PNG_COMPRESSION, 1]
 
     def write(path: Path, img: np.ndarray, params: list[int]) -> None:
@@ -154,42 +170,32 @@ def render(
             raise DatasetError(f'{path}: cannot write image')
 
     bar = _Progress(len(stamps), progress)
-    start = time.perf_counter()
+    t_start = time.perf_counter()
     pending: deque[Future[None]] = deque()
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        for i, T in enumerate(poses):
-            image, depth = render_frame(world, ideal, T)
-            if distorter is not None:
-                image, depth = distorter(image, depth)
-            if effects.blur > 0:
-                image = cv2.GaussianBlur(image, (0, 0), effects.blur)
-            if gains[i] != 1.0:
-                image = cv2.convertScaleAbs(image, alpha=float(gains[i]))
-            if bank is not None:
-                noise = bank[int(rng.integers(_NOISE_BANK))]
-                flip = int(rng.integers(-1, 3))
-                if flip < 2:
-                    noise = cv2.flip(noise, flip)
-                image = cv2.add(image, noise, dtype=cv2.CV_8U)
+        for i in range(len(stamps)):
+            image, depth = sensor.frame(i)
             depth_png = np.clip(np.round(depth * DEPTH_SCALE), 0, 65535).astype(np.uint16)
-            pending.append(pool.submit(write, out / 'rgb' / names[i], image, rgb_params))
-            pending.append(pool.submit(write, out / 'depth' / names[i], depth_png,
+            pending.append(pool.submit(write, out / 'rgb' / (names[i] + rgb_ext), image,
+                                       rgb_params))
+            pending.append(pool.submit(write, out / 'depth' / (names[i] + '.png'), depth_png,
                                        depth_params))
             while len(pending) > 4 * max(1, workers):
                 pending.popleft().result()
             bar.update(i + 1)
         for f in pending:
             f.result()
-    seconds = time.perf_counter() - start
+    seconds = time.perf_counter() - t_start
 
-    write_listing(out / 'rgb.txt', stamps, [f'rgb/{n}' for n in names],
+    write_listing(out / 'rgb.txt', stamps, [f'rgb/{n}{rgb_ext}' for n in names],
                   f'color images (initsel synth: scene {scene}, trajectory {trajectory}, '
                   f'seed {seed})')
-    write_listing(out / 'depth.txt', stamps, [f'depth/{n}' for n in names], 'depth maps')
+    write_listing(out / 'depth.txt', stamps, [f'depth/{n}.png' for n in names], 'depth maps')
     t, q = matrix_to_pose(poses)
     write_trajectory(out / 'groundtruth.txt', stamps, t, q,
                      'ground truth trajectory (camera-to-world, exact)')
     cam.save_yaml(out / 'intrinsics.yaml')
+    _save_effects(out / 'effects.yaml', effects, cam.distortion, realism, seed, len(movers))
 
     written: list[Path] = []
     if bags:
@@ -205,9 +211,20 @@ def render(
                 target.unlink()
             bagio.write_bag(seq, target, fmt)
             written.append(target)
-    result = SynthResult(out, len(stamps), seconds, tuple(written))
+    result = SynthResult(out, len(stamps), seconds, tuple(written), effects, cam.distortion,
+                         sensor.renders)
     _LOG.info('%s: %d frames in %.1f s (%.1f frames/s)', out, result.frames, seconds, result.fps)
     return result
+
+
+def _save_effects(path: Path, effects: Effects, distortion: tuple[float, ...], realism: bool,
+                  seed: int, movers: int) -> None:
+    """Write the rendered effects next to the frames (provenance)."""
+    import yaml
+
+    data = {'effects': effects.to_dict(), 'distortion': list(distortion),
+            'realism': bool(realism), 'seed': int(seed), 'movers': movers}
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
 
 
 def render_sequence(out_dir: Path | str, scene: str = 'structure_texture',

@@ -1,0 +1,492 @@
+"""Robustness to camera effects: the tracker's photometric modes, and the shipped models.
+
+Two measurements on sequences rendered for the purpose (``initsel_ros.synth``):
+
+``tracker``: for each brightness condition (clean, auto-exposure ramps) and each
+:class:`~initsel_ros.tracking.Photometric` mode, KLT tracks over 30-frame batches are compared
+with the rendered ground truth (track error: the reference pixel moved with its depth and the
+true relative pose), and the seed map of an E 5-point pose
+(:func:`initsel_ros.geometry.estimate_pose`) with the true pose (E_t, rotation error, median
+depth error) on every pair with a baseline of at least 5 cm.
+
+``models``: for each effect of :data:`initsel_ros.synth.realism.EFFECT_LEVELS` at the clean,
+default and strong strengths, a near-like sequence (and a pure-rotation one) is rendered,
+labelled with ``initsel dataset``'s machinery (:mod:`initsel_ros.learn.pairs`, points
+undistorted first as the selector does) and scored with a model file
+(:func:`initsel_ros.learn.evaluate.evaluate`): precision and recall of F/E/H after the R veto,
+the share of good first initializations, and false 'yes' on pure rotation.
+
+Run ``python -m initsel_ros.learn.robustness tracker|models --out DIR``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import math
+import sys
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from initsel_ros import geometry
+from initsel_ros.camera import Intrinsics
+from initsel_ros.tracking import KltTracker, Photometric, TrackerConfig
+
+LOG = logging.getLogger(__name__)
+
+#: Brightness conditions of the tracker comparison: name -> gain_ramp (() = clean).
+RAMPS: dict[str, tuple[float, ...]] = {
+    'clean': (),
+    'ramp 0.6->1.4 / 2 s': (0.6, 1.4, 2.0),
+    'ramp 1.4->0.6 / 1 s': (1.4, 0.6, 1.0, 0.3),
+    'ramp 0.4->1.8 / 1 s': (0.4, 1.8, 1.0, 0.3),
+    'all effects (default), ramp 0.6->1.4 / 2 s': (),
+    'clean, seed 100': (),
+}
+
+
+def _all_effects() -> tuple[Any, tuple[float, ...]]:
+    from initsel_ros.synth.realism import effect_level
+
+    effects, distortion, _ = effect_level('all', 'default')
+    return effects, distortion
+
+
+#: Further conditions: name -> () -> (Effects, distortion)
+EXTRA_CONDITIONS = {'all effects (default), ramp 0.6->1.4 / 2 s': _all_effects}
+#: Conditions rendered with another seed (noise and textures): the spread between
+#: 'clean' and 'clean, seed 100' is the noise level of the figures
+NOISE_SEEDS = {'clean, seed 100': 100}
+#: Sequences of the tracker comparison: name -> render() arguments.
+TRACKER_SEQUENCES: dict[str, dict[str, Any]] = {
+    'near': {'trajectory': 'near', 'start': 80},
+    'far': {'trajectory': 'far', 'start': 80},
+    'random': {'trajectory': 'random', 'seed': 3},
+    'forward': {'trajectory': 'forward'},
+}
+MIN_BASELINE_M = 0.05
+
+
+# ----------------------------------------------------------------------------- ground truth
+def _undistort(pts: np.ndarray, camera: Intrinsics) -> np.ndarray:
+    if not camera.has_distortion or len(pts) == 0:
+        return np.asarray(pts, np.float64).reshape(-1, 2)
+    out = cv2.undistortPoints(np.asarray(pts, np.float64).reshape(-1, 1, 2), camera.K,
+                              np.array(camera.distortion), P=camera.K)
+    return out.reshape(-1, 2)
+
+
+def true_positions(p0: np.ndarray, depth: np.ndarray, camera: Intrinsics, T_ref: np.ndarray,
+                   T_cur: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where reference pixels truly are in the current frame (with the camera's distortion).
+
+    Returns:
+        ``(pixels (N, 2), points (N, 3) in the reference camera frame, valid (N,) bool)``;
+        invalid where the reference depth is missing.
+    """
+    h, w = depth.shape
+    xy = np.rint(p0).astype(np.int64)
+    z = depth[np.clip(xy[:, 1], 0, h - 1), np.clip(xy[:, 0], 0, w - 1)].astype(np.float64)
+    und = _undistort(p0, camera)
+    rays = np.column_stack([(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy],
+                            np.ones(len(und))])
+    X = rays * z[:, None]
+    R, t = geometry.relative_pose(T_ref, T_cur)
+    Xc = X @ R.T + t
+    dist = np.array(camera.distortion) if camera.has_distortion else None
+    proj, _ = cv2.projectPoints(Xc.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), camera.K, dist)
+    return proj.reshape(-1, 2), X, (z > 0) & (Xc[:, 2] > 0.05)
+
+
+@dataclass(frozen=True)
+class PairResult:
+    """One reference/current pair of a tracker run."""
+
+    frames: int
+    tracks: int
+    track_err_px: float  # median over the pair's tracks
+    far_share: float  # tracks more than 2 px off
+    baseline_m: float
+    et: float
+    rot_deg: float
+    depth_err: float  # median relative depth error of the seed map (median scale)
+    points: int
+
+
+def _seed_map(p0: np.ndarray, p1: np.ndarray, X_gt: np.ndarray, valid: np.ndarray,
+              camera: Intrinsics, T_ref: np.ndarray, T_cur: np.ndarray,
+              ) -> tuple[float, float, float, int]:
+    """E 5-point pose of a pair against the truth: (E_t, rotation error deg, depth error,
+    points); NaN when the estimate fails."""
+    u0, u1 = _undistort(p0, camera), _undistort(p1, camera)
+    est = geometry.estimate_pose('E', u0, u1, camera.K)
+    if not est.ok:
+        return math.nan, math.nan, math.nan, 0
+    R_gt, t_gt = geometry.relative_pose(T_ref, T_cur)
+    et = geometry.translation_chordal_error(t_gt, est.t)
+    rot = geometry.rotation_angle_deg(est.R.T @ R_gt)
+    idx = est.indices[valid[est.indices]]
+    if len(idx) < 2:
+        return et, rot, math.nan, est.n_points
+    z_gt, z_est = X_gt[idx, 2], est.points[valid[est.indices], 2]
+    scale = float(np.median(np.linalg.norm(X_gt[idx], axis=1)
+                            / np.linalg.norm(est.points[valid[est.indices]], axis=1)))
+    depth_err = float(np.median(np.abs(scale * z_est - z_gt) / z_gt))
+    return et, rot, depth_err, est.n_points
+
+
+def track_sequence(sequence: Any, config: TrackerConfig, batch: int = 30,
+                   min_frames: int = 1) -> tuple[list[PairResult], int]:
+    """Track every 30-frame batch and measure every pair against the ground truth.
+
+    Returns:
+        The pairs, and the number of frames the tracker's photometric mapping changed.
+    """
+    camera = sequence.intrinsics
+    out = []
+    remaps = 0
+    for b0 in range(0, len(sequence) - batch + 1, batch):
+        tracker = KltTracker(config)
+        tracker.reset(sequence.gray(b0))
+        depth = sequence.depth(b0)
+        T_ref = sequence.frames[b0].pose
+        for j in range(b0 + 1, b0 + batch):
+            tracks = tracker.track(sequence.gray(j))
+            if j - b0 < min_frames or len(tracks) < 8:
+                continue
+            T_cur = sequence.frames[j].pose
+            truth, X_gt, valid = true_positions(tracks.ref, depth, camera, T_ref, T_cur)
+            err = np.linalg.norm(tracks.cur - truth, axis=1)[valid]
+            baseline = float(np.linalg.norm(geometry.relative_pose(T_ref, T_cur)[1]))
+            seed = (math.nan, math.nan, math.nan, 0)
+            if baseline >= MIN_BASELINE_M:
+                seed = _seed_map(tracks.ref, tracks.cur, X_gt, valid, camera, T_ref, T_cur)
+            out.append(PairResult(j - b0, len(tracks), float(np.median(err)),
+                                  float(np.mean(err > 2.0)), baseline, *seed))
+        remaps += tracker.photometric_remaps
+    return out, remaps
+
+
+def _summary(results: Sequence[PairResult]) -> dict[str, float]:
+    last = [r for r in results if r.frames == max(p.frames for p in results)]
+    seed = [r for r in results if r.baseline_m >= MIN_BASELINE_M]
+    et = np.array([r.et for r in seed])
+    rot = np.array([r.rot_deg for r in seed])
+    dep = np.array([r.depth_err for r in seed])
+    ok = np.isfinite(et)
+    return {
+        'tracks_end': float(np.mean([r.tracks for r in last])),
+        'track_err_px': float(np.median([r.track_err_px for r in results])),
+        'lost_pairs': float(np.mean([r.track_err_px > 2.0 for r in results])),
+        'far_share': float(np.mean([r.far_share for r in results])),
+        'pairs': float(len(seed)),
+        'et_median': float(np.median(et[ok])) if ok.any() else math.nan,
+        'et_p90': float(np.percentile(et[ok], 90)) if ok.any() else math.nan,
+        'rot_median': float(np.median(rot[ok])) if ok.any() else math.nan,
+        'rot_p90': float(np.percentile(rot[ok], 90)) if ok.any() else math.nan,
+        'depth_err_median': float(np.nanmedian(dep[ok])) if ok.any() else math.nan,
+        'bad_share': float(np.mean(~ok | (et >= 0.2) | (rot >= 1.0))) if len(et) else math.nan,
+    }
+
+
+def compare_trackers(out_dir: Path, frames: int = 120,
+                     modes: Iterable[Photometric] = tuple(Photometric),
+                     sequences: dict[str, dict[str, Any]] | None = None,
+                     ramps: dict[str, tuple[float, ...]] | None = None,
+                     ) -> list[dict[str, Any]]:
+    """Render the sequences under each brightness condition and compare the tracker modes.
+
+    Returns:
+        One row per (condition, mode): the :func:`_summary` figures pooled over sequences,
+        plus the tracking time per frame (ms, images decoded beforehand).
+    """
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.synth import Effects, render
+
+    sequences = TRACKER_SEQUENCES if sequences is None else sequences
+    ramps = RAMPS if ramps is None else ramps
+    rows = []
+    for cond, ramp in ramps.items():
+        pooled: dict[Photometric, list[PairResult]] = {m: [] for m in modes}
+        seconds = dict.fromkeys(modes, 0.0)
+        remaps = dict.fromkeys(modes, 0)
+        n_frames = 0
+        for name, kwargs in sequences.items():
+            path = out_dir / f'{name}_{_slug(cond)}'
+            if not (path / 'rgb.txt').is_file():
+                effects, distortion = Effects(gain_ramp=ramp), ()
+                if cond in EXTRA_CONDITIONS:
+                    effects, distortion = EXTRA_CONDITIONS[cond]()
+                render(path, frames=frames, effects=effects, distortion=distortion,
+                       **{**kwargs, 'seed': kwargs.get('seed', 0) + NOISE_SEEDS.get(cond, 0)})
+            seq = _Cached(open_sequence(path))
+            for i in range(len(seq)):  # decode before timing
+                seq.gray(i)
+                seq.depth(i)
+            n_frames += len(seq)
+            for mode in modes:
+                start = time.perf_counter()
+                results, n_remaps = track_sequence(seq, dataclasses.replace(
+                    TrackerConfig(), photometric=mode))
+                seconds[mode] += time.perf_counter() - start
+                pooled[mode] += results
+                remaps[mode] += n_remaps
+        for mode in modes:
+            rows.append({'condition': cond, 'mode': mode.value, **_summary(pooled[mode]),
+                         'seconds_per_frame': seconds[mode] / max(n_frames, 1),
+                         'remaps': remaps[mode] / max(n_frames, 1)})
+            LOG.info('%s %s: %s', cond, mode.value, rows[-1])
+    return rows
+
+
+def _slug(text: str) -> str:
+    return ''.join(c if c.isalnum() else '_' for c in text).strip('_')
+
+
+class _Cached:
+    """A sequence whose grey frames and depth maps are decoded once (for fair timings)."""
+
+    def __init__(self, sequence: Any) -> None:
+        self._seq = sequence
+        self.intrinsics = sequence.intrinsics
+        self.frames = sequence.frames
+        self.name = sequence.name
+        self._gray: dict[int, np.ndarray] = {}
+        self._depth: dict[int, np.ndarray | None] = {}
+
+    def __len__(self) -> int:
+        return len(self._seq)
+
+    def gray(self, i: int) -> np.ndarray:
+        if i not in self._gray:
+            self._gray[i] = self._seq.gray(i)
+        return self._gray[i]
+
+    def depth(self, i: int) -> np.ndarray | None:
+        if i not in self._depth:
+            self._depth[i] = self._seq.depth(i)
+        return self._depth[i]
+
+    def image(self, i: int) -> np.ndarray:
+        return self._seq.image(i)
+
+
+def tracker_markdown(rows: Sequence[dict[str, Any]]) -> str:
+    """The tracker comparison as a Markdown table."""
+    head = ('| condition | photometric | tracks at frame 29 | track error px (median) | '
+            'tracks > 2 px | pairs with median error > 2 px | E_t median | E_t p90 | '
+            'rotation median deg | rotation p90 deg | '
+            'depth error median | bad seeds (E_t >= 0.2 or rot >= 1 deg) | tracking ms/frame | '
+            'frames remapped |')
+    lines = [head, '|' + '---|' * 14]
+    for r in rows:
+        lines.append(
+            f"| {r['condition']} | {r['mode']} | {r['tracks_end']:.0f} | "
+            f"{r['track_err_px']:.2f} | {100 * r['far_share']:.1f} % | "
+            f"{100 * r['lost_pairs']:.1f} % | {r['et_median']:.3f} | "
+            f"{r['et_p90']:.3f} | {r['rot_median']:.2f} | {r['rot_p90']:.2f} | "
+            f"{100 * r['depth_err_median']:.1f} % | {100 * r['bad_share']:.1f} % | "
+            f"{1e3 * r['seconds_per_frame']:.1f} | {100 * r['remaps']:.0f} % |")
+    return '\n'.join(lines) + '\n'
+
+
+# ----------------------------------------------------------------------------- models
+#: Levels of the model robustness table.
+LEVELS = ('clean', 'default', 'strong')
+#: The near-like test sequence and the pure-rotation one of each effect and strength.
+TEST_SEQUENCE = {'trajectory': 'near', 'start': 80, 'frames': 150}
+ROTATION_SEQUENCE = {'trajectory': 'rotation', 'frames': 60}
+
+
+class _Rectified:
+    """A sequence seen through the selector's eyes: KLT on the (distorted) frames, points
+    undistorted afterwards, depth given in the undistorted (pinhole) image."""
+
+    def __init__(self, sequence: Any) -> None:
+        self._seq = sequence
+        cam = sequence.intrinsics
+        self.camera = cam
+        self.intrinsics = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
+        self.frames, self.name = sequence.frames, sequence.name
+        self._maps = None
+        if cam.has_distortion:
+            self._maps = cv2.initUndistortRectifyMap(cam.K, np.array(cam.distortion), None,
+                                                     cam.K, (cam.width, cam.height),
+                                                     cv2.CV_32FC1)
+
+    def __len__(self) -> int:
+        return len(self._seq)
+
+    def gray(self, i: int) -> np.ndarray:
+        return self._seq.gray(i)
+
+    def depth(self, i: int) -> np.ndarray | None:
+        depth = self._seq.depth(i)
+        if depth is None or self._maps is None:
+            return depth
+        return cv2.remap(depth, *self._maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
+
+    def undistort(self, pts: np.ndarray) -> np.ndarray:
+        return _undistort(pts, self.camera).astype(np.float32)
+
+
+def label_sequence(sequence: Any, config: Any = None) -> list[dict[str, Any]]:
+    """Table rows of every 30-frame batch of a sequence, as ``initsel dataset`` labels them,
+    with the tracked points undistorted first (as the selector does)."""
+    from initsel_ros.learn.labels import label_pair
+    from initsel_ros.learn.pairs import (
+        DatasetConfig,
+        Pair,
+        Source,
+        batch_ranges,
+        klt_pairs,
+        pair_row,
+    )
+
+    config = config or DatasetConfig(batch=30, jobs=1)
+    view = _Rectified(sequence)
+    K = view.intrinsics.K
+    size = (view.intrinsics.width, view.intrinsics.height)
+    rows = []
+    for b, frames in enumerate(batch_ranges(len(view), config.batch, config.stride)):
+        ref = frames[0]
+        depth = view.depth(ref)
+        if depth is None:
+            continue
+        for pair in klt_pairs(view, frames, config.tracker):
+            if len(pair.p0) < config.min_tracks:
+                continue
+            und = Pair(pair.ref_index, pair.cur_index, view.undistort(pair.p0),
+                       view.undistort(pair.p1))
+            labels = label_pair(und.p0, und.p1, K, depth, view.frames[ref].pose,
+                                view.frames[pair.cur_index].pose, config.label)
+            stamps = (float(view.frames[ref].stamp), float(view.frames[pair.cur_index].stamp))
+            rows.append(pair_row(view.name, b, und, stamps, size, K, labels, Source.KLT,
+                                 config))
+    return rows
+
+
+def _render_case(out_dir: Path, effect: str, level: str, kind: str) -> Path:
+    from initsel_ros.synth import render
+    from initsel_ros.synth.realism import effect_level
+
+    effects, distortion, scene = effect_level(effect, level)
+    name = f'{kind}_{"clean" if level == "clean" else f"{effect}_{level}"}'
+    path = out_dir / name
+    if not (path / 'rgb.txt').is_file():
+        spec = TEST_SEQUENCE if kind == 'near' else ROTATION_SEQUENCE
+        render(path, scene=scene, effects=effects, distortion=distortion, **spec)
+    return path
+
+
+def model_robustness(out_dir: Path, models_path: Path | None = None,
+                     effects: Sequence[str] | None = None, levels: Sequence[str] = LEVELS,
+                     ) -> list[dict[str, Any]]:
+    """Precision and recall after the R veto, first-yes quality and false 'yes' on rotation,
+    per effect and strength.
+
+    Returns:
+        One row per (effect, level) with ``pairs``, ``{F,E,H}_precision/_recall`` (after the R
+        veto), ``R_precision/_recall``, ``first_yes_good``, ``false_yes_rotation`` (pairs with
+        a baseline <= 5 cm) and ``false_yes_pan`` (the pure-rotation sequence).
+    """
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.learn.evaluate import evaluate
+    from initsel_ros.learn.table import PairTable
+    from initsel_ros.models import ModelSet, default_model_path
+    from initsel_ros.synth.realism import EFFECT_LEVELS
+
+    models = ModelSet.load(models_path or default_model_path())
+    names = [*EFFECT_LEVELS, 'all'] if effects is None else list(effects)
+    cache: dict[Path, list[dict[str, Any]]] = {}
+    out = []
+    for effect in names:
+        known = EFFECT_LEVELS.get(effect, {'default': {}, 'strong': {}})
+        for level in levels:
+            if (level == 'strong' and 'strong' not in known) or (
+                    level == 'clean' and any(r['level'] == 'clean' for r in out)):
+                continue  # the clean sequences are the same for every effect: one row
+            rows = []
+            for kind in ('near', 'rotation'):
+                path = _render_case(out_dir, effect, level, kind)
+                if path not in cache:
+                    cache[path] = label_sequence(open_sequence(path))
+                rows += cache[path]
+            report = evaluate(PairTable.from_rows(rows), models)
+            scores = {r.name: r.scores for r in report.rows}
+            system = next(s for s in report.systems if s.name == 'Models (R veto on F, E)')
+            row: dict[str, Any] = {'effect': effect, 'level': level, 'pairs': report.n_pairs}
+            for m in ('F', 'E', 'H'):
+                sc = scores[f'Model {m} after R veto']
+                row[f'{m}_precision'], row[f'{m}_recall'] = sc.precision, sc.recall
+            row['R_precision'] = scores['Model R'].precision
+            row['R_recall'] = scores['Model R'].recall
+            row['first_yes_good'] = system.first_yes_good
+            row['false_yes_rotation'] = system.false_yes_rotation
+            pan = [v for k, v in system.false_yes_named.items() if k.startswith('rotation')]
+            row['false_yes_pan'] = float(np.mean(pan)) if pan else math.nan
+            out.append(row)
+            LOG.info('%s', row)
+    return out
+
+
+def models_markdown(rows: Sequence[dict[str, Any]], models_name: str = 'config/models.json',
+                    ) -> str:
+    """The model robustness table as Markdown."""
+    head = ('| effect | strength | pairs | F P / R | E P / R | H P / R | R P / R | '
+            'first yes good | false yes, baseline <= 5 cm | false yes, pure pan |')
+    lines = [f'Models: `{models_name}`; precision / recall of F, E, H after the R veto.', '',
+             head, '|' + '---|' * 10]
+
+    def pr(r: dict[str, Any], m: str) -> str:
+        return f"{r[f'{m}_precision']:.2f} / {r[f'{m}_recall']:.2f}"
+
+    for r in rows:
+        lines.append(
+            f"| {r['effect'] if r['level'] != 'clean' else 'none'} | {r['level']} | "
+            f"{r['pairs']} | {pr(r, 'F')} | {pr(r, 'E')} | {pr(r, 'H')} | {pr(r, 'R')} | "
+            f"{r['first_yes_good']:.2f} | {r['false_yes_rotation']:.2f} | "
+            f"{r['false_yes_pan']:.2f} |")
+    return '\n'.join(lines) + '\n'
+
+
+# ----------------------------------------------------------------------------- CLI
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m initsel_ros.learn.robustness tracker|models --out DIR``."""
+    parser = argparse.ArgumentParser(prog='python -m initsel_ros.learn.robustness',
+                                     description=__doc__.split('\n\n')[0])
+    sub = parser.add_subparsers(dest='what', required=True)
+    trk = sub.add_parser('tracker', help='compare the photometric modes of the tracker')
+    trk.add_argument('--out', type=Path, required=True, help='folder for the rendered sequences')
+    trk.add_argument('--frames', type=int, default=120)
+    trk.add_argument('--markdown', type=Path, default=None, help='also write the table here')
+    mod = sub.add_parser('models', help='precision and recall of a model file per effect')
+    mod.add_argument('--out', type=Path, required=True, help='folder for the rendered sequences')
+    mod.add_argument('--models', type=Path, default=None,
+                     help='model file (default: the packaged config/models.json)')
+    mod.add_argument('--effects', nargs='+', default=None,
+                     help='effects (default: every one of EFFECT_LEVELS, then all together)')
+    mod.add_argument('--markdown', type=Path, default=None, help='also write the table here')
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING)
+    cv2.setNumThreads(1)
+    if args.what == 'tracker':
+        text = tracker_markdown(compare_trackers(args.out, args.frames))
+    else:
+        rows = model_robustness(args.out, args.models, args.effects)
+        text = models_markdown(rows, str(args.models or 'config/models.json'))
+    if args.markdown:
+        args.markdown.write_text(text)
+    sys.stdout.write(text)
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
