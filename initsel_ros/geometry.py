@@ -445,3 +445,28 @@ def rotation_angle_deg(R: np.ndarray) -> float:
     """Angle of a rotation matrix, degrees."""
     c = (np.trace(np.asarray(R, dtype=np.float64)) - 1.0) / 2.0
     return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+
+
+def rotation_only_residual_px(p0: np.ndarray, p1: np.ndarray, K: np.ndarray) -> float:
+    """Median pixel residual of the best pure rotation between two views.
+
+    The bearing vectors of a pure rotation are related by one rotation matrix, whatever the
+    depths; its least-squares fit (Kabsch, closed form) leaves only the tracking noise. A
+    baseline leaves parallax that no rotation explains. Returns NaN for fewer than 3 points.
+    """
+    a, b = _check_pair(p0, p1)
+    K = _check_camera_matrix(K)
+    if a.shape[0] < 3:
+        return float('nan')
+    K_inv = np.linalg.inv(K)
+    b0 = homogeneous(a) @ K_inv.T
+    b1 = homogeneous(b) @ K_inv.T
+    b0 /= np.linalg.norm(b0, axis=1, keepdims=True)
+    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
+    U, _, Vt = np.linalg.svd(b1.T @ b0)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    R = U @ D @ Vt  # b1 ~ R b0
+    proj = (b0 @ R.T) @ K.T
+    with np.errstate(divide='ignore', invalid='ignore'):
+        err = np.linalg.norm(proj[:, :2] / proj[:, 2:3] - b, axis=1)
+    return float(np.nanmedian(err))

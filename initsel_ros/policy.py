@@ -41,6 +41,10 @@ class PolicyConfig:
             selector picks a new reference).
         min_points: a pose needs at least this many triangulated points.
         min_parallax_deg: a pose needs at least this median parallax, degrees.
+        min_rotation_residual_px: when a model fires, the flow must leave at least this median
+            residual, pixels, after the best pure rotation is taken out
+            (``geometry.rotation_only_residual_px``): a rotation alone explains any flow with
+            less, whatever the pose estimators make of it.
     """
 
     thresholds: Mapping[str, float] = field(default_factory=dict)
@@ -48,6 +52,7 @@ class PolicyConfig:
     min_tracks: int = 50
     min_points: int = 50
     min_parallax_deg: float = 1.0
+    min_rotation_residual_px: float = 1.0
 
 
 @dataclass(frozen=True)

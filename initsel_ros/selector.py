@@ -17,7 +17,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import raw_features
-from initsel_ros.geometry import Method, PoseEstimate, estimate_pose
+from initsel_ros.geometry import Method, PoseEstimate, estimate_pose, rotation_only_residual_px
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.models import ModelSet
 from initsel_ros.policy import (
@@ -343,6 +343,13 @@ class Selector:
     ) -> FrameResult:
         """A model fired: estimate every candidate, choose by evidence, refine, maybe hold."""
         decision = result.decision
+        residual = rotation_only_residual_px(ref, cur, self.intrinsics.K)
+        if not residual >= self.config.policy.min_rotation_residual_px:
+            return replace(result, decision=replace(
+                decision, reason=Reason.ROTATION,
+                detail=f'{"/".join(m.value for m in decision.candidates)} fired, but a rotation '
+                       f'alone explains the flow (median residual {residual:.2f} px < '
+                       f'{self.config.policy.min_rotation_residual_px:g} px)'))
         selection, estimate, problem = self._choose(decision, ref, cur)
         result = replace(result, selection=selection)
         if estimate is None:

@@ -24,6 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         choices=('F', 'E', 'H'),
                         help="models silenced when model R fires (default: the selector's)")
     parser.add_argument('--no-baselines', action='store_true', help='the selector only')
+    parser.add_argument('--min-rotation-residual', type=float, default=None, metavar='PX',
+                        help="override the policy's min_rotation_residual_px")
     parser.add_argument('--jobs', type=int, default=2, help='worker processes')
     parser.add_argument('--out-dir', type=Path, default=None,
                         help='write seedmap.md and seedmap.csv (one row per batch and system)')
@@ -43,6 +45,9 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.selector import SelectorConfig
 
     config = SelectorConfig(refine=not args.no_refine)
+    if args.min_rotation_residual is not None:
+        config = replace(config, policy=replace(
+            config.policy, min_rotation_residual_px=args.min_rotation_residual))
     if args.r_veto is not None:
         config = replace(config, policy=replace(config.policy, r_veto=frozenset(args.r_veto)))
     if args.verify_frames is not None:
