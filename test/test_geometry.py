@@ -132,3 +132,22 @@ def test_relative_pose_of_camera_to_world_poses():
     x_cur = B[:3, :3].T @ (x_world - B[:3, 3])
     np.testing.assert_allclose(R @ x_ref + t, x_cur)
     assert np.linalg.norm(t) == pytest.approx(np.linalg.norm(A[:3, 3] - B[:3, 3]))
+
+
+def test_rotation_only_residual_separates_a_pan_from_a_baseline():
+    from geometry_fixtures import K, two_view
+
+    from initsel_ros.geometry import rotation_only_residual_px
+
+    rng = np.random.default_rng(0)
+    p0 = rng.uniform([20, 20], [620, 460], (200, 2))
+    R = cv2.Rodrigues(np.array([0.02, -0.15, 0.01]))[0]  # a 9 degree pan, no translation
+    rays = np.hstack([p0, np.ones((200, 1))]) @ np.linalg.inv(K).T
+    proj = rays @ R.T @ K.T
+    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 0.3, (200, 2))
+    assert rotation_only_residual_px(p0, p1, K) < 0.5  # only the noise is left
+    a, b, *_ = two_view(planar=False, baseline=0.05)
+    assert rotation_only_residual_px(a, b, K) > 2.0  # 5 cm at 1-4 m leaves parallax
+    a, b, *_ = two_view(planar=True, baseline=0.05)
+    assert rotation_only_residual_px(a, b, K) > 1.0  # a plane too
+    assert np.isnan(rotation_only_residual_px(p0[:2], p1[:2], K))

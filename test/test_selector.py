@@ -56,9 +56,20 @@ def test_rotation_model_vetoes_and_says_so():
     assert result.initialization is None
 
 
-def test_firing_model_on_a_pure_image_shift_is_refused_by_the_pose_check():
+def test_firing_model_on_a_pure_image_shift_is_refused_as_rotation():
     # A rigid image shift is what a small pan looks like: no parallax to triangulate.
     sel = Selector(constant_models(E=0.9, H=0.8), CAMERA)
+    img = texture(6)
+    sel.process(img, ns(0.0))
+    result = sel.process(shifted(img, 8.0, 3.0), ns(0.1))
+    assert result.initialization is None
+    assert result.decision.reason is Reason.ROTATION
+    assert 'E/H fired, but a rotation alone explains the flow' in result.decision.detail
+
+
+def test_without_the_rotation_guard_the_pose_check_refuses_the_shift():
+    config = SelectorConfig(policy=PolicyConfig(min_rotation_residual_px=0.0))
+    sel = Selector(constant_models(E=0.9, H=0.8), CAMERA, config)
     img = texture(6)
     sel.process(img, ns(0.0))
     result = sel.process(shifted(img, 8.0, 3.0), ns(0.1))
@@ -226,7 +237,10 @@ def test_verification_rejects_a_wrong_candidate_and_keeps_looking(near_sequence,
 
     def wrong_first_pose(method, p0, p1, K, **kwargs):
         estimate = real(method, p0, p1, K, **kwargs)
-        if not spoiled and estimate.ok:  # the first usable estimate: flip its depths
+        # the first candidates that would pass the pose check (all methods of that frame,
+        # so that the winner is among them): bend their depths
+        if len(spoiled) < 3 and estimate.ok and estimate.n_points >= 50 and (
+                estimate.parallax_deg >= 1.0):
             spoiled.append(method)
             points = estimate.points.copy()
             points[:, 2] = 2 * np.median(points[:, 2]) - points[:, 2] * 0.5
@@ -282,3 +296,14 @@ def test_refinement_adjusts_the_published_pose_and_lowers_the_reprojection_error
     _, _, plain = _first_init(near_sequence, SelectorConfig(refine=False))
     assert plain.initialization.refinement is None
     assert not np.allclose(plain.initialization.R, init.R)  # refinement moved the pose
+
+
+def test_a_firing_model_on_a_pan_is_refused_as_rotation(rotation_sequence):
+    from initsel_ros.datasets import open_sequence
+
+    seq = open_sequence(rotation_sequence)
+    sel = Selector(constant_models(E=0.9, H=0.9, R=0.01), seq.intrinsics)
+    results = [sel.process(seq.image(i), int(t)) for i, t in enumerate(seq.stamps_ns)]
+    assert not any(r.initialization for r in results)
+    refused = [r for r in results if r.decision.reason is Reason.ROTATION]
+    assert refused and 'rotation alone explains the flow' in refused[-1].decision.detail
