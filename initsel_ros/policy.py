@@ -52,7 +52,7 @@ class PolicyConfig:
     min_tracks: int = 50
     min_points: int = 50
     min_parallax_deg: float = 1.0
-    min_rotation_residual_px: float = 1.0
+    min_rotation_residual_px: float = 3.0
 
 
 @dataclass(frozen=True)
