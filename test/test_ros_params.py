@@ -8,9 +8,9 @@ import pytest
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError
+from initsel_ros.names import Mode
 from initsel_ros.ros.params import (
     PARAMETERS,
-    Mode,
     NodeSettings,
     default_params_file,
     load_params_file,
