@@ -41,6 +41,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import InitselError
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros.node import DIAGNOSTIC_NAME, SelectorNode
 from initsel_ros.ros.params import NODE_NAME, ImageTransport
@@ -59,6 +60,10 @@ LATCHED_LISTEN_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE
 FRAME_ID = 'camera_optical_frame'
 
 
+class HarnessTimeoutError(InitselError, TimeoutError):
+    """The node did not answer in time (discovery, a status, a service)."""
+
+
 class NodeHarness:
     """A :class:`~initsel_ros.ros.node.SelectorNode` plus a client node, in one process.
 
@@ -73,7 +78,7 @@ class NodeHarness:
 
     Raises:
         ConfigError, ModelFileError: the node refused its parameters or model file.
-        TimeoutError: the node and the client did not discover each other in time.
+        HarnessTimeoutError: the node and the client did not discover each other in time.
     """
 
     def __init__(
@@ -202,11 +207,11 @@ class NodeHarness:
         """:meth:`wait_for`, raising on timeout.
 
         Raises:
-            TimeoutError: naming ``what`` and the timeout.
+            HarnessTimeoutError: naming ``what`` and the timeout.
         """
         timeout = self.timeout if timeout is None else timeout
         if not self.wait_for(predicate, timeout):
-            raise TimeoutError(f'timed out after {timeout} s waiting for {what}')
+            raise HarnessTimeoutError(f'timed out after {timeout} s waiting for {what}')
 
     def settle(self, cycles: int = 5) -> None:
         """Let pending messages reach their callbacks (a few short spins, or 0.1 s)."""
@@ -249,7 +254,7 @@ class NodeHarness:
         """Publish one image and return the status it produced.
 
         Raises:
-            TimeoutError: no status arrived in time.
+            HarnessTimeoutError: no status arrived in time.
         """
         with self.lock:
             count = len(self.statuses)
@@ -273,10 +278,10 @@ class NodeHarness:
         """Call a service of the node and wait for its answer.
 
         Raises:
-            TimeoutError: the service is not there, or did not answer in time.
+            HarnessTimeoutError: the service is not there, or did not answer in time.
         """
         if not client.wait_for_service(timeout_sec=self.timeout):
-            raise TimeoutError(f'the {what} service is not available')
+            raise HarnessTimeoutError(f'the {what} service is not available')
         future = client.call_async(request)
         self.wait_until(future.done, what=f'the {what} answer')
         return future.result()
@@ -320,4 +325,4 @@ class NodeHarness:
 
 
 __all__ = ['FRAME_ID', 'LATCHED_LISTEN_QOS', 'LISTEN_QOS', 'PUBLISH_QOS', 'TIMEOUT_S',
-           'NodeHarness']
+           'HarnessTimeoutError', 'NodeHarness']
