@@ -28,11 +28,9 @@ import numpy as np
 
 from initsel_ros import geometry
 from initsel_ros.errors import GeometryError, InitselError
+from initsel_ros.names import POSE_METHODS  # the methods that get a pose label, in table order
 
 LOG = logging.getLogger(__name__)
-
-#: The methods that get a pose label, in table order.
-POSE_METHODS = ('F', 'E', 'H')
 
 
 class ScaleRule(str, Enum):

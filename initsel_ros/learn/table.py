@@ -33,8 +33,7 @@ import numpy as np
 
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import FEATURE_NAMES
-
-METHODS_FEH = ('F', 'E', 'H')
+from initsel_ros.names import POSE_METHODS as METHODS_FEH  # the pose methods, in table order
 
 #: Extra cheap features (beyond the paper's 23), all resolution-free.
 EXTRA_NAMES: tuple[str, ...] = (
