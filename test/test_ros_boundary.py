@@ -125,21 +125,35 @@ def test_the_scan_catches_ros_imports_anywhere(source, expected):
     assert bool(found) == bool(expected)
 
 
-BLOCKER = """
-import importlib, importlib.abc, json, sys, traceback
-BLOCKED = {blocked!r}
-SUFFIXES = {suffixes!r}
-class Block(importlib.abc.MetaPathFinder):
+_BLOCKER = """
+import importlib.abc, sys
+class _BlockRos(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path=None, target=None):
         top = name.split('.')[0]
-        if top in BLOCKED or top.endswith(SUFFIXES):
+        if top in {blocked!r} or top.endswith({suffixes!r}):
             raise ImportError('blocked for this test: ' + name)
-sys.meta_path.insert(0, Block())
+sys.meta_path.insert(0, _BlockRos())
 try:
     import rclpy
     raise SystemExit('the blocker did not block rclpy')
 except ImportError:
     pass
+"""
+
+
+def ros_blocker() -> str:
+    """Python source that makes rclpy and every message package unimportable (run it first)."""
+    return _BLOCKER.format(blocked=sorted(ROS_PACKAGES), suffixes=ROS_SUFFIXES)
+
+
+def without_ros_environment() -> dict[str, str]:
+    """The environment of a fresh interpreter that must not see ROS."""
+    return {k: v for k, v in os.environ.items()
+            if k not in ('PYTHONPATH', '_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')}
+
+
+IMPORT_ALL = """
+import importlib, json, traceback
 report = {{'ok': [], 'optional': {{}}, 'failed': {{}}}}
 for name in {modules!r}:
     try:
@@ -158,11 +172,9 @@ print(json.dumps(report))
 
 def test_every_module_outside_ros_imports_with_ros_blocked():
     modules = sorted({module_name(p) for p in core_files()})
-    code = BLOCKER.format(blocked=sorted(ROS_PACKAGES), suffixes=ROS_SUFFIXES, modules=modules)
-    env = {k: v for k, v in os.environ.items()
-           if k not in ('PYTHONPATH', '_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')}
+    code = ros_blocker() + IMPORT_ALL.format(modules=modules)
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
-                         timeout=300, env=env)
+                         timeout=300, env=without_ros_environment())
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert report['failed'] == {}, '\n'.join(report['failed'].values())
