@@ -9,7 +9,9 @@ It prints a Markdown table (``--json`` saves the figures). Other modes:
 * ``--flood``: a 200 Hz publisher of 1920x1080 images against the node (``--seconds 30``).
 * ``--fuzz N``: property-based fuzzing of image conversion and the node's image path.
 
-Heavy modules (rclpy, scikit-learn, hypothesis) are imported inside :func:`run`.
+Heavy modules (scikit-learn, hypothesis) are imported inside :func:`run`; the sections that
+need ROS run from :mod:`initsel_ros.ros` (``bench_frame``, ``bench_live``, ``fuzz``), imported
+only when they run. This module imports no ROS.
 """
 
 from __future__ import annotations
@@ -202,10 +204,11 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
             'fire': {p.name.strip(): p.to_dict() for p in fire},
         }
 
-    if 'frame' not in args.skip or 'memory' not in args.skip:
-        frames = micro.image_messages(seq, len(seq))
     if 'frame' not in args.skip:
-        path = micro.time_frame_path(models, intrinsics, frames)
+        from initsel_ros.ros.bench_frame import image_messages, time_frame_path
+
+        frames = image_messages(seq, len(seq))
+        path = time_frame_path(models, intrinsics, frames)
         main = path.decision_only
         table.add('per-frame path: Image -> numpy, tracking, features, decision '
                   f'({main.seconds.size} frames where no pose was estimated)',
@@ -253,12 +256,12 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
 
 def _node_rows(table: Table, seq: Any, models: Any, model_path: Path | None, work: Path,
                args: argparse.Namespace) -> list[dict[str, Any]]:
-    try:
-        import rclpy  # noqa: F401
-    except ImportError:
+    from initsel_ros.ros import ros_available
+
+    if not ros_available():
         table.add('node end to end', 'skipped: rclpy not importable')
         return []
-    from initsel_ros.benchmarks.live import replay
+    from initsel_ros.ros.bench_live import replay
 
     if model_path is None:
         model_path = work / 'bench_models.json'
@@ -302,7 +305,7 @@ def _profile(models: Any, intrinsics: Any, frames: Any) -> None:
     except ImportError:
         print('pyinstrument is not installed: pip install pyinstrument')
         return
-    from initsel_ros.benchmarks.micro import time_frame_path
+    from initsel_ros.ros.bench_frame import time_frame_path
 
     profiler = Profiler(interval=0.0005)
     profiler.start()
@@ -313,7 +316,7 @@ def _profile(models: Any, intrinsics: Any, frames: Any) -> None:
 
 def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     from initsel_ros.benchmarks.common import bench_models
-    from initsel_ros.benchmarks.live import flood
+    from initsel_ros.ros.bench_live import flood
 
     try:
         width, height = (int(v) for v in args.flood_size.lower().split('x'))
@@ -350,7 +353,8 @@ def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
 
 def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     from initsel_ros.benchmarks.common import bench_models
-    from initsel_ros.benchmarks.fuzz import run_conversion_fuzz, run_node_fuzz
+    from initsel_ros.ros import ros_available
+    from initsel_ros.ros.fuzz import run_conversion_fuzz, run_node_fuzz
 
     n = args.fuzz
     start = time.perf_counter()
@@ -358,9 +362,7 @@ def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     print(f'image conversion: {n} examples passed {conversion} '
           f'({time.perf_counter() - start:.0f} s)')
     out: dict[str, Any] = {'conversion': conversion}
-    try:
-        import rclpy  # noqa: F401
-    except ImportError:
+    if not ros_available():
         print('node callbacks: skipped (rclpy not importable)')
         return out
     models, model_path, _ = bench_models(args.models)

@@ -27,6 +27,10 @@ class GeometryError(InitselError):
     """Arguments to a geometry routine have the wrong shape or values."""
 
 
+class StatusError(InitselError):
+    """A status message does not follow the :class:`~initsel_ros.status.FrameStatus` schema."""
+
+
 __all__ = [
     'ConfigError',
     'DatasetError',
@@ -34,4 +38,5 @@ __all__ = [
     'ImageConversionError',
     'InitselError',
     'ModelFileError',
+    'StatusError',
 ]

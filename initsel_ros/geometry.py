@@ -10,24 +10,16 @@ why), not an exception; malformed arguments raise :class:`GeometryError`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from enum import Enum
 
 import cv2
 import numpy as np
 
 from initsel_ros.errors import GeometryError
+from initsel_ros.names import Method  # re-exported: the pose methods are defined there
 
 #: Minimum correspondences each method needs before it is attempted.
 MIN_CORRESPONDENCES = {'F': 8, 'E': 5, 'H': 4}
 _EPS = 1e-12
-
-
-class Method(str, Enum):
-    """Structure-from-motion method that initializes the map."""
-
-    F = 'F'  # fundamental matrix, 8-point (normalized), then E = K^T F K
-    E = 'E'  # essential matrix, Nister 5-point
-    H = 'H'  # homography, 4-point DLT, Faugeras-Lustman decomposition
 
 
 @dataclass(frozen=True)

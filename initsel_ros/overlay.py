@@ -26,7 +26,7 @@ from collections.abc import Mapping
 import cv2
 import numpy as np
 
-from initsel_ros.models import METHODS
+from initsel_ros.names import MODEL_NAMES
 from initsel_ros.policy import Decision, Reason
 from initsel_ros.selector import FrameResult, Initialization, Selector
 
@@ -238,7 +238,7 @@ def draw_overlay(
     pad = max(2, round(6 * s))
     lines = _decision_lines(result, init)
     panel_w = min(w, round(300 * s))
-    panel_h = min(h, pad * 2 + line * (len(METHODS) + 1 + len(lines)))
+    panel_h = min(h, pad * 2 + line * (len(MODEL_NAMES) + 1 + len(lines)))
     roi = canvas[:panel_h, :panel_w]
     cv2.convertScaleAbs(roi, roi, 0.35, 0)  # darken the panel area, in place
 
@@ -246,7 +246,7 @@ def draw_overlay(
     bar_w = max(10, round(150 * s))
     bar_h = max(4, round(10 * s))
     y = pad
-    for name in METHODS:
+    for name in MODEL_NAMES:
         p = float(d.probabilities.get(name, float('nan')))
         thr = float(thresholds.get(name, 0.5))
         base = y + line - (line - bar_h) // 2

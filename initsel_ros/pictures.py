@@ -24,7 +24,8 @@ import cv2
 import numpy as np
 
 from initsel_ros.errors import ConfigError, InitselError
-from initsel_ros.models import METHODS, ModelSet
+from initsel_ros.models import ModelSet
+from initsel_ros.names import MODEL_NAMES, Mode
 from initsel_ros.overlay import draw_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.selector import FrameResult, Selector, SelectorConfig
@@ -259,7 +260,7 @@ def plot_probabilities(
     thresholds = dict(thresholds or {})
     fig, ax = plt.subplots(figsize=(8, 4.4), dpi=100)
     try:
-        for name in METHODS:
+        for name in MODEL_NAMES:
             p = np.array([r.decision.probabilities.get(name, np.nan) for r in results], float)
             colour = _MODEL_COLOURS[name]
             ax.plot(x, p, color=colour, lw=1.4, label=f'P({name})')
@@ -433,7 +434,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--frames', type=int, default=None,
                         help='frames to process (default: all; 240 for the README pictures)')
     parser.add_argument('--start', type=int, default=0, help='first frame (with --source)')
-    parser.add_argument('--mode', choices=('once', 'continuous'), default='continuous',
+    parser.add_argument('--mode', choices=tuple(m.value for m in Mode),
+                        default=Mode.CONTINUOUS.value,
                         help='selector mode (with --source)')
 
 

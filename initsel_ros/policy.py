@@ -28,6 +28,9 @@ class Reason(str, Enum):
     VERIFYING = 'verifying'  # a candidate is held back until the next frames confirm it
     VERIFICATION_FAILED = 'verification_failed'  # the next frames contradicted the candidate
     DONE = 'already initialized'  # mode 'once', until reset
+    # Frames that never got a decision (set by the node, not the selector):
+    SKIPPED_IMAGE = 'image skipped'  # the image could not be converted or used
+    INTERNAL_ERROR = 'internal error'  # the selector or the publishing failed unexpectedly
 
 
 @dataclass(frozen=True)

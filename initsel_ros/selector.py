@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field, replace
-from typing import Literal
 
 import cv2
 import numpy as np
@@ -20,6 +19,7 @@ from initsel_ros.features import raw_features
 from initsel_ros.geometry import Method, PoseEstimate, estimate_pose, rotation_only_residual_px
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.models import ModelSet
+from initsel_ros.names import Mode
 from initsel_ros.policy import (
     Decision,
     PolicyConfig,
@@ -34,7 +34,6 @@ from initsel_ros.verify import VerifyConfig, VerifyStep, check_frame
 
 log = logging.getLogger(__name__)
 
-Mode = Literal['once', 'continuous']
 #: After the bundle adjustment a map point must reproject within this many pixels in both
 #: images (the estimators keep points within 2.5 px before it).
 MAP_MAX_REPROJECTION_PX = 2.0
@@ -47,8 +46,10 @@ class SelectorConfig:
     Attributes:
         tracker: feature detection and tracking.
         policy: thresholds, R veto and pose checks.
-        mode: 'once' stops after the first initialization until :meth:`Selector.reset`;
-            'continuous' re-anchors on the initializing frame and keeps going.
+        mode: :class:`~initsel_ros.names.Mode` (the strings 'once' and 'continuous' are
+            converted): ONCE stops after the first initialization until
+            :meth:`Selector.reset`; CONTINUOUS re-anchors on the initializing frame and keeps
+            going.
         max_frames_since_reference: a frame this many frames after the reference becomes the
             new reference when nothing initialized.
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
@@ -58,15 +59,17 @@ class SelectorConfig:
 
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
-    mode: Mode = 'once'
+    mode: Mode = Mode.ONCE
     max_frames_since_reference: int = 90
     ransac_threshold_px: float = 1.0
     refine: bool = True
     verify: VerifyConfig = field(default_factory=VerifyConfig)
 
     def __post_init__(self) -> None:
-        if self.mode not in ('once', 'continuous'):
-            raise ConfigError(f"mode must be 'once' or 'continuous', got {self.mode!r}")
+        if self.mode not in tuple(Mode):
+            accepted = ' or '.join(repr(m.value) for m in Mode)
+            raise ConfigError(f'mode must be {accepted}, got {self.mode!r}')
+        object.__setattr__(self, 'mode', Mode(self.mode))  # 'once' -> Mode.ONCE
         if self.max_frames_since_reference < 1:
             raise ConfigError('max_frames_since_reference must be at least 1')
 
@@ -300,7 +303,7 @@ class Selector:
         stamp_ns = int(stamp_ns)
         index = self._frame_index
         self._frame_index += 1
-        if self.initialized and self.config.mode == 'once':
+        if self.initialized and self.config.mode is Mode.ONCE:
             return FrameResult(index, stamp_ns, self._reference_stamp_ns, Decision(Reason.DONE))
         if not self.tracker.has_reference or self.tracker.image_shape != gray.shape:
             return self._new_reference(gray, stamp_ns, Reason.NEW_REFERENCE, index)
@@ -326,8 +329,8 @@ class Selector:
             if decision.positive:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since)
         if result.initialization is not None:
-            self.initialized = self.config.mode == 'once'
-            if self.config.mode == 'continuous':  # re-anchor on the initializing frame
+            self.initialized = self.config.mode is Mode.ONCE
+            if self.config.mode is Mode.CONTINUOUS:  # re-anchor on the initializing frame
                 self.tracker.reset(gray)
                 self._reference_stamp_ns = stamp_ns
                 result = replace(result, new_reference=True)

@@ -424,7 +424,7 @@ def test_short_flood_keeps_memory_bounded_and_processes_the_newest_frame(tmp_pat
     from ros_helpers import configure_this_process
 
     from initsel_ros.benchmarks.common import random_models
-    from initsel_ros.benchmarks.live import flood
+    from initsel_ros.ros.bench_live import flood
 
     configure_this_process()
     os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)

@@ -13,7 +13,9 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from initsel_ros.benchmarks.fuzz import (
+pytest.importorskip('sensor_msgs.msg')
+
+from initsel_ros.ros.fuzz import (
     INTERNAL_ERROR_REASON,
     ImageCase,
     InfoCase,
@@ -22,8 +24,6 @@ from initsel_ros.benchmarks.fuzz import (
     image_cases,
     info_cases,
 )
-
-pytest.importorskip('sensor_msgs.msg')
 
 _COMMON = {'deadline': None, 'database': None,
            'suppress_health_check': [HealthCheck.too_slow, HealthCheck.data_too_large,
@@ -66,7 +66,7 @@ def probe(tmp_path_factory):
     from ros_helpers import configure_this_process
 
     from initsel_ros.benchmarks.common import random_models
-    from initsel_ros.benchmarks.fuzz import NodeProbe
+    from initsel_ros.ros.fuzz import NodeProbe
 
     configure_this_process()
     os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)

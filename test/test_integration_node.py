@@ -35,8 +35,9 @@ from test_tracking import shifted, texture
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ModelFileError
 from initsel_ros.geometry import relative_pose, translation_chordal_error
+from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
-from initsel_ros.ros.node import SKIPPED_IMAGE, SelectorNode
+from initsel_ros.ros.node import SelectorNode
 
 
 @pytest.fixture(scope='module')
@@ -57,13 +58,13 @@ def test_node_initializes_on_a_near_sequence_with_the_true_baseline_direction(
     h = harness_factory()
     statuses = play(h, sequence)
     assert len(statuses) == len(sequence)  # one status per frame, none dropped
-    assert all(s['dropped_frames'] == 0 for s in statuses)
-    h.spin_until(lambda: h.method and h.pose and h.points, what='init/method, pose, points')
-    assert h.method == [next(s['method'] for s in statuses if s['method'])]
-    assert h.method[0] in ('F', 'E', 'H')
-    assert statuses[-1]['initialized']
+    assert all(s.dropped_frames == 0 for s in statuses)
+    h.wait_until(lambda: h.methods and h.poses and h.clouds, what='init/method, pose, points')
+    assert h.methods == [next(s.method for s in statuses if s.method)]
+    assert h.methods[0] in ('F', 'E', 'H')
+    assert statuses[-1].initialized
 
-    pose, cloud = h.pose[0], h.points[0]
+    pose, cloud = h.poses[0], h.clouds[0]
     assert pose.header.frame_id == cloud.header.frame_id == 'initsel_reference_optical'
     stamps = sequence.stamps
     cur = int(np.argmin(np.abs(stamps - conv.stamp_to_seconds(pose.header.stamp))))
@@ -93,11 +94,11 @@ def test_node_never_initializes_on_rotation_or_a_static_camera(
     h = harness_factory()
     statuses = play(h, sequence)
     assert len(statuses) == len(sequence)
-    assert not any(s['method'] for s in statuses)
-    assert not statuses[-1]['initialized']
+    assert not any(s.method for s in statuses)
+    assert not statuses[-1].initialized
     for _ in range(10):
         h.executor.spin_once(timeout_sec=0.02)
-    assert h.method == [] and h.pose == [] and h.points == []
+    assert h.methods == [] and h.poses == [] and h.clouds == []
 
 
 # ----------------------------------------------------------------- behaviour without a model
@@ -106,13 +107,13 @@ def test_status_reports_reasons_probabilities_and_diagnostics(harness_factory, t
     img = texture(1)
     first = h.send_array(img, 100.0)
     second = h.send_array(shifted(img, 2.0, 1.0), 100.033)
-    assert first['reason'] == 'new reference' and first['new_reference']
-    assert second['reason'] == 'no model fired' and second['level'] == 'OK'
-    assert second['probabilities']['E'] == pytest.approx(0.01)
-    assert second['tracks'] > 100
-    assert second['mean_disparity_px'] == pytest.approx(math.hypot(2.0, 1.0), abs=0.2)
-    assert second['frames_since_reference'] == 1
-    h.spin_until(lambda: len(h.diagnostics) >= 2, what='diagnostics')
+    assert first.reason == 'new reference' and first.new_reference
+    assert second.reason == 'no model fired' and second.level == 'OK'
+    assert second.probabilities['E'] == pytest.approx(0.01)
+    assert second.tracks > 100
+    assert second.mean_disparity_px == pytest.approx(math.hypot(2.0, 1.0), abs=0.2)
+    assert second.frames_since_reference == 1
+    h.wait_until(lambda: len(h.diagnostics) >= 2, what='diagnostics')
     diag = h.diagnostics[-1]
     assert diag.level == DiagnosticStatus.OK and diag.message == 'no model fired'
     keys = {kv.key for kv in diag.values}
@@ -125,15 +126,15 @@ def test_reset_service_makes_the_next_frame_the_reference(harness_factory, tmp_p
     img = texture(2)
     for k in range(3):
         status = h.send_array(shifted(img, k, 0.0), 10.0 + k / 30)
-    assert status['frames_since_reference'] == 2 and not status['new_reference']
+    assert status.frames_since_reference == 2 and not status.new_reference
     assert h.reset_client.wait_for_service(timeout_sec=TIMEOUT_S)
     future = h.reset_client.call_async(Trigger.Request())
-    h.spin_until(future.done, what='the reset response')
+    h.wait_until(future.done, what='the reset response')
     assert future.result().success
     status = h.send_array(shifted(img, 3.0, 0.0), 10.1)
-    assert status['new_reference'] and status['reason'] == 'new reference'
+    assert status.new_reference and status.reason == 'new reference'
     status = h.send_array(shifted(img, 4.0, 0.0), 10.13)
-    assert status['frames_since_reference'] == 1
+    assert status.frames_since_reference == 1
 
 
 def _bad_images() -> list[Image]:
@@ -155,13 +156,13 @@ def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(
     *bad, good = _bad_images()
     for msg in bad:
         status = h.send(msg)
-        assert status['reason'] == SKIPPED_IMAGE and status['level'] == 'WARN'
-        assert status['frame_index'] is None
-    assert 'unsupported image encoding' in h.status[0]['detail']
-    assert 'step' in h.status[1]['detail'] and 'data has' in h.status[2]['detail']
+        assert status.reason is Reason.SKIPPED_IMAGE and status.level == 'WARN'
+        assert status.frame_index is None
+    assert 'unsupported image encoding' in h.statuses[0].detail
+    assert 'step' in h.statuses[1].detail and 'data has' in h.statuses[2].detail
     status = h.send(good)
-    assert status['reason'] == 'new reference' and status['frame_index'] == 0
-    assert status['skipped_frames'] == len(bad)
+    assert status.reason == 'new reference' and status.frame_index == 0
+    assert status.skipped_frames == len(bad)
 
 
 def test_images_of_another_size_than_the_intrinsics_are_still_processed(
@@ -169,9 +170,9 @@ def test_images_of_another_size_than_the_intrinsics_are_still_processed(
 ):
     h = harness_factory(model_file=double_model_file(tmp_path), use_camera_info=False)
     small = texture(4, shape=(240, 320))
-    assert h.send_array(small, 1.0)['reason'] == 'new reference'
+    assert h.send_array(small, 1.0).reason == 'new reference'
     status = h.send_array(shifted(small, 1.0, 0.0), 1.033)
-    assert status['reason'] == 'no model fired'
+    assert status.reason == 'no model fired'
     assert h.node._selector.intrinsics == Intrinsics.tum_fr3().scaled(320, 240)
 
 
@@ -208,11 +209,11 @@ def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
     for msg in frames[1:]:  # ... while three more arrive
         h.node._on_image(msg)
     release.set()
-    h.spin_until(lambda: len(h.status) >= 2, what='two statuses')
+    h.wait_until(lambda: len(h.statuses) >= 2, what='two statuses')
     for _ in range(10):
         h.executor.spin_once(timeout_sec=0.02)
-    assert [s['stamp'] for s in h.status] == [pytest.approx(1.0), pytest.approx(4.0)]
-    assert h.status[-1]['dropped_frames'] == 2 and h.status[-1]['received_frames'] == 4
+    assert [s.stamp for s in h.statuses] == [pytest.approx(1.0), pytest.approx(4.0)]
+    assert h.statuses[-1].dropped_frames == 2 and h.statuses[-1].received_frames == 4
 
 
 def test_missing_or_malformed_model_file_stops_the_node_with_one_error(context, tmp_path):
@@ -259,11 +260,11 @@ def test_debug_image_is_drawn_only_while_someone_subscribes(harness_factory, nea
     assert not images  # nobody listened: nothing drawn
     h.client.create_subscription(Image, 'selector/debug_image', images.append,
                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
-    h.spin_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
+    h.wait_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
                  what='debug image subscriber')
     raw = sequence.image(2)
     h.send_array(raw, sequence.frames[2].stamp)
-    h.spin_until(lambda: images, what='a debug image')
+    h.wait_until(lambda: images, what='a debug image')
     debug = conv.image_to_cv(images[-1])
     assert images[-1].encoding == 'bgr8'
     assert debug.shape == raw.shape

@@ -8,7 +8,6 @@ must receive the method, the pose and the points. Processes always stop in ``fin
 from __future__ import annotations
 
 import itertools
-import json
 import shutil
 import signal
 import subprocess
@@ -30,6 +29,7 @@ from std_msgs.msg import String
 from initsel_ros.errors import ModelFileError
 from initsel_ros.models import default_model_path
 from initsel_ros.ros.node import LATCHED_QOS
+from initsel_ros.status import FrameStatus
 
 TIMEOUT_S = 60.0
 _namespaces = itertools.count()
@@ -85,7 +85,7 @@ def test_replayed_bag_initializes_the_installed_selector(
     listener.create_subscription(PoseStamped, 'init/pose', got['pose'].append, LATCHED_QOS)
     listener.create_subscription(PointCloud2, 'init/points', got['points'].append, LATCHED_QOS)
     listener.create_subscription(
-        String, 'selector/status', lambda m: got['status'].append(json.loads(m.data)),
+        String, 'selector/status', lambda m: got['status'].append(FrameStatus.from_json(m.data)),
         QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
 
     selector_log, replay_log = tmp_path / 'selector.log', tmp_path / 'replay.log'

@@ -19,9 +19,10 @@ from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.geometry import relative_pose, translation_chordal_error
+from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros import node as node_module
-from initsel_ros.ros.node import INTERNAL_ERROR, SKIPPED_IMAGE
+from initsel_ros.status import FrameStatus
 
 #: Realistic Unix stamps with odd nanoseconds: 1700000000.666666985 s, then +33333333 ns.
 UNIX_START_NS = 1_700_000_000 * 10**9 + 666_666_985
@@ -53,17 +54,17 @@ def index_of(stamp: Time, stamps: list[Time]) -> int:
     return matches[0]
 
 
-def init_and_reference(statuses: list[dict]) -> tuple[int, int]:
+def init_and_reference(statuses: list[FrameStatus]) -> tuple[int, int]:
     """Indices (in sending order) of the initializing frame and of its reference frame.
 
     With verification the initialization is published some frames after its own frame: the
     status of the publishing frame names the initializing frame's stamp.
     """
-    published = next(i for i, s in enumerate(statuses) if s['method'])
-    own = (statuses[published]['initializing_stamp_sec'],
-           statuses[published]['initializing_stamp_nanosec'])
-    cur = next(i for i, s in enumerate(statuses) if (s['stamp_sec'], s['stamp_nanosec']) == own)
-    ref = max(i for i in range(cur) if statuses[i]['new_reference'])
+    published = next(i for i, s in enumerate(statuses) if s.method)
+    own = (statuses[published].initializing_stamp_sec,
+           statuses[published].initializing_stamp_nanosec)
+    cur = next(i for i, s in enumerate(statuses) if (s.stamp_sec, s.stamp_nanosec) == own)
+    ref = max(i for i in range(cur) if statuses[i].new_reference)
     return cur, ref
 
 
@@ -97,29 +98,29 @@ def test_every_output_carries_the_exact_image_stamps_of_its_frames(
     debug: list[Image] = []
     h.client.create_subscription(Image, 'selector/debug_image', debug.append,
                                  QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
-    h.spin_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
+    h.wait_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
                  what='debug image subscriber')
     stamps = unix_stamps(len(sequence))
     statuses = play(h, sequence, stamps, until_initialized=True)
-    h.spin_until(lambda: h.pose and h.points, what='init/pose and init/points')
-    h.spin_until(lambda: len(h.diagnostic_stamps) >= len(statuses), what='diagnostics')
+    h.wait_until(lambda: h.poses and h.clouds, what='init/pose and init/points')
+    h.wait_until(lambda: len(h.diagnostic_stamps) >= len(statuses), what='diagnostics')
 
     cur, ref = init_and_reference(statuses)
     assert ref < cur
-    pose, cloud = h.pose[0], h.points[0]
+    pose, cloud = h.poses[0], h.clouds[0]
     # Field by field, against the stamps the images were sent with.
     assert same(pose.header.stamp, stamps[cur]) and index_of(pose.header.stamp, stamps) == cur
     assert same(cloud.header.stamp, stamps[ref]) and index_of(cloud.header.stamp, stamps) == ref
     for i, status in enumerate(statuses):
-        assert (status['stamp_sec'], status['stamp_nanosec']) == (
+        assert (status.stamp_sec, status.stamp_nanosec) == (
             stamps[i].sec, stamps[i].nanosec)
-        assert status['stamp'] == pytest.approx(stamps[i].sec + stamps[i].nanosec * 1e-9)
-    init_status = next(s for s in statuses if s['method'])
-    assert (init_status['reference_stamp_sec'], init_status['reference_stamp_nanosec']) == (
+        assert status.stamp == pytest.approx(stamps[i].sec + stamps[i].nanosec * 1e-9)
+    init_status = next(s for s in statuses if s.method)
+    assert (init_status.reference_stamp_sec, init_status.reference_stamp_nanosec) == (
         stamps[ref].sec, stamps[ref].nanosec)
     assert [(s.sec, s.nanosec) for s in h.diagnostic_stamps[:len(statuses)]] == [
         (s.sec, s.nanosec) for s in stamps[:len(statuses)]]
-    h.spin_until(lambda: debug, what='debug images')
+    h.wait_until(lambda: debug, what='debug images')
     sent = [index_of(d.header.stamp, stamps) for d in debug]
     assert sent == sorted(sent) and sent[-1] < len(statuses)
     transform = tf.messages[0][0]
@@ -134,13 +135,13 @@ def test_negative_stamps_lose_no_initialization_and_are_logged_once(
     h = harness_factory()
     stamps = unix_stamps(len(sequence), start_ns=-3 * 10**9 - 123_456_789)
     statuses = play(h, sequence, stamps, until_initialized=True)
-    h.spin_until(lambda: h.method and h.pose and h.points, what='init/* on negative stamps')
+    h.wait_until(lambda: h.methods and h.poses and h.clouds, what='init/* on negative stamps')
     cur, ref = init_and_reference(statuses)
-    published = next(s for s in statuses if s['method'])
-    assert published['initialized'] and published['initializations'] == 1
-    assert same(h.pose[0].header.stamp, stamps[cur]) and h.pose[0].header.stamp.sec < 0
-    assert same(h.points[0].header.stamp, stamps[ref])
-    assert statuses[-1]['stamp_issues']['negative'] == len(statuses)
+    published = next(s for s in statuses if s.method)
+    assert published.initialized and published.initializations == 1
+    assert same(h.poses[0].header.stamp, stamps[cur]) and h.poses[0].header.stamp.sec < 0
+    assert same(h.clouds[0].header.stamp, stamps[ref])
+    assert statuses[-1].stamp_issues['negative'] == len(statuses)
     assert capfd.readouterr().err.count('negative image stamp') == 1
 
 
@@ -150,15 +151,15 @@ def test_a_replay_restart_starts_a_new_reference_and_initializes_again(
     sequence = as_sequence(near_sequence)
     h = harness_factory()
     first = play(h, sequence, unix_stamps(len(sequence)), until_initialized=True)
-    assert first[-1]['method']
+    assert first[-1].method
     # The bag starts over: time goes back by the length of the first run.
     stamps = unix_stamps(len(sequence))
     second = play(h, sequence, stamps, until_initialized=True)
-    assert second[0]['new_reference'] and second[0]['stamp_issues']['backwards'] == 1
-    assert second[-1]['method'] and second[-1]['initializations'] == 2
-    h.spin_until(lambda: len(h.pose) >= 2, what='the second init/pose')
+    assert second[0].new_reference and second[0].stamp_issues['backwards'] == 1
+    assert second[-1].method and second[-1].initializations == 2
+    h.wait_until(lambda: len(h.poses) >= 2, what='the second init/pose')
     cur, _ = init_and_reference(second)
-    assert same(h.pose[-1].header.stamp, stamps[cur])
+    assert same(h.poses[-1].header.stamp, stamps[cur])
     assert capfd.readouterr().err.count('backwards image stamp') == 1
 
 
@@ -168,23 +169,23 @@ def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kin
     h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(11)
 
-    def send(k: int, ns: int) -> dict:
+    def send(k: int, ns: int) -> FrameStatus:
         return h.send_array(shifted(img, k, 0.0), conv.ns_to_stamp(ns))
 
     t = 10 * 10**9
-    assert send(0, t)['new_reference']
-    assert send(1, t + FRAME_NS)['frames_since_reference'] == 1
+    assert send(0, t).new_reference
+    assert send(1, t + FRAME_NS).frames_since_reference == 1
     back = send(2, t + FRAME_NS - 1)  # 1 ns backwards (any amount counts)
-    assert back['new_reference'] and back['reason'] == 'new reference'
+    assert back.new_reference and back.reason == 'new reference'
     duplicate = send(3, t + FRAME_NS - 1)
-    assert duplicate['reason'] == 'no model fired' and duplicate['frames_since_reference'] == 1
-    assert send(4, t + 2 * FRAME_NS)['frames_since_reference'] == 2
+    assert duplicate.reason == 'no model fired' and duplicate.frames_since_reference == 1
+    assert send(4, t + 2 * FRAME_NS).frames_since_reference == 2
     back_again = send(5, t - 5 * 10**9)
-    assert back_again['new_reference']
+    assert back_again.new_reference
     zero = send(6, 0)  # also backwards
     zero_again = send(7, 0)
-    assert zero['new_reference'] and zero_again['frames_since_reference'] == 1
-    assert zero_again['stamp_issues'] == {'negative': 0, 'zero': 2, 'duplicate': 1,
+    assert zero.new_reference and zero_again.frames_since_reference == 1
+    assert zero_again.stamp_issues == {'negative': 0, 'zero': 2, 'duplicate': 1,
                                           'backwards': 3}
     err = capfd.readouterr().err
     for kind in ('backwards', 'duplicate', 'zero'):
@@ -200,13 +201,13 @@ def test_a_compressed_stream_initializes_like_the_raw_one(harness_factory, near_
     assert h.client.count_subscribers(f'{h.namespace}/image_raw') == 0
     stamps = unix_stamps(len(sequence))
     statuses = play(h, sequence, stamps, until_initialized=True)
-    assert statuses[-1]['method'] in ('F', 'E', 'H')
-    assert not any(s['reason'] in (SKIPPED_IMAGE, INTERNAL_ERROR) for s in statuses)
-    h.spin_until(lambda: h.pose and h.points, what='init/pose and init/points')
+    assert statuses[-1].method in ('F', 'E', 'H')
+    assert not any(s.reason in (Reason.SKIPPED_IMAGE, Reason.INTERNAL_ERROR) for s in statuses)
+    h.wait_until(lambda: h.poses and h.clouds, what='init/pose and init/points')
     cur, ref = init_and_reference(statuses)
-    assert same(h.pose[0].header.stamp, stamps[cur])
-    assert same(h.points[0].header.stamp, stamps[ref])
-    assert_good_direction(sequence, h.pose[0], ref, cur)
+    assert same(h.poses[0].header.stamp, stamps[cur])
+    assert same(h.clouds[0].header.stamp, stamps[ref])
+    assert_good_direction(sequence, h.poses[0], ref, cur)
 
 
 def test_compressed_subscription_follows_the_image_remapping(context, tmp_path):
@@ -243,10 +244,10 @@ def test_corrupt_or_foreign_compressed_data_is_a_skipped_frame_with_a_reason(
     ]
     for msg, match in cases:
         status = h.send(msg)
-        assert status['reason'] == SKIPPED_IMAGE and status['level'] == 'WARN', status
-        assert match in status['detail']
+        assert status.reason is Reason.SKIPPED_IMAGE and status.level == 'WARN', status
+        assert match in status.detail
     status = h.send(good)
-    assert status['reason'] == 'new reference' and status['skipped_frames'] == len(cases)
+    assert status.reason == 'new reference' and status.skipped_frames == len(cases)
 
 
 # ------------------------------------------------------------------------------ 16-bit images
@@ -268,11 +269,11 @@ def test_a_12_bit_mono16_stream_initializes(harness_factory, near_sequence, expo
 
     statuses = play(h, sequence, unix_stamps(len(sequence)), convert=to_12_bit,
                     until_initialized=True)
-    assert statuses[-1]['method'] in ('F', 'E', 'H')
-    assert statuses[-1]['bit_depth'] == max(highest)
-    h.spin_until(lambda: h.pose, what='init/pose')
+    assert statuses[-1].method in ('F', 'E', 'H')
+    assert statuses[-1].bit_depth == max(highest)
+    h.wait_until(lambda: h.poses, what='init/pose')
     cur, ref = init_and_reference(statuses)
-    assert_good_direction(sequence, h.pose[0], ref, cur)
+    assert_good_direction(sequence, h.poses[0], ref, cur)
 
 
 def test_16_bit_images_are_scaled_by_their_real_range_or_the_bit_depth_parameter():
@@ -292,9 +293,9 @@ def test_16_bit_images_are_scaled_by_their_real_range_or_the_bit_depth_parameter
 def test_automatic_bit_depth_keeps_the_highest_bit_seen_so_far(harness_factory, tmp_path):
     h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(13).astype(np.uint16)
-    assert h.send_array(img << 4, 1.0)['bit_depth'] == 12
+    assert h.send_array(img << 4, 1.0).bit_depth == 12
     dark = h.send_array((img << 4) >> 2, 1.033)  # a darker frame: still scaled as 12-bit
-    assert dark['bit_depth'] == 12
+    assert dark.bit_depth == 12
 
 
 # ----------------------------------------------------------------------------- intrinsics
@@ -305,19 +306,19 @@ def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
     img = texture(14)
     tum = Intrinsics.tum_fr3()
     h.send_camera_info(tum)
-    assert h.send_array(img, 1.0)['new_reference']
+    assert h.send_array(img, 1.0).new_reference
     h.send_camera_info(tum)  # the same camera again: no new reference
-    assert h.send_array(shifted(img, 1, 0), 1.033)['frames_since_reference'] == 1
+    assert h.send_array(shifted(img, 1, 0), 1.033).frames_since_reference == 1
     other = Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480)
     h.send_camera_info(other)
     status = h.send_array(shifted(img, 2, 0), 1.066)
-    assert status['new_reference'] and status['intrinsics_source'] == 'camera_info'
+    assert status.new_reference and status.intrinsics_source == 'camera_info'
     assert h.node._selector.intrinsics == other
     small = texture(15, shape=(240, 320))
     half = other.scaled(320, 240)
     h.send_camera_info(half)
-    assert h.send_array(small, 1.1)['new_reference']
-    assert h.send_array(shifted(small, 1, 0), 1.133)['frames_since_reference'] == 1
+    assert h.send_array(small, 1.1).new_reference
+    assert h.send_array(shifted(small, 1, 0), 1.133).frames_since_reference == 1
     assert h.node._selector.intrinsics == half
     assert capfd.readouterr().err.count('camera_info changed the intrinsics') == 2
 
@@ -329,15 +330,15 @@ def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
     small = texture(16, shape=(240, 320))
     statuses = [h.send_array(shifted(small, k, 0), 1.0 + k / 30) for k in range(3)]
     for status in statuses:
-        assert status['intrinsics_guessed'] and status['intrinsics_source'] == 'parameters'
-        assert 'guessed intrinsics' in status['intrinsics_warning']
-        assert 'camera_calibration' in status['intrinsics_warning']
-    h.spin_until(lambda: len(h.diagnostics) >= 3, what='diagnostics')
+        assert status.intrinsics_guessed and status.intrinsics_source == 'parameters'
+        assert 'guessed intrinsics' in status.intrinsics_warning
+        assert 'camera_calibration' in status.intrinsics_warning
+    h.wait_until(lambda: len(h.diagnostics) >= 3, what='diagnostics')
     assert h.diagnostics[-1].level == DiagnosticStatus.WARN
     assert capfd.readouterr().err.count('GUESSED INTRINSICS') == 1
     h.send_camera_info(Intrinsics.tum_fr3().scaled(320, 240))
     status = h.send_array(shifted(small, 3, 0), 1.1)
-    assert not status['intrinsics_guessed'] and status['intrinsics_warning'] == ''
+    assert not status.intrinsics_guessed and status.intrinsics_warning == ''
 
 
 def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed(
@@ -346,7 +347,7 @@ def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed
     h = harness_factory(model_file=double_model_file(tmp_path), camera__fx=500.0,
                         camera__fy=500.0)
     status = h.send_array(texture(17, shape=(240, 320)), 1.0)
-    assert status['reason'] == 'new reference' and not status['intrinsics_guessed']
+    assert status.reason == 'new reference' and not status.intrinsics_guessed
 
 
 @pytest.mark.parametrize('coefficients', [[0.01, 0.001, 0.0], [0.01, 0.001, 0.0, 0.0, 0.0, 0.1]])
@@ -362,7 +363,7 @@ def test_camera_info_with_a_distortion_length_opencv_rejects_is_ignored(
     bad.d = [float(c) for c in coefficients]
     h.send_camera_info(bad)
     statuses = [h.send_array(shifted(img, k, 0.5), 1.0 + k / 30) for k in range(1, 4)]
-    assert [s['reason'] for s in statuses] == ['no model fired'] * 3
+    assert [s.reason for s in statuses] == ['no model fired'] * 3
     assert h.node._selector.intrinsics == good
     assert f'camera_info D has {len(coefficients)} distortion coefficients' in (
         capfd.readouterr().err)
@@ -395,14 +396,14 @@ def test_a_failed_publication_is_never_reported_as_an_initialization(
     statuses = []
     for i in range(len(sequence)):
         statuses.append(h.send_array(sequence.image(i), stamps[i]))
-        if statuses[-1]['reason'] == INTERNAL_ERROR:
+        if statuses[-1].reason is Reason.INTERNAL_ERROR:
             break
     failed = statuses[-1]
-    assert failures and failed['reason'] == INTERNAL_ERROR and failed['method'] is None
-    assert not failed['initialized'] and failed['initializations'] == 0
-    assert 'publishing the initialization failed' in failed['detail']
+    assert failures and failed.reason is Reason.INTERNAL_ERROR and failed.method is None
+    assert not failed.initialized and failed.initializations == 0
+    assert 'publishing the initialization failed' in failed.detail
     monkeypatch.undo()
     rest = [h.send_array(sequence.image(i), stamps[i])
             for i in range(len(statuses), len(sequence))]
-    assert any(s['method'] for s in rest) and rest[-1]['initialized']
-    h.spin_until(lambda: h.pose, what='init/pose after the failure')
+    assert any(s.method for s in rest) and rest[-1].initialized
+    h.wait_until(lambda: h.poses, what='init/pose after the failure')

@@ -8,14 +8,18 @@ import pytest
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError
+from initsel_ros.names import POSE_METHODS, Mode
+from initsel_ros.policy import PolicyConfig
 from initsel_ros.ros.params import (
     PARAMETERS,
-    Mode,
     NodeSettings,
     default_params_file,
     load_params_file,
     read_params_yaml,
 )
+from initsel_ros.selector import SelectorConfig
+from initsel_ros.tracking import TrackerConfig
+from initsel_ros.verify import VerifyConfig
 
 CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'selector.yaml'
 
@@ -24,6 +28,39 @@ def test_selector_yaml_lists_every_parameter_with_its_declared_default():
     values = load_params_file(CONFIG)
     defaults = {spec.name: spec.default for spec in PARAMETERS}
     assert values == defaults
+
+
+#: Parameters that configure the core -> their default in the core's dataclasses.
+CORE_DEFAULTS = {
+    'max_features': TrackerConfig().max_features,
+    'min_tracks': PolicyConfig().min_tracks,
+    'min_points': PolicyConfig().min_points,
+    'min_parallax_deg': PolicyConfig().min_parallax_deg,
+    'max_frames_since_reference': SelectorConfig().max_frames_since_reference,
+    'mode': SelectorConfig().mode.value,
+    'r_veto': [m for m in POSE_METHODS if m in PolicyConfig().r_veto],
+    'refine': SelectorConfig().refine,
+    'verify_frames': VerifyConfig().frames,
+    'verify_min_fraction': VerifyConfig().min_fraction,
+    'verify_max_rms_px': VerifyConfig().max_rms_px,
+    **{f'camera.{k}': getattr(Intrinsics.tum_fr3(), k)
+       for k in ('fx', 'fy', 'cx', 'cy', 'width', 'height')},
+}
+
+
+@pytest.mark.parametrize('name', sorted(CORE_DEFAULTS))
+def test_yaml_table_and_core_defaults_agree_in_value_and_type(name):
+    yaml_value = load_params_file(CONFIG)[name]
+    table_value = {spec.name: spec.default for spec in PARAMETERS}[name]
+    core_value = CORE_DEFAULTS[name]
+    assert yaml_value == table_value == core_value
+    # ROS types a parameter by its default: 1 and 1.0 are different parameters.
+    assert type(yaml_value) is type(table_value) is type(core_value)
+
+
+def test_the_default_parameters_configure_the_selector_with_the_core_defaults():
+    assert NodeSettings.from_values({}).selector_config() == SelectorConfig()
+    assert NodeSettings.from_values({}).intrinsics == Intrinsics.tum_fr3()
 
 
 def test_default_params_file_is_found_without_ament_prefix(monkeypatch):

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 
-from test_core_without_ros import BLOCKER
+from test_ros_boundary import ros_blocker, without_ros_environment
 
 from initsel_ros.stamps import StampIssue, StampMonitor
 
@@ -45,12 +44,10 @@ def test_forgetting_the_last_stamp_accepts_any_next_one():
 
 
 def test_params_stamps_and_transport_import_without_ros():
-    blocked = {'rclpy', 'sensor_msgs', 'std_msgs', 'geometry_msgs', 'builtin_interfaces'}
-    code = BLOCKER.format(blocked=blocked) + (
+    code = ros_blocker() + (
         'import initsel_ros.stamps, initsel_ros.ros.params, initsel_ros.ros.transport\n'
         'initsel_ros.ros.params.NodeSettings.from_values({})\nprint("ok")\n')
-    env = {k: v for k, v in os.environ.items() if k != 'PYTHONPATH'}
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
-                         timeout=120, env=env)
+                         timeout=120, env=without_ros_environment())
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == 'ok'

@@ -90,7 +90,8 @@ def random_models(seed: int = 0, features: np.ndarray | None = None,
     from sklearn.preprocessing import StandardScaler
 
     from initsel_ros.features import N_FEATURES, Scaling
-    from initsel_ros.models import METHODS, LogisticModel, ModelSet
+    from initsel_ros.models import LogisticModel, ModelSet
+    from initsel_ros.names import MODEL_NAMES
 
     rng = np.random.default_rng(seed)
     X = rng.uniform(0.0, 1.0, size=(2000, N_FEATURES)) if features is None else features
@@ -98,7 +99,7 @@ def random_models(seed: int = 0, features: np.ndarray | None = None,
     scale = np.where(scaler.scale_ > 0, scaler.scale_, 1.0)
     Xs = (X - scaler.mean_) / scale
     models = {}
-    for name in METHODS:
+    for name in MODEL_NAMES:
         y = rng.random(len(X)) < positive_rate
         y[:2] = (True, False)  # both classes present
         fit = LogisticRegression(max_iter=500).fit(Xs, y.astype(int))

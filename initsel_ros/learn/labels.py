@@ -34,11 +34,9 @@ import numpy as np
 
 from initsel_ros import geometry
 from initsel_ros.errors import GeometryError, InitselError
+from initsel_ros.names import POSE_METHODS  # the methods that get a pose label, in table order
 
 LOG = logging.getLogger(__name__)
-
-#: The methods that get a pose label, in table order.
-POSE_METHODS = ('F', 'E', 'H')
 
 #: Without depth, the largest rotation error (degrees) of a good pose; see docs/learning.md.
 ROTATION_ERROR_MAX_DEG = 5.0

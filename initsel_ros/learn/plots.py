@@ -18,7 +18,8 @@ from initsel_ros.learn import baselines
 from initsel_ros.learn.evaluate import EvalReport, binary_scores
 from initsel_ros.learn.table import PairTable
 from initsel_ros.learn.train import label_column
-from initsel_ros.models import METHODS, ModelSet
+from initsel_ros.models import ModelSet
+from initsel_ros.names import MODEL_NAMES, POSE_METHODS
 
 LOG = logging.getLogger(__name__)
 
@@ -74,7 +75,7 @@ def plot_precision_recall(
     plt = _pyplot()
     paths = []
     markers = iter('osD^v<>P*X' * 3)
-    for m in METHODS:
+    for m in MODEL_NAMES:
         y = np.asarray(test[label_column(m)]).astype(bool)
         probs = report.probabilities[m]
         fig, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -116,7 +117,7 @@ def plot_errors_vs_baseline(
     edges = np.linspace(0.0, float(finite.max()) if len(finite) else 1.0, bins + 1)
     centres = 0.5 * (edges[:-1] + edges[1:])
     which = np.clip(np.digitize(baseline, edges) - 1, 0, bins - 1)
-    for m in ('F', 'E', 'H'):
+    for m in POSE_METHODS:
         for ax, col in zip(axes, (f'{m}_et', f'{m}_er'), strict=True):
             values = np.asarray(table[col], dtype=float)
             med = np.full(bins, np.nan)

@@ -48,6 +48,7 @@ from initsel_ros.learn.baselines import (
     vins_relative_pose,
 )
 from initsel_ros.models import ModelSet
+from initsel_ros.names import POSE_METHODS
 from initsel_ros.refine import refine_two_view
 from initsel_ros.selector import Selector, SelectorConfig
 from initsel_ros.tracking import KltTracker
@@ -220,7 +221,7 @@ def _compare_methods(batch: _Batch, ref: int, cur: int, out: BatchOutcome,
     p0, p1 = _tracks_until(batch, config, ref, cur)
     K = batch.intrinsics.K
     errors = {}
-    for m in ('F', 'E', 'H'):
+    for m in POSE_METHODS:
         pose = _refined_pose(m, p0, p1, K, config.refine)
         errors[m] = math.nan if pose is None else _pose_errors(
             batch.poses[ref], batch.poses[cur], pose[0], pose[1])[0]

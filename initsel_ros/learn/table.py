@@ -33,8 +33,7 @@ import numpy as np
 
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
-
-METHODS_FEH = ('F', 'E', 'H')
+from initsel_ros.names import POSE_METHODS as METHODS_FEH  # the pose methods, in table order
 
 #: Extra cheap features (beyond the paper's 23), all resolution-free: the columns hold
 #: ``features.extra_features`` of each pair.

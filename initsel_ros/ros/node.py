@@ -12,8 +12,6 @@ docs/node.md for topics, parameters and QoS.
 from __future__ import annotations
 
 import argparse
-import json
-import math
 import signal
 import sys
 import threading
@@ -56,12 +54,12 @@ from initsel_ros.ros.params import (
     PARAMETERS,
     SPECS,
     ImageTransport,
-    Mode,
     NodeSettings,
     read_params_yaml,
 )
 from initsel_ros.selector import FrameResult, Initialization, Selector
 from initsel_ros.stamps import CONSEQUENCES, StampIssue, StampMonitor
+from initsel_ros.status import FrameStatus, NodeCounters
 
 try:  # tf2_msgs is not among the PyPI ROS wheels; /tf is broadcast only when it is installed
     from tf2_msgs.msg import TFMessage
@@ -70,12 +68,6 @@ except ImportError:  # pragma: no cover - depends on the installation
 
 #: Name of the DiagnosticStatus published on /diagnostics.
 DIAGNOSTIC_NAME = 'initsel_ros: selector'
-#: Status reasons of frames that never reached the selector.
-SKIPPED_IMAGE = 'image skipped'
-INTERNAL_ERROR = 'internal error'
-#: Reasons reported with level WARN (everything else is OK).
-WARN_REASONS = frozenset({Reason.TOO_FEW_TRACKS.value, Reason.POSE_FAILED.value, SKIPPED_IMAGE,
-                          INTERNAL_ERROR})
 #: Suffix of the compressed image topic (image_transport's convention).
 COMPRESSED_SUFFIX = '/compressed'
 
@@ -388,7 +380,7 @@ class SelectorNode(Node):
             self.get_logger().warning(
                 f'skipping image: {exc}', throttle_duration_sec=WARN_THROTTLE_S
             )
-            self._publish_status(stamp, None, dropped, SKIPPED_IMAGE, str(exc))
+            self._publish_status(stamp, None, dropped, Reason.SKIPPED_IMAGE, str(exc))
             return
         except Exception as exc:  # keep the node alive; the status says what went wrong
             self._skipped += 1
@@ -396,11 +388,11 @@ class SelectorNode(Node):
                 f'selector failed on a frame: {type(exc).__name__}: {exc}',
                 throttle_duration_sec=WARN_THROTTLE_S,
             )
-            self._publish_status(stamp, None, dropped, INTERNAL_ERROR, repr(exc))
+            self._publish_status(stamp, None, dropped, Reason.INTERNAL_ERROR, repr(exc))
             return
-        reason, detail = result.decision.reason.value, result.decision.detail
+        reason, detail = result.decision.reason, result.decision.detail
         if result.decision.reason is Reason.VERIFICATION_FAILED:
-            self.get_logger().info(f'{reason}: {detail}; looking on')
+            self.get_logger().info(f'{reason.value}: {detail}; looking on')
         if result.initialization is not None:
             try:
                 self._publish_initialization(result.initialization, stamp, msg.header.frame_id)
@@ -410,7 +402,8 @@ class SelectorNode(Node):
                     f'publishing the initialization failed: {type(exc).__name__}: {exc}; '
                     'starting over', throttle_duration_sec=WARN_THROTTLE_S,
                 )
-                reason, detail = INTERNAL_ERROR, f'publishing the initialization failed: {exc!r}'
+                reason = Reason.INTERNAL_ERROR
+                detail = f'publishing the initialization failed: {exc!r}'
                 result = FrameResult(result.frame_index, result.stamp_ns,
                                      result.reference_stamp_ns, result.decision)
         self._publish_status(stamp, result, dropped, reason, detail)
@@ -508,70 +501,33 @@ class SelectorNode(Node):
 
     # ---------------------------------------------------------------------------- publishing
     def _publish_status(
-        self, stamp: Time, result: FrameResult | None, dropped: int, reason: str, detail: str
+        self, stamp: Time, result: FrameResult | None, dropped: int, reason: Reason, detail: str
     ) -> None:
         """``~/status`` (JSON) and ``/diagnostics`` for one frame, stamped with its stamp."""
-        decision = result.decision if result is not None else None
-        probabilities = dict(decision.probabilities) if decision is not None else {}
-        reference_ns = result.reference_stamp_ns if result is not None else None
-        reference = conv.ns_to_stamp(reference_ns) if reference_ns is not None else None
-        init_stamp = (conv.ns_to_stamp(result.initialization.stamp_ns)
-                      if result is not None and result.initialization is not None else None)
-        status = {
-            'stamp': conv.stamp_to_seconds(stamp),  # for humans; exact: stamp_sec/_nanosec
-            'stamp_sec': int(stamp.sec),
-            'stamp_nanosec': int(stamp.nanosec),
-            'reference_stamp_sec': int(reference.sec) if reference else None,
-            'reference_stamp_nanosec': int(reference.nanosec) if reference else None,
-            'frame_index': result.frame_index if result is not None else None,
-            'reason': reason,
-            'detail': detail,
-            'level': 'WARN' if reason in WARN_REASONS else 'OK',
-            'probabilities': {m: probabilities.get(m) for m in ('F', 'E', 'H', 'R')},
-            'fired': list(decision.fired) if decision is not None else [],
-            'vetoed': list(decision.vetoed) if decision is not None else [],
-            'tracks': decision.n_tracks if decision is not None else 0,
-            'mean_disparity_px': decision.mean_disparity if decision is not None else 0.0,
-            'frames_since_reference': result.frames_since_reference if result else 0,
-            'new_reference': bool(result.new_reference) if result else False,
-            'method': (result.initialization.method.value
-                       if result is not None and result.initialization is not None else None),
-            # the frame the published initialization belongs to (earlier with verification)
-            'initializing_stamp_sec': init_stamp.sec if init_stamp is not None else None,
-            'initializing_stamp_nanosec': init_stamp.nanosec if init_stamp is not None else None,
-            'initialized': bool(self._selector.initialized),
-            'initializations': self._initializations,
-            'received_frames': self._received,
-            'dropped_frames': dropped,
-            'skipped_frames': self._skipped,
-            'intrinsics_source': self._intrinsics_source,
-            'intrinsics_guessed': bool(self._intrinsics_warning),
-            'intrinsics_warning': self._intrinsics_warning,
-            'bit_depth': self._settings.bit_depth or self._auto_bits or None,
-            'stamp_issues': dict(self._stamps.counts),
-            'selection': _selection_dict(result),
-            'verification': _verification_dict(result),
-        }
-        self._status_pub.publish(String(data=json.dumps(status)))
+        counters = NodeCounters(
+            initialized=bool(self._selector.initialized),
+            initializations=self._initializations,
+            received_frames=self._received,
+            dropped_frames=dropped,
+            skipped_frames=self._skipped,
+            intrinsics_source=self._intrinsics_source,
+            intrinsics_warning=self._intrinsics_warning,
+            bit_depth=self._settings.bit_depth or self._auto_bits or None,
+            stamp_issues=self._stamps.counts,
+        )
+        status = FrameStatus.from_result(
+            result, stamp_sec=stamp.sec, stamp_nanosec=stamp.nanosec, counters=counters,
+            reason=reason, detail=detail,
+        )
+        self._status_pub.publish(String(data=status.to_json()))
 
         diag = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if reason in WARN_REASONS or self._intrinsics_warning
+            level=DiagnosticStatus.WARN if status.diagnostic_level == 'WARN'
             else DiagnosticStatus.OK,
-            name=DIAGNOSTIC_NAME, message=reason, hardware_id=self.get_fully_qualified_name(),
+            name=DIAGNOSTIC_NAME, message=status.reason.value,
+            hardware_id=self.get_fully_qualified_name(),
         )
-        values = {
-            **{f'p_{m}': _fmt(status['probabilities'][m]) for m in ('F', 'E', 'H', 'R')},
-            'tracks': str(status['tracks']),
-            'mean_disparity_px': _fmt(status['mean_disparity_px']),
-            'frames_since_reference': str(status['frames_since_reference']),
-            'dropped_frames': str(dropped),
-            'reason': reason if not detail else f'{reason}: {detail}',
-            'intrinsics': (f'guessed: {self._intrinsics_warning}' if self._intrinsics_warning
-                           else self._intrinsics_source),
-        }
-        if status['selection'] is not None:
-            values['selection'] = status['selection']['why']
-        diag.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        diag.values = [KeyValue(key=k, value=v) for k, v in status.diagnostic_values().items()]
         array = DiagnosticArray(status=[diag])
         array.header.stamp = stamp
         self._diag_pub.publish(array)
@@ -615,26 +571,6 @@ class SelectorNode(Node):
         )
 
 
-def _selection_dict(result: FrameResult | None) -> dict[str, Any] | None:
-    """The fire-time candidates of this frame (or of the initialization it publishes)."""
-    if result is None:
-        return None
-    init = result.initialization
-    selection = init.selection if init is not None else result.selection
-    return None if selection is None else selection.to_dict()
-
-
-def _verification_dict(result: FrameResult | None) -> dict[str, Any] | None:
-    """This frame's PnP check of a held-back candidate, if any."""
-    step = result.verification if result is not None else None
-    if step is None:
-        return None
-    return {'ok': step.ok, 'tracked': step.tracked, 'inliers': step.inliers,
-            'fraction': round(step.fraction, 3),
-            'rms_px': round(step.rms_px, 3) if math.isfinite(step.rms_px) else None,
-            'detail': step.detail}
-
-
 def _own(parameters: list[Parameter]) -> dict[str, Any]:
     """The node's own parameters among ``parameters`` (not rclpy's, e.g. use_sim_time)."""
     return {p.name: _plain(p.value) for p in parameters if p.name in SPECS}
@@ -648,10 +584,6 @@ def _plain(value: Any) -> Any:
         except TypeError:
             return value
     return value
-
-
-def _fmt(value: float | None) -> str:
-    return '' if value is None else f'{value:.4f}'
 
 
 def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
@@ -757,7 +689,7 @@ def main(args: Sequence[str] | None = None) -> int:
     return status
 
 
-__all__ = ['DIAGNOSTIC_NAME', 'IMAGE_QOS', 'LATCHED_QOS', 'Mode', 'SelectorNode', 'main',
+__all__ = ['DIAGNOSTIC_NAME', 'IMAGE_QOS', 'LATCHED_QOS', 'STATUS_QOS', 'SelectorNode', 'main',
            'params_files']
 
 if __name__ == '__main__':

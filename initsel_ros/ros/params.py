@@ -6,8 +6,10 @@ read-only flags, constraints), its on-set-parameters callback, ``--help``,
 whether the parameter is *live* (applied while the node runs) or read-only (needs a restart)
 and carries its validator; :meth:`NodeSettings.from_values` runs the same validators at
 start-up and for every live change. A parameter added to the table is live unless it says
-``live=False``. This module imports no ROS packages, so the settings can be checked without
-rclpy.
+``live=False``. Parameters that configure the core take their defaults from the core's
+dataclasses (:class:`~initsel_ros.selector.SelectorConfig` and the configs inside it), so the
+two cannot drift (a test also holds ``config/selector.yaml`` to them). This module imports no
+ROS packages, so the settings can be checked without rclpy.
 """
 
 from __future__ import annotations
@@ -22,21 +24,18 @@ from typing import Any
 
 from initsel_ros.camera import TUM_FR3, Intrinsics, check_distortion
 from initsel_ros.errors import ConfigError
+from initsel_ros.names import MODEL_NAMES, POSE_METHODS, Mode
+from initsel_ros.policy import PolicyConfig
+from initsel_ros.selector import SelectorConfig
+from initsel_ros.tracking import TrackerConfig
+from initsel_ros.verify import VerifyConfig
 
 PARAMS_FILE_NAME = 'selector.yaml'
 NODE_NAME = 'selector'
-MODEL_NAMES = ('F', 'E', 'H', 'R')
 #: Keys of a parameter file's node section, in the order they are looked up.
 SECTION_KEYS = (NODE_NAME, f'/{NODE_NAME}', f'/**/{NODE_NAME}', '/**')
 #: Upper bound of ``max_features`` (and of the counts compared with it).
 MAX_FEATURES_LIMIT = 10_000
-
-
-class Mode(str, Enum):
-    """What happens after a successful initialization."""
-
-    ONCE = 'once'  # publish once, then report 'already initialized' until ~/reset
-    CONTINUOUS = 'continuous'  # start over with a new reference and initialize again
 
 
 class ImageTransport(str, Enum):
@@ -213,6 +212,11 @@ class ParameterSpec:
 
 _COUNT = Number(1, MAX_FEATURES_LIMIT, integer=True)
 _THRESHOLD = Number(high=1.0, note="negative = the model file's")
+#: The core's defaults, which the parameters below start from.
+_SELECTOR = SelectorConfig()
+_POLICY: PolicyConfig = _SELECTOR.policy
+_TRACKER: TrackerConfig = _SELECTOR.tracker
+_VERIFY: VerifyConfig = _SELECTOR.verify
 
 PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec('model_file', '', "model file (JSON); '' = the packaged config/models.json",
@@ -226,47 +230,47 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         for m in MODEL_NAMES
     ),
     ParameterSpec(
-        'r_veto', ['F', 'E'],
+        'r_veto', [m for m in POSE_METHODS if m in _POLICY.r_veto],
         'models silenced when model R (pure rotation) fires; subset of F, E, H',
-        Subset(('F', 'E', 'H')),
+        Subset(POSE_METHODS),
     ),
-    ParameterSpec('max_features', 300, 'Shi-Tomasi corners detected in a reference frame',
-                  _COUNT, live=False),
+    ParameterSpec('max_features', _TRACKER.max_features,
+                  'Shi-Tomasi corners detected in a reference frame', _COUNT, live=False),
     ParameterSpec(
-        'min_tracks', 50, 'fewer tracked points than this: no decision, pick a new reference',
-        _COUNT,
+        'min_tracks', _POLICY.min_tracks,
+        'fewer tracked points than this: no decision, pick a new reference', _COUNT,
     ),
-    ParameterSpec('min_points', 50, 'a pose needs at least this many triangulated points',
-                  _COUNT),
-    ParameterSpec('min_parallax_deg', 1.0, 'a pose needs this median parallax, degrees',
-                  Number(0.0, 90.0)),
+    ParameterSpec('min_points', _POLICY.min_points,
+                  'a pose needs at least this many triangulated points', _COUNT),
+    ParameterSpec('min_parallax_deg', _POLICY.min_parallax_deg,
+                  'a pose needs this median parallax, degrees', Number(0.0, 90.0)),
     ParameterSpec(
-        'max_frames_since_reference', 90,
+        'max_frames_since_reference', _SELECTOR.max_frames_since_reference,
         "frames after which a new reference frame is taken (the paper's batch length)",
         Number(1, 1_000_000, integer=True),
     ),
     ParameterSpec(
-        'mode', Mode.ONCE.value,
+        'mode', _SELECTOR.mode.value,
         "'once': initialize once until ~/reset; 'continuous': start over after each",
         Choice(tuple(m.value for m in Mode)),
     ),
     ParameterSpec(
-        'refine', True,
+        'refine', _SELECTOR.refine,
         'bundle-adjust the chosen pose and points before publishing (docs/initialization.md)',
         Flag(),
     ),
     ParameterSpec(
-        'verify_frames', 3,
+        'verify_frames', _VERIFY.frames,
         'frames that must confirm a candidate by PnP before it is published; 0 = off',
         Number(0, 100, integer=True),
     ),
     ParameterSpec(
-        'verify_min_fraction', 0.5,
+        'verify_min_fraction', _VERIFY.min_fraction,
         'share of the map points that must stay PnP inliers in every verification frame',
         Number(0.01, 1.0),
     ),
     ParameterSpec(
-        'verify_max_rms_px', 1.0,
+        'verify_max_rms_px', _VERIFY.max_rms_px,
         'largest PnP reprojection RMS of those inliers in a verification frame, pixels',
         Number(0.01, 100.0),
     ),
@@ -407,13 +411,8 @@ class NodeSettings:
 
         return Path(self.model_file).expanduser() if self.model_file else default_model_path()
 
-    def selector_config(self) -> Any:
+    def selector_config(self) -> SelectorConfig:
         """The :class:`initsel_ros.selector.SelectorConfig` these settings describe."""
-        from initsel_ros.policy import PolicyConfig
-        from initsel_ros.selector import SelectorConfig
-        from initsel_ros.tracking import TrackerConfig
-        from initsel_ros.verify import VerifyConfig
-
         return SelectorConfig(
             tracker=dataclasses.replace(TrackerConfig(), max_features=self.max_features),
             policy=PolicyConfig(
@@ -421,7 +420,7 @@ class NodeSettings:
                 min_tracks=self.min_tracks, min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
             ),
-            mode=self.mode.value,
+            mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
             refine=self.refine,
             verify=VerifyConfig(frames=self.verify_frames, min_fraction=self.verify_min_fraction,
@@ -488,13 +487,11 @@ def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
 __all__ = [
     'CAMERA_PARAMETERS',
     'MAX_FEATURES_LIMIT',
-    'MODEL_NAMES',
     'NODE_NAME',
     'PARAMETERS',
     'PARAMS_FILE_NAME',
     'SPECS',
     'ImageTransport',
-    'Mode',
     'NodeSettings',
     'ParameterSpec',
     'default_params_file',

@@ -6,11 +6,14 @@ Two properties, shared by ``test/test_fuzz.py`` (a few hundred examples in CI) a
 * :func:`check_conversion`: ``image_to_numpy`` / ``image_to_cv`` either return an array of the
   documented shape and type or raise :class:`ImageConversionError`, for any encoding, size
   (0 and 1 pixel included), step, byte length and endianness.
-* :func:`check_node_callbacks`: the ``selector`` node fed a random CameraInfo (NaN or zero
-  intrinsics, zero size) and a random Image through its own callbacks never raises, never
-  reports an internal error, and processes the next good frame.
+* :func:`check_node_callbacks`: the ``selector`` node, sent a random CameraInfo (NaN or zero
+  intrinsics, zero size) and a random Image on its topics, never reports an internal error
+  and processes the next good frame.
 
-hypothesis and rclpy are imported inside the functions.
+The node is driven only through its public interfaces (:class:`NodeProbe`: topics and the
+``~/reset`` service of a :class:`~initsel_ros.ros.harness.NodeHarness`, its ``~/status``
+read back), never through its private methods or state. hypothesis is imported inside the
+functions.
 """
 
 from __future__ import annotations
@@ -20,11 +23,23 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from rclpy.logging import LoggingSeverity
+from sensor_msgs.msg import CameraInfo, Image
+
+from initsel_ros.benchmarks.live import configure_ros_environment, textured_frames
+from initsel_ros.camera import Intrinsics
+from initsel_ros.errors import ImageConversionError
+from initsel_ros.names import Mode
+from initsel_ros.policy import Reason
+from initsel_ros.ros import conversions as conv
+from initsel_ros.ros.conversions import ENCODINGS
+from initsel_ros.ros.harness import NodeHarness
+from initsel_ros.status import FrameStatus
 
 #: Encodings tried besides the supported ones (unknown, odd, empty).
 FOREIGN_ENCODINGS = ('', '8UC3', 'rgb16', 'yuv422', '32FC1', 'MONO8', 'bgr8 ', 'jpeg\x00')
-#: Reasons the node may report for a fuzzed frame (anything but an internal error).
-INTERNAL_ERROR_REASON = 'internal error'
+#: The one reason the node must never report for a fuzzed frame.
+INTERNAL_ERROR_REASON = Reason.INTERNAL_ERROR.value
 #: Largest side of fuzzed images, pixels (kept small so thousands of cases run quickly).
 MAX_SIDE = 48
 UINT32_MAX = 2**32 - 1
@@ -42,10 +57,8 @@ class ImageCase:
     is_bigendian: bool
     seed: int
 
-    def message(self) -> Any:
+    def message(self) -> Image:
         """The Image message (data: ``n_bytes`` seeded random bytes)."""
-        from sensor_msgs.msg import Image
-
         msg = Image()
         msg.encoding = self.encoding
         msg.height, msg.width, msg.step = self.height, self.width, self.step
@@ -56,8 +69,6 @@ class ImageCase:
 
 
 def _bytes_per_pixel(encoding: str) -> int:
-    from initsel_ros.ros.conversions import ENCODINGS
-
     info = ENCODINGS.get(encoding)
     return 1 if info is None else info.channels * np.dtype(info.dtype).itemsize
 
@@ -65,8 +76,6 @@ def _bytes_per_pixel(encoding: str) -> int:
 def image_cases() -> Any:
     """hypothesis strategy of :class:`ImageCase` (mostly plausible, sometimes absurd)."""
     from hypothesis import strategies as st
-
-    from initsel_ros.ros.conversions import ENCODINGS
 
     side = st.one_of(st.integers(0, 2), st.integers(0, MAX_SIDE),
                      st.sampled_from([0, 1, 2**16, 2**31, UINT32_MAX]))
@@ -104,16 +113,13 @@ def image_cases() -> Any:
 
 def check_conversion(case: ImageCase) -> str:
     """Convert one fuzzed message; returns 'ok' or 'rejected' and asserts the contract."""
-    from initsel_ros.errors import ImageConversionError
-    from initsel_ros.ros.conversions import ENCODINGS, image_to_cv, image_to_numpy
-
     msg = case.message()
     try:
-        raw = image_to_numpy(msg)
+        raw = conv.image_to_numpy(msg)
     except ImageConversionError:
         raw = None
     try:
-        cv = image_to_cv(msg)
+        cv = conv.image_to_cv(msg)
     except ImageConversionError:
         assert raw is None, f'image_to_cv rejected what image_to_numpy accepted: {case}'
         return 'rejected'
@@ -163,94 +169,83 @@ def info_cases(extreme: bool = False) -> Any:
 
 
 class NodeProbe:
-    """A SelectorNode in a private context whose callbacks are called directly (no spinning).
+    """The ``selector`` node in a private context, driven through its topics only.
 
-    Records the (reason, detail) of every status the node publishes.
+    Each example restores the default intrinsics (a camera_info of the TUM fr3 camera the
+    node's parameters describe) and a fresh reference (``~/reset``), so examples are
+    independent; then the node gets the fuzzed camera_info and image on its topics, and its
+    ``~/status`` says what it made of them.
     """
 
     def __init__(self, model_path: str, good_size: tuple[int, int] = (160, 120)) -> None:
-        import rclpy
-        from rclpy.parameter import Parameter
-
-        from initsel_ros.benchmarks.live import configure_ros_environment, textured_frames
-        from initsel_ros.ros import conversions as conv
-        from initsel_ros.ros.node import SelectorNode
-
         configure_ros_environment()
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = SelectorNode(
-            context=self.context, namespace='/initsel_fuzz',
-            parameter_overrides=[Parameter('model_file', value=model_path),
-                                 Parameter('mode', value='continuous')])
-        self.reasons: list[tuple[str, str]] = []
-        original = self.node._publish_status
-
-        def record(stamp: float, result: Any, dropped: int, reason: str, detail: str) -> None:
-            self.reasons.append((reason, detail))
-            original(stamp, result, dropped, reason, detail)
-
-        self.node._publish_status = record  # type: ignore[method-assign]
+        self.harness = NodeHarness(
+            {'model_file': model_path, 'mode': Mode.CONTINUOUS.value},
+            namespace='/initsel_fuzz', client_name='initsel_fuzz_client')
+        # Every example resets and sends a camera_info: keep the node's log to its warnings.
+        self.harness.node.get_logger().set_level(LoggingSeverity.WARN)
         self._good = [conv.numpy_to_image(f, 'bgr8')
                       for f in textured_frames(good_size[0], good_size[1], 4)]
+        self._default_info = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
         self._stamp = 1.0
-        self._conv = conv
+
+    @property
+    def node(self) -> Any:
+        """The node under test (for tests that inject a fault; the probe never touches it)."""
+        return self.harness.node
 
     def _next_stamp(self) -> Any:
         self._stamp += 0.033
-        return self._conv.seconds_to_stamp(self._stamp)
+        return conv.seconds_to_stamp(self._stamp)
 
-    def restart(self) -> None:
-        """Back to the parameter intrinsics and no reference, so examples are independent."""
-        node = self.node
-        with node._lock:
-            node._pending = node._pending_intrinsics = None
-        node._selector.set_intrinsics(node._settings.intrinsics)
-        node._intrinsics_source = 'parameters'
-        node._selector.reset()
+    def restart(self, info: CameraInfo | None = None) -> None:
+        """Default intrinsics (then ``info``, if any) and no reference for the next image.
 
-    def feed(self, image: Any, info: InfoCase | None) -> tuple[str, str]:
-        """Camera info (optional) then the image through the callbacks; the frame's status."""
+        The camera_info messages go out first; the reset's round trip lets them arrive, and
+        the node applies both before it processes the next image.
+        """
+        self.harness.publish_camera_info(self._default_info)
         if info is not None:
-            from sensor_msgs.msg import CameraInfo
+            self.harness.publish_camera_info(info)
+        self.harness.reset()
 
-            msg = CameraInfo()
-            msg.k = [float(v) for v in info.k]
-            msg.width, msg.height = info.width, info.height
-            msg.d = [float(v) for v in info.distortion]
-            msg.distortion_model = info.model
-            self.node._on_camera_info(msg)
+    def feed(self, image: Image, info: InfoCase | None) -> FrameStatus:
+        """Camera info (optional) then the image, on the node's topics; the frame's status."""
+        self.restart(None if info is None else info_message(info))
         image.header.stamp = self._next_stamp()
-        before = len(self.reasons)
-        self.node._on_image(image)
-        self.node._work()
-        assert len(self.reasons) == before + 1, 'one status per frame'
-        return self.reasons[-1]
+        return self.harness.send(image)
 
-    def feed_good(self) -> tuple[str, str]:
+    def feed_good(self) -> FrameStatus:
         """A good textured frame; its status."""
         msg = self._good[int(self._stamp * 100) % len(self._good)]
-        return self.feed(msg, None)
+        msg.header.stamp = self._next_stamp()
+        return self.harness.send(msg)
 
     def close(self) -> None:
-        import rclpy
+        """Destroy the node and its context."""
+        self.harness.close()
 
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
+
+def info_message(info: InfoCase) -> CameraInfo:
+    """The CameraInfo message of a fuzzed case."""
+    msg = CameraInfo()
+    msg.k = [float(v) for v in info.k]
+    msg.width, msg.height = info.width, info.height
+    msg.d = [float(v) for v in info.distortion]
+    msg.distortion_model = info.model
+    return msg
 
 
 def check_node_callbacks(probe: NodeProbe, image: ImageCase, info: InfoCase | None) -> str:
     """One fuzzed camera_info + image, then a good frame; asserts the node's contract."""
-    from initsel_ros.ros.node import SKIPPED_IMAGE
-
-    probe.restart()
-    reason, detail = probe.feed(image.message(), info)
-    assert reason != INTERNAL_ERROR_REASON, f'internal error on {image} / {info}: {detail}'
-    good_reason, good_detail = probe.feed_good()
-    assert good_reason not in (INTERNAL_ERROR_REASON, SKIPPED_IMAGE), (
-        f'the good frame after {image} / {info} was not processed: {good_reason}: '
-        f'{good_detail}')
-    return 'skipped' if reason == SKIPPED_IMAGE else 'processed'
+    status = probe.feed(image.message(), info)
+    assert status.reason is not Reason.INTERNAL_ERROR, (
+        f'internal error on {image} / {info}: {status.detail}')
+    good = probe.feed_good()
+    assert good.reason not in (Reason.INTERNAL_ERROR, Reason.SKIPPED_IMAGE), (
+        f'the good frame after {image} / {info} was not processed: {good.reason.value}: '
+        f'{good.detail}')
+    return 'skipped' if status.reason is Reason.SKIPPED_IMAGE else 'processed'
 
 
 def run_conversion_fuzz(max_examples: int, seed: int | None = None) -> dict[str, int]:
@@ -300,6 +295,7 @@ __all__ = [
     'check_node_callbacks',
     'image_cases',
     'info_cases',
+    'info_message',
     'run_conversion_fuzz',
     'run_node_fuzz',
 ]

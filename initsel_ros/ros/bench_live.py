@@ -1,0 +1,213 @@
+"""The node end to end for ``initsel bench``: a timed replay (30/60 Hz) and a flood.
+
+The node runs in this process (:class:`NodeHarness`, spinning in the background, as
+``initsel demo`` does). For the replay the harness's client publishes; for the flood a child
+process does (``python -m initsel_ros.ros.bench_live publish ...``), so publishing does not
+compete with the node for the interpreter lock. The records and the ROS-free helpers are in
+:mod:`initsel_ros.benchmarks.live`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
+
+from initsel_ros.benchmarks.common import rss_bytes
+from initsel_ros.benchmarks.live import (
+    NodeRun,
+    configure_ros_environment,
+    percentiles,
+    stop_process,
+    summarize,
+    textured_frames,
+)
+from initsel_ros.errors import InitselError
+from initsel_ros.ros import conversions as conv
+from initsel_ros.ros.harness import NodeHarness
+
+#: How long the node and the harness may take to discover each other, seconds.
+DISCOVERY_S = 10.0
+
+
+def _node_under_test(model_path: Path, mode: str = 'continuous') -> NodeHarness:
+    """The node (and the harness's listener) spinning in the background."""
+    harness = NodeHarness({'model_file': str(model_path), 'mode': mode},
+                          client_name='initsel_bench_listener', timeout=DISCOVERY_S)
+    return harness.start()
+
+
+def replay(images: list[np.ndarray], intrinsics: Any, model_path: Path, rate_hz: float,
+           frames: int, timeout: float = 30.0) -> NodeRun:
+    """Publish ``frames`` frames (``images`` played forth and back, bgr8) at ``rate_hz``.
+
+    Latency is publish time -> arrival of the frame's status on ``~/status``.
+    """
+    configure_ros_environment()
+    run = NodeRun(f'node, replay at {rate_hz:g} Hz')
+    with _node_under_test(model_path) as h:
+        n = len(images)
+        order = [k % (2 * n - 2) if n > 1 else 0 for k in range(frames)]
+        order = [i if i < n else 2 * n - 2 - i for i in order]
+        msgs = [conv.numpy_to_image(images[i], 'bgr8') for i in range(n)]
+        published: dict[float, float] = {}
+        run.rss_start_mb = rss_bytes() / 2**20
+        period = 1.0 / rate_hz
+        start = time.monotonic()
+        for k, i in enumerate(order):
+            due = start + k * period
+            time.sleep(max(0.0, due - time.monotonic()))
+            stamp = 1.0 + k * period
+            header_stamp = conv.seconds_to_stamp(stamp)
+            msg = msgs[i]
+            msg.header.stamp = header_stamp
+            h.publish_camera_info(intrinsics, stamp=header_stamp)
+            published[round(stamp, 6)] = time.monotonic()
+            h.publish(msg)
+        run.seconds = time.monotonic() - start
+        run.published = len(order)
+        run.publish_rate_hz = (len(order) - 1) / run.seconds if run.seconds > 0 else 0.0
+        last = round(1.0 + (len(order) - 1) * period, 6)
+        run.newest_processed = h.wait_for(
+            lambda: any(round(s.stamp, 6) == last for s in h.statuses[-5:]), timeout)
+        time.sleep(0.2)
+        run.rss_end_mb = rss_bytes() / 2**20
+        latencies = []
+        with h.lock:
+            for s, (arrival, _) in zip(h.statuses, h.status_arrivals, strict=True):
+                sent = published.get(round(s.stamp, 6))
+                if sent is not None:
+                    latencies.append(arrival - sent)
+            statuses = list(h.statuses)
+        run.latency = percentiles(latencies)
+        summarize(run, statuses)
+    return run
+
+
+# -------------------------------------------------------------------------------- the flood
+def flood_publisher(rate_hz: float, seconds: float, width: int, height: int,
+                    encoding: str = 'bgr8', wait_s: float = 10.0) -> dict[str, Any]:
+    """Publish textured frames on ``image_raw`` as fast as ``rate_hz`` allows.
+
+    Header stamps are wall-clock times (``time.time()``), so a listener on the same machine
+    can measure latency. Returns a summary: frames published, achieved rate, last stamp.
+    """
+    configure_ros_environment()
+    frames = textured_frames(width, height, 16)
+    if encoding == 'mono8':
+        import cv2
+
+        frames = [cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames]
+    msgs = [conv.numpy_to_image(f, encoding) for f in frames]
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('initsel_flood_publisher', context=context)
+    try:
+        pub = node.create_publisher(
+            Image, 'image_raw', QoSProfile(depth=2, reliability=ReliabilityPolicy.BEST_EFFORT))
+        deadline = time.monotonic() + wait_s
+        while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.5)  # let the node's discovery finish too
+        period = 1.0 / rate_hz
+        start = time.monotonic()
+        k, stamp = 0, 0.0
+        while True:
+            now = time.monotonic()
+            if now - start >= seconds:
+                break
+            due = start + k * period
+            if due > now:
+                time.sleep(due - now)
+            msg = msgs[k % len(msgs)]
+            stamp = time.time()
+            msg.header.stamp = conv.seconds_to_stamp(stamp)
+            pub.publish(msg)
+            k += 1
+        elapsed = time.monotonic() - start
+        time.sleep(0.5)  # keep the writer alive while the last sample is read
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+    return {'published': k, 'seconds': elapsed, 'rate_hz': k / elapsed if elapsed else 0.0,
+            'last_stamp': stamp, 'subscribed': True}
+
+
+def flood(model_path: Path, seconds: float = 30.0, rate_hz: float = 200.0,
+          width: int = 1920, height: int = 1080, encoding: str = 'bgr8',
+          timeout: float | None = None) -> NodeRun:
+    """Run the node here and a flood publisher in a child process; sample memory meanwhile."""
+    configure_ros_environment()
+    run = NodeRun(f'node, flood {width}x{height} {encoding} at {rate_hz:g} Hz for {seconds:g} s')
+    timeout = timeout if timeout is not None else seconds + 60.0
+    env = dict(os.environ)
+    env['PYTHONUNBUFFERED'] = '1'
+    cmd = [sys.executable, '-m', 'initsel_ros.ros.bench_live', 'publish',
+           '--rate', str(rate_hz), '--seconds', str(seconds), '--width', str(width),
+           '--height', str(height), '--encoding', encoding]
+    with _node_under_test(model_path) as h:
+        run.rss_start_mb = rss_bytes() / 2**20
+        samples: list[tuple[float, int]] = []
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+                                text=True)
+        start = time.monotonic()
+        try:
+            while proc.poll() is None and time.monotonic() - start < timeout:
+                samples.append((time.monotonic() - start, rss_bytes()))
+                time.sleep(0.25)
+        finally:
+            out, err = stop_process(proc)
+        if proc.returncode != 0:
+            raise InitselError(f'flood publisher failed (exit {proc.returncode}): {err[-2000:]}')
+        summary = json.loads(out.strip().splitlines()[-1])
+        run.published = int(summary['published'])
+        run.seconds = float(summary['seconds'])
+        run.publish_rate_hz = float(summary['rate_hz'])
+        last = float(summary['last_stamp'])
+        run.newest_processed = h.wait_for(
+            lambda: bool(h.statuses) and abs(h.statuses[-1].stamp - last) < 1e-6, 10.0)
+        time.sleep(0.2)
+        run.rss_end_mb = rss_bytes() / 2**20
+        if samples:
+            rss = np.array([r for _, r in samples]) / 2**20
+            run.rss_max_mb = float(rss.max())
+            run.rss_mid_mb = float(rss[len(rss) // 2])
+        with h.lock:
+            latencies = [wall - s.stamp for s, (_, wall) in
+                         zip(h.statuses, h.status_arrivals, strict=True)]
+            statuses = list(h.statuses)
+        run.latency = percentiles(latencies)
+        summarize(run, statuses)
+    return run
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m initsel_ros.ros.bench_live publish ...``: the flood's publisher."""
+    parser = argparse.ArgumentParser(prog='initsel_ros.ros.bench_live')
+    sub = parser.add_subparsers(dest='command', required=True)
+    pub = sub.add_parser('publish', help='publish textured frames on image_raw')
+    pub.add_argument('--rate', type=float, default=200.0)
+    pub.add_argument('--seconds', type=float, default=30.0)
+    pub.add_argument('--width', type=int, default=1920)
+    pub.add_argument('--height', type=int, default=1080)
+    pub.add_argument('--encoding', choices=('bgr8', 'mono8'), default='bgr8')
+    args = parser.parse_args(argv)
+    summary = flood_publisher(args.rate, args.seconds, args.width, args.height, args.encoding)
+    print(json.dumps(summary), flush=True)
+    return 0
+
+
+__all__ = ['flood', 'flood_publisher', 'replay']
+
+if __name__ == '__main__':
+    sys.exit(main())
