@@ -244,6 +244,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
                   'a pose needs at least this many triangulated points', _COUNT),
     ParameterSpec('min_parallax_deg', _POLICY.min_parallax_deg,
                   'a pose needs this median parallax, degrees', Number(0.0, 90.0)),
+    ParameterSpec('min_rotation_residual_px', _POLICY.min_rotation_residual_px,
+                  'flow left after the best pure rotation must reach this median, pixels '
+                  '(less: a rotation alone explains it)', Number(0.0, 100.0)),
     ParameterSpec(
         'max_frames_since_reference', _SELECTOR.max_frames_since_reference,
         "frames after which a new reference frame is taken (the paper's batch length)",
@@ -339,6 +342,7 @@ class NodeSettings:
     min_tracks: int
     min_points: int
     min_parallax_deg: float
+    min_rotation_residual_px: float
     max_frames_since_reference: int
     mode: Mode
     refine: bool
@@ -385,6 +389,7 @@ class NodeSettings:
                         if v[f'thresholds.{m}'] >= 0.0},
             r_veto=v['r_veto'], max_features=v['max_features'], min_tracks=v['min_tracks'],
             min_points=v['min_points'], min_parallax_deg=v['min_parallax_deg'],
+            min_rotation_residual_px=v['min_rotation_residual_px'],
             max_frames_since_reference=v['max_frames_since_reference'], mode=Mode(v['mode']),
             refine=v['refine'], verify_frames=v['verify_frames'],
             verify_min_fraction=v['verify_min_fraction'],
@@ -419,6 +424,7 @@ class NodeSettings:
                 thresholds=dict(self.thresholds), r_veto=self.r_veto,
                 min_tracks=self.min_tracks, min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
+                min_rotation_residual_px=self.min_rotation_residual_px,
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
