@@ -182,8 +182,8 @@ def choose_homography_decomposition(
     """Choose among the decompositions of H by triangulating its inliers (as ORB-SLAM does).
 
     Every solution of ``cv2.decomposeHomographyMat`` (up to four) triangulates the inliers;
-    a point is good when it lies in front of both cameras, reprojects within
-    ``max_reprojection_px`` and has at least ``min_point_parallax_deg`` of parallax. The
+    a point is good when it lies in front of both cameras and reprojects within
+    ``max_reprojection_px`` (``min_point_parallax_deg`` is kept for the caller's filter). The
     solution with the most good points wins only when it is clearly ahead: the runner-up
     keeps fewer than :data:`HOMOGRAPHY_AMBIGUITY_RATIO` of its points. Otherwise the pair is
     ambiguous (planar two-fold ambiguity at small baselines) and nothing is chosen.
@@ -200,8 +200,9 @@ def choose_homography_decomposition(
         if norm < min_baseline_ratio:
             continue
         tri = triangulate_pair(R, t / norm, K, a, b)
-        good = tri.in_front & (tri.reprojection_px <= max_reprojection_px) & (
-            tri.parallax_deg >= min_point_parallax_deg)
+        # Cheirality and reprojection only: a parallax cut would favour the mirrored solution,
+        # whose points come out nearer and so with more parallax (seen on forward motion).
+        good = tri.in_front & (tri.reprojection_px <= max_reprojection_px)
         scored.append((int(good.sum()), i, R, t / norm))
     none = HomographyChoice(np.eye(3), np.zeros(3), (), '')
     if not scored:
