@@ -16,7 +16,7 @@ from initsel_ros.cli import SUBCOMMANDS, SubcommandImportError, build_parser, ma
 #: Modules that ``--help`` must not import: OpenCV, the learning stack, ROS.
 HEAVY = ('cv2', 'sklearn', 'rclpy', 'scipy', 'matplotlib')
 
-_PROBE = textwrap.dedent('''
+_PROBE = textwrap.dedent("""
     import json, sys
     from initsel_ros.cli import main
     try:
@@ -25,7 +25,7 @@ _PROBE = textwrap.dedent('''
         code = exc.code
     sys.stdout.flush()
     print('\\n' + json.dumps({'code': code, 'modules': sorted(sys.modules)}))
-''')
+""")
 
 
 def _clean_env() -> dict[str, str]:
@@ -80,7 +80,7 @@ def test_every_subcommand_module_exposes_add_arguments_and_run():
 
 def test_missing_subcommand_module_is_an_error(monkeypatch, capsys):
     monkeypatch.setitem(SUBCOMMANDS, 'broken', ('initsel_ros.cli.no_such_module', 'broken'))
-    with pytest.raises(SubcommandImportError, match="'broken'.*no_such_module"):
+    with pytest.raises(SubcommandImportError, match=r"'broken'.*no_such_module"):
         build_parser()
     assert main(['--help']) == 1
     assert 'broken' in capsys.readouterr().err
