@@ -26,6 +26,7 @@ from collections.abc import Mapping
 import cv2
 import numpy as np
 
+from initsel_ros.image import to_bgr
 from initsel_ros.names import MODEL_NAMES
 from initsel_ros.policy import Decision, Reason
 from initsel_ros.selector import FrameResult, Initialization, Selector
@@ -95,21 +96,6 @@ def _wheel(radius: int) -> np.ndarray:
     r = np.hypot(xx, yy)
     mask = ((r <= radius) & (r >= radius * 0.45)).astype(np.uint8) * 255
     return np.dstack([img, mask])
-
-
-def _as_bgr(image: np.ndarray) -> np.ndarray:
-    img = np.asarray(image)
-    if img.dtype == np.uint16:
-        img = (img >> 8).astype(np.uint8)
-    if img.dtype != np.uint8:
-        raise ValueError(f'expected a uint8 or uint16 image, got {img.dtype}')
-    if img.ndim == 2 or (img.ndim == 3 and img.shape[2] == 1):
-        return cv2.cvtColor(img.reshape(img.shape[:2]), cv2.COLOR_GRAY2BGR)
-    if img.ndim == 3 and img.shape[2] == 4:
-        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
-    if img.ndim == 3 and img.shape[2] == 3:
-        return img.copy()
-    raise ValueError(f'expected (H, W), (H, W, 3) or (H, W, 4) image, got {img.shape}')
 
 
 def _draw_tracks(canvas: np.ndarray, ref: np.ndarray, cur: np.ndarray, thickness: int) -> None:
@@ -219,7 +205,7 @@ def draw_overlay(
     Raises:
         ValueError: an image of unsupported shape or type.
     """
-    canvas = _as_bgr(image)
+    canvas = to_bgr(image, copy=True)
     h, w = canvas.shape[:2]
     init = initialization if initialization is not None else result.initialization
     s = min(w / 640.0, h / 480.0)  # layout scale, 1 at 640x480

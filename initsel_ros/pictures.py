@@ -3,15 +3,14 @@
 Run the ROS-free :class:`~initsel_ros.selector.Selector` over a
 :class:`~initsel_ros.datasets.Sequence` and write what it saw::
 
-    python -m initsel_ros.pictures --source SEQ --video out.mp4 --plot out.png
-    python -m initsel_ros.pictures --out docs/images      # regenerate the README pictures
+    initsel pictures --source SEQ --video out.mp4 --plot out.png
+    initsel pictures --out docs/images      # regenerate the README pictures
 
 matplotlib (the optional ``plot`` extra) is imported only by :func:`plot_probabilities`.
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 from collections.abc import Iterator, Mapping
@@ -25,15 +24,16 @@ import numpy as np
 
 from initsel_ros.errors import ConfigError, InitselError
 from initsel_ros.models import ModelSet
-from initsel_ros.names import MODEL_NAMES, Mode
+from initsel_ros.names import MODEL_NAMES
 from initsel_ros.overlay import draw_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.selector import FrameResult, Selector, SelectorConfig
 
 log = logging.getLogger(__name__)
 
-#: Where :func:`make_readme_pictures` writes by default (relative to the source tree).
-README_IMAGES = Path(__file__).resolve().parent.parent / 'docs' / 'images'
+#: Where :func:`make_readme_pictures` writes by default: relative to the working directory
+#: (run from the repository root, that is the README's folder), never to the installed package.
+README_IMAGES = Path('docs') / 'images'
 #: Largest PNG :func:`write_png` leaves on disk when asked to keep files small, bytes.
 MAX_PNG_BYTES = 300_000
 VIDEO_SUFFIXES = ('.mp4', '.avi', '.mov', '.mkv')
@@ -412,83 +412,3 @@ def make_readme_pictures(
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
-
-
-# --- command line --------------------------------------------------------------------------
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of the pictures command."""
-    parser.add_argument('--out', type=Path, default=None,
-                        help='regenerate the README pictures into this folder '
-                        '(rotation_veto.png, initialization.png, probabilities.png)')
-    parser.add_argument('--work', type=Path, default=None,
-                        help='folder for rendered sequences (reused; default: temporary)')
-    parser.add_argument('--source', type=Path, default=None,
-                        help='a TUM folder or bag to draw instead of the README pictures')
-    parser.add_argument('--video', type=Path, default=None,
-                        help='with --source: overlay video (.mp4) or folder for PNG frames')
-    parser.add_argument('--plot', type=Path, default=None,
-                        help='with --source: probabilities-over-time figure (.png)')
-    parser.add_argument('--models', type=Path, default=None,
-                        help='model file (default: the packaged config/models.json)')
-    parser.add_argument('--frames', type=int, default=None,
-                        help='frames to process (default: all; 240 for the README pictures)')
-    parser.add_argument('--start', type=int, default=0, help='first frame (with --source)')
-    parser.add_argument('--mode', choices=tuple(m.value for m in Mode),
-                        default=Mode.CONTINUOUS.value,
-                        help='selector mode (with --source)')
-
-
-def run(args: argparse.Namespace) -> int:
-    """Draw what the selector saw; returns the exit code."""
-    from initsel_ros.models import default_model_path
-
-    models = ModelSet.load(args.models or default_model_path())
-    if args.source is None:
-        out = args.out or README_IMAGES
-        paths = make_readme_pictures(out, args.work, models, frames=args.frames or 240)
-        for p in paths:
-            print(f'{p} ({p.stat().st_size // 1024} KiB)')
-        return 0
-    if args.video is None and args.plot is None:
-        raise ConfigError('--source needs --video and/or --plot')
-    from initsel_ros.datasets import open_sequence
-
-    seq = open_sequence(args.source)
-    stop = None if args.frames is None else args.start + args.frames
-    config = SelectorConfig(mode=args.mode)
-    if args.video is not None:
-        run_ = write_overlay_video(seq, models, args.video, config, args.start, stop)
-        print(f'{run_.output}: {run_.frames_written} frames')
-        results, indices, thresholds = run_.results, run_.indices, run_.thresholds
-    else:
-        results, indices, thresholds = [], [], {}
-        for i, res, _ov, sel in iter_overlays(seq, models, config, args.start, stop):
-            results.append(res)
-            indices.append(i)
-            thresholds = dict(sel.thresholds)
-    if args.plot is not None:
-        baselines = groundtruth_baselines(seq, results, indices)
-        print(plot_probabilities(results, baselines, args.plot, thresholds, indices,
-                                 title=seq.name))
-    return 0
-
-
-def main(argv: SequenceABC[str] | None = None) -> int:
-    """``python -m initsel_ros.pictures``: known errors become one line and exit code 1."""
-    import sys
-
-    parser = argparse.ArgumentParser(prog='python -m initsel_ros.pictures',
-                                     description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format='%(levelname)s %(name)s: %(message)s')
-    try:
-        return run(args)
-    except InitselError as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 1
-
-
-if __name__ == '__main__':
-    raise SystemExit(main())

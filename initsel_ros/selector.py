@@ -17,6 +17,7 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import raw_features
 from initsel_ros.geometry import Method, PoseEstimate, estimate_pose, rotation_only_residual_px
+from initsel_ros.image import to_gray  # re-exported: callers use selector.to_gray
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
@@ -149,32 +150,6 @@ class FrameResult:
     frames_since_reference: int = 0
     selection: Selection | None = None
     verification: VerifyStep | None = None
-
-
-def to_gray(image: np.ndarray) -> np.ndarray:
-    """(H, W) uint8 grey image from grey uint8/uint16 or (H, W, 3|4) BGR(A) uint8.
-
-    Raises:
-        ImageConversionError: for any other shape or type, or an empty image.
-    """
-    img = np.asarray(image)
-    if img.size == 0 or img.ndim not in (2, 3):
-        raise ImageConversionError(f'expected a non-empty 2-D or 3-D image, got {img.shape}')
-    if img.ndim == 3:
-        if img.dtype != np.uint8 or img.shape[2] not in (1, 3, 4):
-            raise ImageConversionError(
-                f'colour images must be (H, W, 3 or 4) uint8, got {img.shape} {img.dtype}'
-            )
-        if img.shape[2] == 1:
-            img = img[:, :, 0]
-        else:
-            code = cv2.COLOR_BGR2GRAY if img.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
-            return cv2.cvtColor(img, code)
-    if img.dtype == np.uint16:
-        return (img >> 8).astype(np.uint8)
-    if img.dtype != np.uint8:
-        raise ImageConversionError(f'grey images must be uint8 or uint16, got {img.dtype}')
-    return np.ascontiguousarray(img)
 
 
 def decide_pair(

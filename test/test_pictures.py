@@ -12,7 +12,6 @@ from initsel_ros.datasets import Frame, Sequence, open_sequence
 from initsel_ros.pictures import (
     groundtruth_baselines,
     iter_overlays,
-    main,
     make_readme_pictures,
     plot_probabilities,
     write_overlay_video,
@@ -20,6 +19,14 @@ from initsel_ros.pictures import (
 )
 from initsel_ros.policy import Reason
 from initsel_ros.selector import SelectorConfig
+
+
+def main(argv: list[str]) -> int:
+    """``initsel pictures ARGV`` (the command that ``python -m initsel_ros.pictures`` was)."""
+    from initsel_ros.cli import main as initsel
+
+    return initsel(['pictures', *argv])
+
 
 STEP_M = 0.01  # camera moves this far along x per frame
 STEP_PX = 2.0  # and the image shifts this far

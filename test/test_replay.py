@@ -7,8 +7,9 @@ import argparse
 import numpy as np
 import pytest
 
+from initsel_ros.cli.replay import add_arguments
 from initsel_ros.errors import ConfigError
-from initsel_ros.ros.replay import add_arguments, plan_replay
+from initsel_ros.ros.replay import plan_replay
 
 
 def test_plan_keeps_recorded_timing_scaled_by_rate():

@@ -16,6 +16,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import DatasetError
+from initsel_ros.image import to_bgr
 
 _LOG = logging.getLogger(__name__)
 
@@ -159,15 +160,8 @@ def without_alpha(img: np.ndarray) -> np.ndarray:
     return img
 
 
-def bgr_from_any(img: np.ndarray) -> np.ndarray:
-    """(H, W, 3) uint8 BGR from grey, BGR or BGRA uint8/uint16 images."""
-    if img.dtype == np.uint16:
-        img = (img >> 8).astype(np.uint8)
-    if img.ndim == 2:
-        return cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
-    if img.shape[2] == 4:
-        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
-    return img
+#: :func:`initsel_ros.image.to_bgr` under its former name.
+bgr_from_any = to_bgr
 
 
 __all__ = ['Frame', 'Sequence', 'bgr_from_any', 'read_image_file', 'without_alpha']

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, TransformStamped
@@ -22,38 +20,17 @@ from std_msgs.msg import Header
 from initsel_ros.camera import Intrinsics, check_distortion
 from initsel_ros.datasets.poses import matrix_to_quaternion, quaternion_to_matrix
 from initsel_ros.errors import ConfigError, ImageConversionError
-
-
-@dataclass(frozen=True)
-class EncodingInfo:
-    """Layout of one ``sensor_msgs/Image`` encoding."""
-
-    channels: int
-    dtype: str  # numpy dtype name of one channel, native order
-    #: cv2 code turning the raw (H, W) or (H, W, C) array into BGR, or None
-    to_bgr: int | None
-
-
-#: Supported encodings (sensor_msgs/image_encodings.hpp names).
-ENCODINGS: dict[str, EncodingInfo] = {
-    'mono8': EncodingInfo(1, 'uint8', None),
-    'mono16': EncodingInfo(1, 'uint16', None),
-    '16UC1': EncodingInfo(1, 'uint16', None),
-    'rgb8': EncodingInfo(3, 'uint8', cv2.COLOR_RGB2BGR),
-    'bgr8': EncodingInfo(3, 'uint8', None),
-    'rgba8': EncodingInfo(4, 'uint8', cv2.COLOR_RGBA2BGR),
-    'bgra8': EncodingInfo(4, 'uint8', cv2.COLOR_BGRA2BGR),
-    # OpenCV names Bayer patterns after the second row, so RGGB is its BayerBG (as cv_bridge).
-    'bayer_rggb8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerBG2BGR),
-    'bayer_bggr8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerRG2BGR),
-    'bayer_gbrg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGR2BGR),
-    'bayer_grbg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGB2BGR),
-}
-
-#: Largest compressed image decoded, pixels (its header is read first: no decompression bomb).
-MAX_DECODED_PIXELS = 1 << 26
-_PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
-_JPEG_MAGIC = b'\xff\xd8'
+from initsel_ros.image import (
+    ENCODINGS,
+    MAX_DECODED_PIXELS,
+    EncodingInfo,
+    decode_compressed,
+    decode_raw,
+    encode_compressed,
+    significant_bits,
+    to_8bit,
+    to_cv,
+)
 
 #: Point cloud fields published on ``init/points``: all float32, little-endian, in this order.
 POINT_FIELDS: tuple[str, ...] = ('x', 'y', 'z', 'u0', 'v0', 'u1', 'v1')
@@ -89,74 +66,13 @@ def seconds_to_stamp(seconds: float) -> Time:
 
 # ------------------------------------------------------------------------------------- images
 def image_to_numpy(msg: Image) -> np.ndarray:
-    """Pixels of an Image message as an array in the message's own channel order.
-
-    Args:
-        msg: ``sensor_msgs/Image`` in one of :data:`ENCODINGS`.
-
-    Returns:
-        (H, W) for mono and Bayer encodings (raw mosaic), (H, W, C) otherwise; uint8, or
-        uint16 (native byte order) for mono16. A view on ``msg.data`` when no copy is needed.
+    """Pixels of an Image message in its own channel order (:func:`initsel_ros.image.decode_raw`).
 
     Raises:
         ImageConversionError: unknown encoding, zero size, ``step`` shorter than a row, or
             ``data`` shorter than ``step * height``.
     """
-    encoding = msg.encoding
-    info = ENCODINGS.get(encoding)
-    if info is None:
-        raise ImageConversionError(
-            f'unsupported image encoding {encoding!r} (supported: {", ".join(ENCODINGS)})'
-        )
-    height, width, step = int(msg.height), int(msg.width), int(msg.step)
-    if height <= 0 or width <= 0:
-        raise ImageConversionError(f'{encoding} image has zero size ({width}x{height})')
-    itemsize = np.dtype(info.dtype).itemsize
-    row_bytes = width * info.channels * itemsize
-    if step < row_bytes:
-        raise ImageConversionError(
-            f'{encoding} image {width}x{height}: step {step} < width * bytes per pixel '
-            f'= {row_bytes}'
-        )
-    data = np.frombuffer(msg.data, dtype=np.uint8)
-    if data.size < step * height:
-        raise ImageConversionError(
-            f'{encoding} image {width}x{height}: data has {data.size} bytes, expected '
-            f'step * height = {step * height}'
-        )
-    rows = data[: step * height].reshape(height, step)[:, :row_bytes]
-    if itemsize == 1:
-        pixels = rows
-    else:
-        order = '>' if msg.is_bigendian else '<'
-        pixels = np.ascontiguousarray(rows).view(np.dtype(info.dtype).newbyteorder(order))
-        pixels = pixels.astype(info.dtype, copy=False)  # native order
-    if info.channels == 1:
-        return pixels.reshape(height, width)
-    return pixels.reshape(height, width, info.channels)
-
-
-def significant_bits(pixels: np.ndarray) -> int:
-    """Bits a 16-bit image uses: those of its largest value, at least 8 (0 when empty)."""
-    if pixels.size == 0:
-        return 0
-    return max(8, int(pixels.max()).bit_length())
-
-
-def to_8bit(pixels: np.ndarray, bits: int = 0) -> np.ndarray:
-    """A uint16 image whose values use ``bits`` bits, as uint8 (``bits - 8`` low bits dropped).
-
-    Args:
-        pixels: uint16 array, any shape.
-        bits: significant bits, 8 to 16 (values above ``2**bits - 1`` saturate); 0 = this
-            image's own :func:`significant_bits`.
-    """
-    bits = bits or significant_bits(pixels)
-    shift = min(max(int(bits), 8), 16) - 8
-    top = (1 << (shift + 8)) - 1
-    if top < 0xFFFF:
-        pixels = np.minimum(pixels, top)
-    return (pixels >> shift).astype(np.uint8)
+    return decode_raw(msg.data, msg.encoding, msg.width, msg.height, msg.step, msg.is_bigendian)
 
 
 def image_to_cv(msg: Image, bit_depth: int = 0) -> np.ndarray:
@@ -176,69 +92,19 @@ def image_to_cv(msg: Image, bit_depth: int = 0) -> np.ndarray:
     return pixels_to_cv(pixels, msg.encoding, bit_depth)
 
 
-def pixels_to_cv(pixels: np.ndarray, encoding: str, bit_depth: int = 0) -> np.ndarray:
-    """:func:`image_to_numpy` output in ``encoding`` -> (H, W) uint8 or (H, W, 3) uint8 BGR.
-
-    Raises:
-        ImageConversionError: when the colour conversion fails.
-    """
-    if pixels.dtype == np.uint16:
-        return to_8bit(pixels, bit_depth)
-    info = ENCODINGS[encoding]
-    if info.to_bgr is not None:
-        try:
-            return cv2.cvtColor(np.ascontiguousarray(pixels), info.to_bgr)
-        except cv2.error as exc:
-            raise ImageConversionError(
-                f'{encoding} image {pixels.shape[1]}x{pixels.shape[0]}: cannot convert to BGR: '
-                f'{exc}'
-            ) from exc
-    return pixels
+#: :func:`initsel_ros.image.to_cv` under its former name.
+pixels_to_cv = to_cv
 
 
 # -------------------------------------------------------------------------- compressed images
 def compressed_to_numpy(msg: CompressedImage) -> np.ndarray:
-    """Decode a JPEG or PNG ``sensor_msgs/CompressedImage`` (``cv2.imdecode``).
-
-    Returns:
-        (H, W) grey or (H, W, 3) BGR, uint8, or uint16 for 16-bit PNGs (alpha dropped).
+    """Decode a JPEG or PNG CompressedImage (:func:`initsel_ros.image.decode_compressed`).
 
     Raises:
         ImageConversionError: empty data, not JPEG/PNG (``compressedDepth`` included), larger
             than :data:`MAX_DECODED_PIXELS`, or corrupt.
     """
-    fmt = str(msg.format)
-    data = np.frombuffer(msg.data, dtype=np.uint8)
-    what = f'compressed image (format {fmt!r}, {data.size} bytes)'
-    if 'compresseddepth' in fmt.lower().replace(' ', ''):
-        raise ImageConversionError(f'{what}: compressedDepth is a depth image, not a camera image')
-    head = bytes(data[:64])
-    if head.startswith(_PNG_MAGIC):
-        size = _png_size(head)
-    elif head.startswith(_JPEG_MAGIC):
-        size = _jpeg_size(data)
-    else:
-        raise ImageConversionError(f'{what}: not JPEG or PNG data')
-    if size is None:
-        raise ImageConversionError(f'{what}: corrupt header')
-    width, height = size
-    if width * height > MAX_DECODED_PIXELS or width == 0 or height == 0:
-        raise ImageConversionError(
-            f'{what}: {width}x{height} is outside 1..{MAX_DECODED_PIXELS} pixels'
-        )
-    try:
-        image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
-    except cv2.error as exc:
-        raise ImageConversionError(f'{what}: cannot decode: {exc}') from exc
-    if image is None or image.size == 0:
-        raise ImageConversionError(f'{what}: cannot decode (corrupt data?)')
-    if image.ndim == 3 and image.shape[2] == 4:
-        image = image[:, :, :3]
-    if image.ndim == 3 and image.shape[2] == 1:
-        image = image[:, :, 0]
-    if image.dtype not in (np.uint8, np.uint16) or image.ndim not in (2, 3):
-        raise ImageConversionError(f'{what}: decoded to unsupported {image.dtype} {image.shape}')
-    return np.ascontiguousarray(image)
+    return decode_compressed(msg.data, str(msg.format))
 
 
 def compressed_to_cv(msg: CompressedImage, bit_depth: int = 0) -> np.ndarray:
@@ -266,55 +132,12 @@ def numpy_to_compressed(
     Raises:
         ImageConversionError: unknown ``fmt`` or pixels OpenCV cannot encode that way.
     """
-    pixels = np.asarray(pixels)
-    if fmt not in ('jpeg', 'png'):
-        raise ImageConversionError(f"compressed format must be 'jpeg' or 'png', got {fmt!r}")
-    depth = 16 if pixels.dtype == np.uint16 else 8
-    encoding = f'{"mono" if pixels.ndim == 2 else "bgr"}{depth}'
-    params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if fmt == 'jpeg' else []
-    try:
-        ok, buffer = cv2.imencode(f'.{"jpg" if fmt == "jpeg" else "png"}', pixels, params)
-    except cv2.error as exc:
-        raise ImageConversionError(f'cannot encode {encoding} as {fmt}: {exc}') from exc
-    if not ok:
-        raise ImageConversionError(f'cannot encode {encoding} as {fmt}')
+    data, fmt_field = encode_compressed(pixels, fmt, quality)
     msg = CompressedImage()
     msg.header = Header(stamp=stamp or Time(), frame_id=frame_id)
-    msg.format = f'{encoding}; {fmt} compressed {encoding}'
-    msg.data = buffer.tobytes()
+    msg.format = fmt_field
+    msg.data = data
     return msg
-
-
-def _png_size(head: bytes) -> tuple[int, int] | None:
-    """(width, height) from a PNG's IHDR chunk, or None."""
-    if len(head) < 24 or head[12:16] != b'IHDR':
-        return None
-    return int.from_bytes(head[16:20], 'big'), int.from_bytes(head[20:24], 'big')
-
-
-def _jpeg_size(data: np.ndarray) -> tuple[int, int] | None:
-    """(width, height) from a JPEG's first start-of-frame marker, or None."""
-    buf = memoryview(np.ascontiguousarray(data))
-    i = 2
-    while i + 9 <= len(buf):
-        if buf[i] != 0xFF:
-            return None
-        marker = buf[i + 1]
-        if marker == 0xFF:  # fill byte
-            i += 1
-            continue
-        if marker in (0x01, *range(0xD0, 0xD8)):  # markers without a length
-            i += 2
-            continue
-        length = int.from_bytes(buf[i + 2:i + 4], 'big')
-        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            height = int.from_bytes(buf[i + 5:i + 7], 'big')
-            width = int.from_bytes(buf[i + 7:i + 9], 'big')
-            return width, height
-        if length < 2:
-            return None
-        i += 2 + length
-    return None
 
 
 def numpy_to_image(
@@ -560,6 +383,7 @@ def make_transform(
 
 __all__ = [
     'ENCODINGS',
+    'MAX_DECODED_PIXELS',
     'POINT_FIELDS',
     'EncodingInfo',
     'camera_info_to_intrinsics',

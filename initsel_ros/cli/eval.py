@@ -6,8 +6,6 @@ import argparse
 import contextlib
 from pathlib import Path
 
-from initsel_ros.learn.candidates import Candidate
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel eval``."""
@@ -22,9 +20,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              'compare them with the model file (thresholds by grouped '
                              'cross-validation on these pairs)')
     parser.add_argument('--candidates', nargs='+', default=None, metavar='FAMILY',
-                        choices=[c.value for c in Candidate],
-                        help='families to fit with --train: '
-                             + ', '.join(c.value for c in Candidate) + ' (default: all)')
+                        help='families to fit with --train (default: all): logistic, '
+                             'logistic+extra, trees, trees+extra, hgb+extra, mlp+extra')
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG plots')
 
 
@@ -32,6 +29,8 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate and print the report."""
     import csv
 
+    from initsel_ros.errors import ConfigError
+    from initsel_ros.learn.candidates import Candidate
     from initsel_ros.learn.evaluate import evaluate, report_markdown, results_csv_rows
     from initsel_ros.learn.table import read_tables
     from initsel_ros.learn.train import prepare
@@ -45,6 +44,11 @@ def run(args: argparse.Namespace) -> int:
         train = prepare(read_tables(args.train), config)
     kwargs = {}
     if args.candidates:
+        known = [c.value for c in Candidate]
+        unknown = [c for c in args.candidates if c not in known]
+        if unknown:
+            raise ConfigError(f'--candidates: unknown family {", ".join(unknown)} '
+                              f'(choose from {", ".join(known)})')
         kwargs['candidates'] = tuple(Candidate(c) for c in args.candidates)
     report = evaluate(test, models, train=train, train_config=config, **kwargs)
     text = report_markdown(report)
