@@ -32,8 +32,11 @@ from initsel_ros.errors import InitselError
 
 log = logging.getLogger(__name__)
 
-#: Targets from the task (seconds, or a ratio).
-DECISION_TARGET_S = 50e-6
+#: Targets from the issues (seconds, or a ratio). The decision's own budget was 50 us for the
+#: paper's 23-feature logistic models; issue 10 allows model inputs that cost more (the extra
+#: features' homography fit) as long as the per-frame path stays within FRAME_MEDIAN_TARGET_S
+#: and the decision stays cheaper than ORB-SLAM's selection by BASELINE_RATIO_TARGET: 1 ms.
+DECISION_TARGET_S = 1e-3
 BASELINE_RATIO_TARGET = 20.0
 FRAME_MEDIAN_TARGET_S = 5e-3
 FRAME_P99_TARGET_S = 15e-3
@@ -132,8 +135,8 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         orb = micro.time_orbslam(pairs, base_repeat)
         estimators = micro.time_estimators(pairs, intrinsics.K, base_repeat)
         d = decision.median
-        table.add('decision: 23 features + 4 models + policy',
-                  _us(d), _us(decision.percentile(99)), '≤ 50 µs median',
+        table.add('decision: model inputs + 4 models + policy',
+                  _us(d), _us(decision.percentile(99)), '≤ 1 ms median (within the frame)',
                   _verdict(d <= DECISION_TARGET_S))
         for part in parts:
             table.add(part.name, _us(part.median), _us(part.percentile(99)))
