@@ -32,7 +32,7 @@ def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path,
                    '--skip', 'dataset', '--json', str(out)])
     assert status == 0
     printed = capsys.readouterr().out
-    assert '| decision: 23 features + 4 models + policy |' in printed
+    assert '| decision: model inputs + 4 models + policy |' in printed
     assert 'ORB-SLAM H/F selection' in printed and 'per-frame path' in printed
     figures = json.loads(out.read_text())
     assert figures['machine']['cores'] >= 1
