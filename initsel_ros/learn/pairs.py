@@ -615,7 +615,8 @@ def _dask_client(config: DatasetConfig) -> Any:
             raise DatasetError(f'cannot reach the dask scheduler {config.scheduler}: '
                                f'{exc}') from exc
     cluster = LocalCluster(n_workers=max(1, config.jobs), threads_per_worker=1,
-                           processes=True, dashboard_address=None)
+                           processes=True, dashboard_address=None,
+                           silence_logs=logging.WARNING)
     client = Client(cluster)
     client.cluster_owned = cluster  # closed with the client below
     return client
@@ -710,7 +711,13 @@ def build_table(
         counts['pairs'] += sum(len(rows) for rows in plan.chunks.values())
         bar.update(counts['batches'], counts['pairs'])
 
-    executor = Executor(config.executor)
+    try:
+        executor = Executor(config.executor)
+    except ValueError:
+        raise DatasetError(f'unknown executor {config.executor!r}: '
+                           f'{", ".join(e.value for e in Executor)}') from None
+    if config.scheduler and executor is not Executor.DASK:
+        raise DatasetError('a dask scheduler address needs the dask executor (--executor dask)')
     potential_pairs = sum(len(task.frames) - 1 for task in tasks)
     if executor is Executor.DASK:
         _run_on_dask(plans, config, on_done)
