@@ -630,9 +630,9 @@ def _run_on_dask(plans: list[_Plan], config: DatasetConfig,
     (pairs dropped while tracking shorten the last slices) and depend on the tracking task's
     result, which dask keeps on the worker that made it.
     """
+    client = _dask_client(config)  # DatasetError when dask is missing
     from dask.distributed import as_completed
 
-    client = _dask_client(config)
     try:
         futures = {}
         for plan in plans:
