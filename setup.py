@@ -35,6 +35,7 @@ setup(
         'ros': ros_wheels,
         'test': ['pytest>=7', 'hypothesis>=6', 'ruff>=0.5'],
         'plot': ['matplotlib>=3.7'],
+        'cluster': ['dask[distributed]>=2024.1'],
     },
     zip_safe=True,
     maintainer='initsel_ros developers',

@@ -245,13 +245,17 @@ def _dataset_rows(table: Table, folder: Path) -> list[dict[str, Any]]:
         return []
     out = []
     for jobs in (1, 2):
-        res = dataset_speed(folder, jobs)
-        table.add(f'dataset building, {jobs} core{"s" if jobs > 1 else ""} '
-                  f'({res.pairs} labelled pairs, batches of 30)',
+        res = dataset_speed(folder, jobs, repeat=3)
+        table.add(f'initsel dataset, --jobs {jobs} ({res.pairs} labelled pairs: the sequence '
+                  f'3 times, batches of 30, chunks of 10 pairs)',
                   f'{res.pairs_per_second:.0f} pairs/s', '', '',
                   f'{res.seconds:.1f} s')
         out.append({'jobs': jobs, 'pairs': res.pairs, 'seconds': res.seconds,
                     'pairs_per_second': res.pairs_per_second})
+    ratio = out[1]['pairs_per_second'] / out[0]['pairs_per_second']
+    table.add('initsel dataset, --jobs 2 / --jobs 1', f'{ratio:.2f} x', '', '',
+              f'load {os.getloadavg()[0]:.1f}')
+    out.append({'jobs_2_over_1': ratio})
     return out
 
 

@@ -19,7 +19,7 @@ if [ ! -f "$stamp" ] || [ "$root/setup.py" -nt "$stamp" ]; then
     [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
     # (sed drops the notes this machine's pip configuration prints for every package)
     "$venv/bin/python" -m pip install --quiet --upgrade pip 2>&1 | sed '/is ignored: it is neither/d'
-    "$venv/bin/python" -m pip install --quiet -e "$root[ros,test,plot]" 2>&1 \
+    "$venv/bin/python" -m pip install --quiet -e "$root[ros,test,plot,cluster]" 2>&1 \
         | sed '/is ignored: it is neither/d'
 
     touch "$stamp"

@@ -205,14 +205,15 @@ class DatasetResult:
         return self.pairs / self.seconds if self.seconds > 0 else float('nan')
 
 
-def dataset_speed(folder: Path, jobs: int, batch: int = 30) -> DatasetResult:
-    """Build the pair table of one sequence with ``jobs`` processes (learn.pairs)."""
+def dataset_speed(folder: Path, jobs: int, batch: int = 30, repeat: int = 1) -> DatasetResult:
+    """Build the pair table of one sequence, ``repeat`` times over, with ``jobs`` processes
+    (learn.pairs; the repeats amortize the workers' start-up as a longer dataset would)."""
     from initsel_ros.learn.pairs import DatasetConfig, build_table
 
     stats: list[Any] = []
     start = time.perf_counter()
-    table = build_table([folder], DatasetConfig(batch=batch, jobs=jobs), progress=False,
-                        on_stats=stats.append)
+    table = build_table([folder] * max(1, repeat), DatasetConfig(batch=batch, jobs=jobs),
+                        progress=False, on_stats=stats.append)
     seconds = stats[0].seconds if stats else time.perf_counter() - start
     return DatasetResult(jobs, len(table), seconds)
 

@@ -23,6 +23,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='correspondences: KLT tracks through the batch, or ORB matches '
                              '(sparse or distant frames) (default klt)')
     parser.add_argument('--jobs', type=int, default=2, help='worker processes (default 2)')
+    parser.add_argument('--chunk', type=int, default=10,
+                        help='pairs per labelling task; a batch is tracked in one task and '
+                             'labelled in chunks across the workers (default 10; 0 = whole batch)')
+    parser.add_argument('--executor', choices=('processes', 'dask'), default='processes',
+                        help='processes: a local pool of --jobs; dask: a dask.distributed '
+                             'cluster (pip extra "cluster") (default processes)')
+    parser.add_argument('--scheduler', default=None, metavar='ADDRESS',
+                        help='dask scheduler address (default: a LocalCluster of --jobs '
+                             'workers on this machine); SOURCE paths must exist on the workers')
     parser.add_argument('--stride', type=int, default=1,
                         help='use every n-th frame (default 1: all)')
     parser.add_argument('--max-features', type=int, default=300,
@@ -73,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
         nearest_tolerance=args.nearest_tolerance,
         sequence=args.sequence,
         image_topic=args.image_topic,
+        chunk=max(0, args.chunk), executor=args.executor, scheduler=args.scheduler,
     )
     stats: list[BuildStats] = []
     table = build_table(args.sources, config, progress=not args.quiet, on_stats=stats.append)

@@ -229,6 +229,72 @@ def method_outcome(
     )
 
 
+def ground_truth_points(
+    p0: np.ndarray,
+    K: np.ndarray,
+    depth_ref: np.ndarray | None,
+    depth_pixels: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Ground-truth 3D points of the reference pixels (the depth half of :func:`label_pair`).
+
+    Parameters
+    ----------
+    p0 : (N, 2) array
+        Reference pixels (undistorted).
+    K : (3, 3) array
+        Camera matrix.
+    depth_ref : (H, W) float32 or None
+        Reference depth, metres; None gives NaN points, none valid.
+    depth_pixels : (N, 2) array or None
+        Where to read the depth when it is on another pixel grid than ``p0``; default p0.
+
+    Returns
+    -------
+    points : (N, 3) float64
+        Reference-frame points, NaN where there is no depth.
+    valid : (N,) bool
+        Where the depth was available.
+    """
+    if depth_ref is None:
+        return np.full((len(p0), 3), np.nan), np.zeros(len(p0), dtype=bool)
+    lookup = p0 if depth_pixels is None else depth_pixels
+    gt_points, gt_valid = backproject(lookup, depth_ref, K)
+    if depth_pixels is not None:  # the ray through the undistorted pixel, at that depth
+        rays = np.column_stack(((np.asarray(p0, float) - K[:2, 2]) / np.diag(K)[:2],
+                                np.ones(len(p0))))
+        gt_points = rays * gt_points[:, 2:3]
+    return gt_points, gt_valid
+
+
+def label_pair_points(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    gt_points: np.ndarray,
+    gt_valid: np.ndarray,
+    T_w_ref: np.ndarray,
+    T_w_cur: np.ndarray,
+    config: LabelConfig | None = None,
+    has_depth: bool = True,
+) -> PairLabels:
+    """Label one pair from precomputed ground-truth points (:func:`ground_truth_points`).
+
+    The same result as :func:`label_pair`; the dataset builder computes the points where the
+    depth map is loaded and labels the pairs elsewhere (a worker, a cluster).
+    """
+    config = config or LabelConfig()
+    R_gt, t_gt = geometry.relative_pose(np.asarray(T_w_ref), np.asarray(T_w_cur))
+    t_gt = np.asarray(t_gt, dtype=float).reshape(3)
+    baseline = float(np.linalg.norm(t_gt))
+    rotation = float(geometry.rotation_angle_deg(R_gt))
+    outcomes = {
+        m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
+        for m in POSE_METHODS
+    }
+    return PairLabels(baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config,
+                      has_depth=has_depth)
+
+
 def label_pair(
     p0: np.ndarray,
     p1: np.ndarray,
@@ -256,27 +322,9 @@ def label_pair(
         Where to read ``depth_ref`` for each correspondence, when the depth map is on another
         pixel grid than ``p0`` (the distorted image, when ``p0`` is undistorted); default p0.
     """
-    config = config or LabelConfig()
-    R_gt, t_gt = geometry.relative_pose(np.asarray(T_w_ref), np.asarray(T_w_cur))
-    t_gt = np.asarray(t_gt, dtype=float).reshape(3)
-    baseline = float(np.linalg.norm(t_gt))
-    rotation = float(geometry.rotation_angle_deg(R_gt))
-    if depth_ref is None:
-        gt_points = np.full((len(p0), 3), np.nan)
-        gt_valid = np.zeros(len(p0), dtype=bool)
-    else:
-        lookup = p0 if depth_pixels is None else depth_pixels
-        gt_points, gt_valid = backproject(lookup, depth_ref, K)
-        if depth_pixels is not None:  # the ray through the undistorted pixel, at that depth
-            rays = np.column_stack(((np.asarray(p0, float) - K[:2, 2]) / np.diag(K)[:2],
-                                    np.ones(len(p0))))
-            gt_points = rays * gt_points[:, 2:3]
-    outcomes = {
-        m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
-        for m in POSE_METHODS
-    }
-    return PairLabels(baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config,
-                      has_depth=depth_ref is not None)
+    gt_points, gt_valid = ground_truth_points(p0, K, depth_ref, depth_pixels)
+    return label_pair_points(p0, p1, K, gt_points, gt_valid, T_w_ref, T_w_cur, config,
+                             has_depth=depth_ref is not None)
 
 
 def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np.ndarray]:
@@ -329,7 +377,9 @@ __all__ = [
     'PairLabels',
     'ScaleRule',
     'backproject',
+    'ground_truth_points',
     'label_pair',
+    'label_pair_points',
     'method_outcome',
     'relabel',
 ]

@@ -21,6 +21,7 @@ import multiprocessing
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
@@ -37,7 +38,8 @@ from initsel_ros.learn.labels import (
     POSE_METHODS,
     LabelConfig,
     PairLabels,
-    label_pair,
+    ground_truth_points,
+    label_pair_points,
 )
 from initsel_ros.learn.table import (
     EXTRA_NAMES,
@@ -112,6 +114,15 @@ class DatasetConfig:
         KITTI sequence ('NN') for sources that are a KITTI odometry root.
     image_topic : str or None
         Image topic of bag sources (None = the reader's default).
+    chunk : int
+        Pairs per labelling task: a tracked batch is labelled in slices of this many pairs,
+        in parallel (0 = the whole batch in one task).
+    executor : str
+        ``'processes'`` (a local pool of ``jobs`` processes) or ``'dask'`` (a
+        dask.distributed cluster, see ``scheduler``).
+    scheduler : str or None
+        Dask scheduler address (e.g. ``tcp://host:8786``); None starts a LocalCluster of
+        ``jobs`` single-threaded worker processes on this machine.
     """
 
     batch: int = 90
@@ -128,6 +139,9 @@ class DatasetConfig:
     nearest_tolerance: float | None = None
     sequence: str | None = None
     image_topic: str | None = None
+    chunk: int = 10
+    executor: str = 'processes'
+    scheduler: str | None = None
 
 
 def batch_ranges(n_frames: int, batch: int, stride: int = 1) -> list[list[int]]:
@@ -354,23 +368,68 @@ class BatchTask:
     config: DatasetConfig
 
 
-def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
-                         config: DatasetConfig) -> list[dict[str, Any]]:
-    """Rows of one batch of an open sequence (pairs without ground truth are skipped)."""
+@dataclass(frozen=True)
+class PairInput:
+    """Everything the labelling of one pair needs, without the images (small to send).
+
+    Attributes
+    ----------
+    pair : Pair
+        Correspondences (undistorted when the camera has lens distortion).
+    gt_points, gt_valid : (N, 3) float64, (N,) bool
+        Ground-truth points of ``pair.p0`` from the reference depth
+        (:func:`initsel_ros.learn.labels.ground_truth_points`).
+    T_ref, T_cur : (4, 4) float64
+        Ground-truth camera-to-world poses.
+    stamps : (float, float)
+        Reference and current image times.
+    """
+
+    pair: Pair
+    gt_points: np.ndarray
+    gt_valid: np.ndarray
+    T_ref: np.ndarray
+    T_cur: np.ndarray
+    stamps: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class TrackedBatch:
+    """A batch after the sequential stage (decoding, tracking, ground-truth points).
+
+    ``inputs`` holds the pairs that will be labelled, in frame order; pairs without a pose or
+    with fewer than ``min_tracks`` correspondences are already dropped. Its slices are labelled
+    independently (:func:`label_inputs`), in a pool or on a cluster.
+    """
+
+    sequence_name: str
+    batch: int
+    size: tuple[int, int]
+    K: np.ndarray
+    has_depth: bool
+    inputs: tuple[PairInput, ...]
+    config: DatasetConfig
+
+
+def track_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
+                         config: DatasetConfig) -> TrackedBatch:
+    """The sequential part of one batch: correspondences and ground-truth points per pair."""
     frames = list(frames)
     ref = frames[0]
+    intr = sequence.intrinsics
+    K = intr.K
+    size = (intr.width, intr.height)
     T_ref = sequence.frames[ref].pose
     if T_ref is None:
         LOG.debug('%s batch %d: reference frame %d has no pose', sequence.name, batch, ref)
-        return []
-    intr = sequence.intrinsics
-    K = intr.K
+        return TrackedBatch(sequence.name, batch, size, K, sequence.has_depth, (), config)
     depth = sequence.depth(ref)  # None: labels from E_t and the rotation error only
     if config.source is Source.KLT:
         pairs: Iterator[Pair] = klt_pairs(sequence, frames, config.tracker)
     else:
         pairs = orb_pairs(sequence, frames, config.orb_features, config.orb_ratio)
-    rows = []
+    inputs = []
+    ref_stamp = float(sequence.frames[ref].stamp)
     for pair in pairs:
         T_cur = sequence.frames[pair.cur_index].pose
         if T_cur is None or len(pair.p0) < config.min_tracks:
@@ -380,20 +439,52 @@ def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
             depth_pixels = pair.p0
             pair = Pair(pair.ref_index, pair.cur_index, undistort_pixels(pair.p0, intr),
                         undistort_pixels(pair.p1, intr))
-        labels = label_pair(pair.p0, pair.p1, K, depth, T_ref, T_cur, config.label,
-                            depth_pixels=depth_pixels)
-        stamps = (float(sequence.frames[ref].stamp), float(sequence.frames[pair.cur_index].stamp))
-        rows.append(pair_row(
-            sequence.name, batch, pair, stamps, (intr.width, intr.height), K, labels,
-            config.source, config,
-        ))
+        gt_points, gt_valid = ground_truth_points(pair.p0, K, depth, depth_pixels)
+        stamps = (ref_stamp, float(sequence.frames[pair.cur_index].stamp))
+        inputs.append(PairInput(pair, gt_points, gt_valid, T_ref, T_cur, stamps))
+    return TrackedBatch(sequence.name, batch, size, K, depth is not None, tuple(inputs), config)
+
+
+def label_inputs(tracked: TrackedBatch, start: int = 0,
+                 stop: int | None = None) -> list[dict[str, Any]]:
+    """Rows of the pairs ``tracked.inputs[start:stop]`` (independent of the other pairs)."""
+    config = tracked.config
+    rows = []
+    for item in tracked.inputs[start:stop]:
+        pair = item.pair
+        labels = label_pair_points(pair.p0, pair.p1, tracked.K, item.gt_points, item.gt_valid,
+                                   item.T_ref, item.T_cur, config.label,
+                                   has_depth=tracked.has_depth)
+        rows.append(pair_row(tracked.sequence_name, tracked.batch, pair, item.stamps,
+                             tracked.size, tracked.K, labels, config.source, config))
     return rows
 
 
-def _run_task(task: BatchTask) -> tuple[BatchTask, list[dict[str, Any]]]:
+def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
+                         config: DatasetConfig) -> list[dict[str, Any]]:
+    """Rows of one batch of an open sequence (pairs without ground truth are skipped)."""
+    return label_inputs(track_sequence_batch(sequence, batch, frames, config))
+
+
+def chunk_bounds(n_pairs: int, chunk: int) -> list[tuple[int, int]]:
+    """(start, stop) slices of ``n_pairs`` pairs, ``chunk`` at a time (0 = one slice)."""
+    if n_pairs <= 0:
+        return []
+    step = n_pairs if chunk <= 0 else chunk
+    return [(i, min(i + step, n_pairs)) for i in range(0, n_pairs, step)]
+
+
+def track_task(task: BatchTask) -> TrackedBatch:
+    """Worker entry: the sequential stage of one batch (the sequence opened once per process)."""
     c = task.config
     sequence = _open(task.path, c.nearest_tolerance, c.sequence, c.image_topic)
-    return task, label_sequence_batch(sequence, task.batch, task.frames, task.config)
+    return track_sequence_batch(sequence, task.batch, task.frames, c)
+
+
+def _single_threaded(fn: Callable[..., Any], *args: Any) -> Any:
+    """Run ``fn`` with OpenCV single-threaded (a cluster worker runs one task per core)."""
+    cv2.setNumThreads(1)
+    return fn(*args)
 
 
 def _init_worker() -> None:
@@ -443,6 +534,129 @@ class BuildStats:
         return self.pairs / self.seconds if self.seconds > 0 else math.nan
 
 
+class Executor(str, Enum):
+    """Where the batches and chunks of :func:`build_table` run."""
+
+    PROCESSES = 'processes'  # a local process pool (jobs = 1: this process)
+    DASK = 'dask'  # a dask.distributed cluster (pip extra ``cluster``)
+
+
+@dataclass
+class _Plan:
+    """Bookkeeping of one batch in :func:`build_table`."""
+
+    task: BatchTask
+    chunks: dict[int, list[dict[str, Any]]] = field(default_factory=dict)
+    n_chunks: int = -1  # -1 until tracked (processes) or planned (dask)
+
+    @property
+    def done(self) -> bool:
+        return self.n_chunks >= 0 and len(self.chunks) == self.n_chunks
+
+    def rows(self) -> list[dict[str, Any]]:
+        return [row for k in sorted(self.chunks) for row in self.chunks[k]]
+
+
+def _run_in_process(plans: list[_Plan], on_done: Callable[[_Plan], None]) -> None:
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # faster per pair than OpenCV's own threads on these small problems
+    try:
+        for plan in plans:
+            plan.n_chunks = 1
+            plan.chunks[0] = label_inputs(track_task(plan.task))
+            on_done(plan)
+    finally:
+        cv2.setNumThreads(threads)
+
+
+def _run_in_pool(plans: list[_Plan], config: DatasetConfig,
+                 on_done: Callable[[_Plan], None]) -> None:
+    """Tracking tasks (at most ``jobs`` at a time) and the label chunks of tracked batches."""
+    ctx = multiprocessing.get_context('spawn')
+    waiting = list(reversed(plans))
+    running: dict[Future, tuple[_Plan, int]] = {}  # chunk -1 = tracking
+    with ProcessPoolExecutor(config.jobs, mp_context=ctx, initializer=_init_worker) as pool:
+        def top_up() -> None:
+            tracking = sum(1 for _, k in running.values() if k < 0)
+            while waiting and tracking < config.jobs:
+                plan = waiting.pop()
+                running[pool.submit(track_task, plan.task)] = (plan, -1)
+                tracking += 1
+
+        top_up()
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in finished:
+                plan, k = running.pop(future)
+                if k >= 0:
+                    plan.chunks[k] = future.result()
+                else:
+                    tracked = future.result()
+                    bounds = chunk_bounds(len(tracked.inputs), config.chunk)
+                    plan.n_chunks = len(bounds)
+                    for j, (start, stop) in enumerate(bounds):
+                        running[pool.submit(label_inputs, tracked, start, stop)] = (plan, j)
+                if plan.done:
+                    on_done(plan)
+            top_up()
+
+
+def _dask_client(config: DatasetConfig) -> Any:
+    """A client of ``config.scheduler``, or of a new LocalCluster of ``jobs`` processes."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise DatasetError('--executor dask needs dask.distributed: pip install '
+                           '"initsel_ros[cluster]" (or dask[distributed])') from exc
+    if config.scheduler:
+        try:
+            return Client(config.scheduler, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise DatasetError(f'cannot reach the dask scheduler {config.scheduler}: '
+                               f'{exc}') from exc
+    cluster = LocalCluster(n_workers=max(1, config.jobs), threads_per_worker=1,
+                           processes=True, dashboard_address=None,
+                           silence_logs=logging.WARNING)
+    client = Client(cluster)
+    client.cluster_owned = cluster  # closed with the client below
+    return client
+
+
+def _run_on_dask(plans: list[_Plan], config: DatasetConfig,
+                 on_done: Callable[[_Plan], None]) -> None:
+    """The same per-batch and per-chunk functions as the pool, as dask tasks.
+
+    Each batch is one tracking task; its label chunks are planned from the batch length
+    (pairs dropped while tracking shorten the last slices) and depend on the tracking task's
+    result, which dask keeps on the worker that made it.
+    """
+    client = _dask_client(config)  # DatasetError when dask is missing
+    from dask.distributed import as_completed
+
+    try:
+        futures = {}
+        for plan in plans:
+            tracked = client.submit(_single_threaded, track_task, plan.task, pure=False)
+            bounds = chunk_bounds(len(plan.task.frames) - 1, config.chunk)
+            plan.n_chunks = len(bounds)
+            for j, (start, stop) in enumerate(bounds):
+                future = client.submit(_single_threaded, label_inputs, tracked, start, stop,
+                                       pure=False)
+                futures[future] = (plan, j)
+            if not bounds:
+                on_done(plan)
+        for future in as_completed(list(futures)):
+            plan, j = futures.pop(future)
+            plan.chunks[j] = future.result()
+            if plan.done:
+                on_done(plan)
+    finally:
+        cluster = getattr(client, 'cluster_owned', None)
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def build_table(
     sources: Sequence[str | Path],
     config: DatasetConfig | None = None,
@@ -452,12 +666,17 @@ def build_table(
 ) -> PairTable:
     """Label every pair of every batch of the given sequences.
 
+    Each batch is tracked in one task (decoding, KLT or ORB, ground-truth points: sequential),
+    and its pairs are labelled in chunks of ``config.chunk`` pairs (pose estimates, baselines,
+    features: independent per pair), so that both stages spread over the workers. Rows come
+    out in sequence, batch and frame order whatever the executor.
+
     Parameters
     ----------
     sources : sequence of paths
         TUM folders or bags (anything :func:`initsel_ros.datasets.open_sequence` reads).
     config : DatasetConfig
-        Batch size, correspondence source, label thresholds, jobs.
+        Batch size, correspondence source, label thresholds, jobs, executor.
     progress : bool
         Draw a progress bar on stderr.
     on_stats : callable
@@ -484,23 +703,30 @@ def build_table(
         for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
             tasks.append(BatchTask(path, b, tuple(frames), config))
     bar = Progress(len(tasks), enabled=progress)
-    results: dict[tuple[str, int], list[dict[str, Any]]] = {}
-    n_pairs = 0
-    if config.jobs <= 1 or len(tasks) <= 1:
-        for i, task in enumerate(tasks):
-            _, rows = _run_task(task)
-            results[(task.path, task.batch)] = rows
-            n_pairs += len(rows)
-            bar.update(i + 1, n_pairs)
+    plans = [_Plan(task) for task in tasks]
+    counts = {'batches': 0, 'pairs': 0}
+
+    def on_done(plan: _Plan) -> None:
+        counts['batches'] += 1
+        counts['pairs'] += sum(len(rows) for rows in plan.chunks.values())
+        bar.update(counts['batches'], counts['pairs'])
+
+    try:
+        executor = Executor(config.executor)
+    except ValueError:
+        raise DatasetError(f'unknown executor {config.executor!r}: '
+                           f'{", ".join(e.value for e in Executor)}') from None
+    if config.scheduler and executor is not Executor.DASK:
+        raise DatasetError('a dask scheduler address needs the dask executor (--executor dask)')
+    potential_pairs = sum(len(task.frames) - 1 for task in tasks)
+    if executor is Executor.DASK:
+        _run_on_dask(plans, config, on_done)
+    elif config.jobs <= 1 or potential_pairs <= max(config.chunk, 1):
+        _run_in_process(plans, on_done)
     else:
-        ctx = multiprocessing.get_context('spawn')
-        with ctx.Pool(config.jobs, initializer=_init_worker) as pool:
-            for i, (task, rows) in enumerate(pool.imap_unordered(_run_task, tasks)):
-                results[(task.path, task.batch)] = rows
-                n_pairs += len(rows)
-                bar.update(i + 1, n_pairs)
-    bar.update(len(tasks), n_pairs, force=True)
-    ordered = [row for task in tasks for row in results[(task.path, task.batch)]]
+        _run_in_pool(plans, config, on_done)
+    bar.update(len(tasks), counts['pairs'], force=True)
+    ordered = [row for plan in plans for row in plan.rows()]
     stats = BuildStats(tuple(names), len(tasks), len(ordered), time.perf_counter() - start)
     LOG.info(
         '%d pairs from %d batches of %d sequence(s) in %.1f s (%.0f pairs/s)',
@@ -538,17 +764,24 @@ __all__ = [
     'BatchTask',
     'BuildStats',
     'DatasetConfig',
+    'Executor',
     'Pair',
+    'PairInput',
     'Progress',
     'Source',
+    'TrackedBatch',
     'batch_ranges',
     'build_table',
+    'chunk_bounds',
     'explain_no_pairs',
     'extra_features',
     'klt_pairs',
+    'label_inputs',
     'label_sequence_batch',
     'orb_matches',
     'orb_pairs',
     'pair_row',
+    'track_sequence_batch',
+    'track_task',
     'undistort_pixels',
 ]
