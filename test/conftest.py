@@ -86,3 +86,16 @@ def near_bag_ros2(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory)
 
     return write_bag(TumSequence(near_sequence), tmp_path_factory.mktemp('bag2') / 'near',
                      'ros2')
+
+
+@pytest.fixture(scope='session')
+def near_evaluation(near_pair_table: Path) -> tuple:
+    """(table, shipped models, :func:`~initsel_ros.learn.evaluate.evaluate` report) on
+    ``near_pair_table``."""
+    from initsel_ros.learn.evaluate import evaluate
+    from initsel_ros.learn.table import read_table
+    from initsel_ros.models import ModelSet, default_model_path
+
+    table = read_table(near_pair_table)
+    models = ModelSet.load(default_model_path())
+    return table, models, evaluate(table, models)

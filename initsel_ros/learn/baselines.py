@@ -52,18 +52,14 @@ def butt_rule(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Butt et al. 2020: (H good, F good) per pair.
 
-    Parameters
-    ----------
-    disparity_px : (N,) array
-        Mean (the authors' code) or median (the paper's text) disparity, pixels.
-    std_px : (N,) array
-        Population standard deviation of the disparity, pixels.
+    Args:
+        disparity_px: (N,) mean (the authors' code) or median (the paper's text) disparity,
+            pixels.
+        std_px: (N,) population standard deviation of the disparity, pixels.
 
-    Returns
-    -------
-    (N,) bool, (N,) bool
-        H fires when disparity > ``h_threshold_px``; F fires when, in addition,
-        std > ``f_std_threshold_px``.
+    Returns:
+        (N,) bool, (N,) bool: H fires when disparity > ``h_threshold_px``; F fires when, in
+        addition, std > ``f_std_threshold_px``.
     """
     disparity_px = np.asarray(disparity_px, dtype=float)
     std_px = np.asarray(std_px, dtype=float)
@@ -76,22 +72,15 @@ def butt_rule(
 class VinsResult:
     """VINS-Mono's initialization check on one correspondence set.
 
-    Attributes
-    ----------
-    n : int
-        Number of correspondences.
-    parallax_px : float
-        Average parallax at the virtual focal length of 460 px.
-    rule : bool
-        The cheap rule: ``n > min_correspondences`` and ``parallax_px > min_parallax_px``.
-    inliers : int
-        Inliers that pass ``recoverPose``'s chirality check (-1 when not run).
-    accepted : bool
-        ``rule`` and ``inliers > min_inliers``.
-    R : (3, 3) float64
-        Rotation (x_cur = R x_ref + t); identity when not run.
-    t : (3,) float64
-        Unit translation direction; zeros when not run.
+    Attributes:
+        n: number of correspondences.
+        parallax_px: average parallax at the virtual focal length of 460 px.
+        rule: the cheap rule: ``n > min_correspondences`` and
+            ``parallax_px > min_parallax_px``.
+        inliers: inliers that pass ``recoverPose``'s chirality check (-1 when not run).
+        accepted: ``rule`` and ``inliers > min_inliers``.
+        R: (3, 3) float64 rotation (x_cur = R x_ref + t); identity when not run.
+        t: (3,) float64 unit translation direction; zeros when not run.
     """
 
     n: int
@@ -131,14 +120,12 @@ def vins_relative_pose(
 ) -> VinsResult:
     """VINS-Mono's ``relativePose`` check (rule, then F-RANSAC + recoverPose).
 
-    Parameters
-    ----------
-    p0, p1 : (N, 2) array
-        Reference and current pixels (undistorted).
-    K : (3, 3) array
-        Camera matrix.
-    run_ransac : bool
-        Run the RANSAC stage even when the cheap rule fails (to record inliers for analysis).
+    Args:
+        p0: (N, 2) reference pixels (undistorted).
+        p1: (N, 2) current pixels (undistorted).
+        K: (3, 3) camera matrix.
+        run_ransac: run the RANSAC stage even when the cheap rule fails (to record inliers
+            for analysis).
     """
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
@@ -180,18 +167,17 @@ def vins_rule(
 class OrbSlamScores:
     """ORB-SLAM's model scores for one correspondence set.
 
-    Attributes
-    ----------
-    s_h, s_f : float
-        Best homography and fundamental-matrix scores (higher is better).
-    ratio : float
-        ``s_h / (s_h + s_f)``; NaN when both are 0 or there are fewer than 8 correspondences.
-    H : (3, 3) float64
-        Best homography, reference -> current pixels (NaN when not computed).
-    F : (3, 3) float64
-        Best fundamental matrix, ``x_cur^T F x_ref = 0`` (NaN when not computed).
-    inliers_h, inliers_f : (N,) bool
-        Inliers of the best models.
+    Attributes:
+        s_h: best homography score (higher is better).
+        s_f: best fundamental-matrix score (higher is better).
+        ratio: ``s_h / (s_h + s_f)``; NaN when both are 0 or there are fewer than 8
+            correspondences.
+        H: (3, 3) float64 best homography, reference -> current pixels (NaN when not
+            computed).
+        F: (3, 3) float64 best fundamental matrix, ``x_cur^T F x_ref = 0`` (NaN when not
+            computed).
+        inliers_h: (N,) bool inliers of the best homography.
+        inliers_f: (N,) bool inliers of the best fundamental matrix.
     """
 
     s_h: float
@@ -304,16 +290,13 @@ def orbslam_scores(
 ) -> OrbSlamScores:
     """ORB-SLAM's parallel H and F RANSAC with symmetric transfer scores.
 
-    Parameters
-    ----------
-    p0, p1 : (N, 2) array
-        Reference and current pixels.
-    iterations : int
-        RANSAC iterations (ORB-SLAM: 200); both models use the same 8-point sets.
-    sigma : float
-        Measurement noise, pixels (ORB-SLAM: 1).
-    rng : numpy Generator
-        Source of the random sets (seeded for reproducibility; default seed 0).
+    Args:
+        p0: (N, 2) reference pixels.
+        p1: (N, 2) current pixels.
+        iterations: RANSAC iterations (ORB-SLAM: 200); both models use the same 8-point sets.
+        sigma: measurement noise, pixels (ORB-SLAM: 1).
+        rng: numpy Generator, the source of the random sets (seeded for reproducibility;
+            default seed 0).
     """
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)

@@ -302,16 +302,13 @@ def evaluate(
 ) -> EvalReport:
     """Score models and baselines on ``test`` (see module docstring).
 
-    Parameters
-    ----------
-    test : PairTable
-        Test pairs.
-    models : ModelSet
-        The model file under test (its scaling and input names pick the feature columns).
-    train : PairTable or None
-        Training pairs: when given, the ``candidates`` families are fitted on them in memory
-        (thresholds by grouped cross-validation on ``train``, never on ``test``) and compared
-        with the model file at equal recall and after the R veto.
+    Args:
+        test: test pairs.
+        models: the model file under test (its scaling and input names pick the feature
+            columns).
+        train: training pairs, or None: when given, the ``candidates`` families are fitted on
+            them in memory (thresholds by grouped cross-validation on ``train``, never on
+            ``test``) and compared with the model file at equal recall and after the R veto.
     """
     paper = test.matrix(feature_columns(models.scaling))
     finite = np.all(np.isfinite(paper), axis=1)

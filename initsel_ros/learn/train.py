@@ -84,14 +84,11 @@ DEFAULT_FAMILY = Family.TREES_EXTRA
 class TreeConfig:
     """Gradient boosting settings (scikit-learn's ``GradientBoostingClassifier`` defaults).
 
-    Attributes
-    ----------
-    n_trees : int
-        Boosting stages (one regression tree each).
-    depth : int
-        Maximum depth of each tree.
-    learning_rate : float
-        Shrinkage of each tree's contribution (folded into the exported leaf values).
+    Attributes:
+        n_trees: boosting stages (one regression tree each).
+        depth: maximum depth of each tree.
+        learning_rate: shrinkage of each tree's contribution (folded into the exported leaf
+            values).
     """
 
     n_trees: int = 100
@@ -113,36 +110,23 @@ class TreeConfig:
 class TrainConfig:
     """Training options.
 
-    Attributes
-    ----------
-    scaling : Scaling
-        Which feature columns the models read (written into the model file).
-    C : float
-        Inverse L2 regularization strength of LogisticRegression.
-    class_weight : ClassWeight
-        ``balanced`` reweights classes to equal total weight (F positives are rare on planar
-        scenes); ``none`` leaves them as they are.
-    target_precision : float
-        The threshold is the lowest one whose out-of-fold precision reaches this.
-    folds : int
-        Grouped cross-validation folds (groups = batches).
-    min_predicted : int
-        A threshold must predict 'yes' on at least this many validation pairs.
-    seed : int
-        Seed of the fold assignment and of the estimators.
-    labels : LabelConfig or None
-        Relabel the table with these thresholds first (None = use its label columns).
-    allow_degenerate : bool
-        Accept a model whose training labels are all one class (it then always or never
-        fires); by default that is a DatasetError.
-    family : Family
-        Family of every model not in ``families``.
-    families : dict
-        Per-model family, e.g. ``{'F': Family.TREES_EXTRA}``.
-    extra : tuple of str
-        The extra features a ``+extra`` family reads (default all of them).
-    trees : TreeConfig
-        Gradient boosting settings of the tree families.
+    Attributes:
+        scaling: which feature columns the models read (written into the model file).
+        C: inverse L2 regularization strength of LogisticRegression.
+        class_weight: ``balanced`` reweights classes to equal total weight (F positives are
+            rare on planar scenes); ``none`` leaves them as they are.
+        target_precision: the threshold is the lowest one whose out-of-fold precision reaches
+            this.
+        folds: grouped cross-validation folds (groups = batches).
+        min_predicted: a threshold must predict 'yes' on at least this many validation pairs.
+        seed: seed of the fold assignment and of the estimators.
+        labels: relabel the table with these thresholds first (None = use its label columns).
+        allow_degenerate: accept a model whose training labels are all one class (it then
+            always or never fires); by default that is a DatasetError.
+        family: family of every model not in ``families``.
+        families: per-model family, e.g. ``{'F': Family.TREES_EXTRA}``.
+        extra: the extra features a ``+extra`` family reads (default all of them).
+        trees: gradient boosting settings of the tree families.
     """
 
     scaling: Scaling = Scaling.RESOLUTION_FREE
@@ -450,14 +434,10 @@ def train_models(
 ) -> TrainReport:
     """Fit the four logistic models and choose their thresholds.
 
-    Parameters
-    ----------
-    table : PairTable
-        Labelled pairs (see :mod:`initsel_ros.learn.table`).
-    config : TrainConfig
-        Options.
-    description : dict
-        Extra metadata for the model file (e.g. the input files).
+    Args:
+        table: labelled pairs (see :mod:`initsel_ros.learn.table`).
+        config: options.
+        description: extra metadata for the model file (e.g. the input files).
     """
     import sklearn
 

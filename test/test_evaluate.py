@@ -1,0 +1,81 @@
+"""Tests for initsel_ros.learn.evaluate: pair scores, precision at recall, the report."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from initsel_ros.learn.evaluate import (
+    binary_scores,
+    precision_at_recall,
+    report_markdown,
+    results_csv_rows,
+    verdict,
+)
+from initsel_ros.learn.table import input_columns
+from initsel_ros.models import METHODS
+
+
+def test_binary_scores_on_a_hand_counted_case():
+    y = np.array([1, 1, 0, 0, 1], bool)
+    pred = np.array([1, 0, 1, 0, 0], bool)
+    s = binary_scores(y, pred)
+    assert (s.predicted, s.positives, s.n) == (2, 3, 5)
+    assert s.accuracy == pytest.approx(0.4)
+    assert s.precision == pytest.approx(0.5)
+    assert s.recall == pytest.approx(1 / 3)
+    assert s.f1 == pytest.approx(0.4)
+
+
+def test_binary_scores_without_predictions_or_positives_are_zero_not_nan():
+    none = binary_scores(np.array([1, 0, 1], bool), np.zeros(3, bool))
+    assert (none.precision, none.recall, none.f1) == (0.0, 0.0, 0.0)
+    no_pos = binary_scores(np.zeros(3, bool), np.array([1, 0, 0], bool))
+    assert (no_pos.precision, no_pos.recall) == (0.0, 0.0)
+    assert no_pos.accuracy == pytest.approx(2 / 3)
+    assert math.isnan(binary_scores(np.zeros(0, bool), np.zeros(0, bool)).accuracy)
+
+
+def test_precision_at_recall_takes_the_best_threshold_reaching_the_recall():
+    y = np.array([1, 0, 1, 0], bool)
+    scores = np.array([0.9, 0.8, 0.7, 0.1])
+    assert precision_at_recall(y, scores, 0.5) == pytest.approx(1.0)  # top pair only
+    assert precision_at_recall(y, scores, 1.0) == pytest.approx(2 / 3)  # down to 0.7
+    assert math.isnan(precision_at_recall(np.zeros(4, bool), scores, 0.5))
+
+
+def test_model_rows_score_the_shipped_thresholds_on_every_pair(near_evaluation):
+    table, models, report = near_evaluation
+    assert report.n_pairs == len(table) > 0
+    assert sum(report.sequences.values()) == len(table)
+    probs = models.predict_proba_batch(
+        table.matrix(input_columns(models.input_names, models.scaling)))
+    rows = {r.name: r for r in report.rows}
+    for m in METHODS:
+        y = np.asarray(table[f'{m}_label']).astype(bool)
+        fired = probs[m] >= models.thresholds[m]
+        np.testing.assert_allclose(report.probabilities[m], probs[m])
+        assert rows[f'Model {m}'].scores == binary_scores(y, fired)
+    r_fired = probs['R'] >= models.thresholds['R']
+    e_fired = probs['E'] >= models.thresholds['E']
+    assert rows['Model E after R veto'].scores == binary_scores(
+        np.asarray(table['E_label']).astype(bool), e_fired & ~r_fired)
+    assert {r.group for r in report.rows} == {'model', 'veto', 'baseline'}
+    assert report.decision_us > 0 and report.inference_ms_all_pairs >= 0
+
+
+def test_report_markdown_and_csv_rows_carry_every_row(near_evaluation):
+    _, _, report = near_evaluation
+    text = report_markdown(report)
+    assert text.startswith(f'# Evaluation on {report.n_pairs} pairs')
+    for row in report.rows:
+        assert row.name in text
+    for system in report.systems:
+        assert system.name in text
+    csv_rows = results_csv_rows(report)
+    names = [r['classifier'] for r in csv_rows]
+    assert names[:len(report.rows)] == [r.name for r in report.rows]
+    assert names[len(report.rows):] == [f'sequence level: {s.name}' for s in report.systems]
+    assert 'No candidate families' in verdict(report)  # evaluated without --train

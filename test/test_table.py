@@ -1,0 +1,81 @@
+"""Tests for initsel_ros.learn.table: CSV round trip and unreadable tables.
+
+Issue 11: a random-bytes CSV raised UnicodeDecodeError in `initsel train` / `initsel eval`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from initsel_ros.cli import main
+from initsel_ros.errors import DatasetError
+from initsel_ros.learn.table import PairTable, read_table, schema, write_table
+
+
+def _random_rows(rng: np.random.Generator, n: int) -> list[dict]:
+    rows = []
+    for i in range(n):
+        row = {}
+        for name, kind in schema():
+            if kind is float:
+                row[name] = float(rng.normal())
+            elif kind is int:
+                row[name] = int(rng.integers(0, 100))
+            else:
+                row[name] = f'text {i}; with spaces'
+        rows.append(row)
+    rows[0]['E_et'] = math.nan
+    rows[0]['E_er'] = math.inf
+    rows[1]['sequence'] = 'a "quoted", comma name'
+    return rows
+
+
+def test_csv_round_trip_keeps_every_column_and_value(tmp_path):
+    rng = np.random.default_rng(0)
+    table = PairTable.from_rows(_random_rows(rng, 5))
+    path = tmp_path / 'sub' / 'pairs.csv'
+    write_table(table, path)
+    back = read_table(path)
+    assert len(back) == 5
+    assert list(back.columns) == [name for name, _ in schema()]
+    for name, kind in schema():
+        a, b = table[name], back[name]
+        if kind is float:
+            np.testing.assert_array_equal(a, b)  # repr round-trips floats, nan and inf
+        else:
+            assert a.tolist() == b.tolist()
+    assert back['sequence'][1] == 'a "quoted", comma name'
+    assert [p.name for p in path.parent.iterdir()] == ['pairs.csv']  # no temp file left
+
+
+def test_reading_a_foreign_csv_names_the_file_and_missing_columns(tmp_path):
+    path = tmp_path / 'other.csv'
+    path.write_text('a,b\n1,2\n')
+    with pytest.raises(DatasetError, match=r'other\.csv.*missing columns'):
+        read_table(path)
+    with pytest.raises(DatasetError, match='cannot read'):
+        read_table(tmp_path / 'absent.csv')
+
+
+@pytest.mark.parametrize('command', ['train', 'eval'])
+def test_a_random_bytes_csv_is_one_line_naming_the_file(tmp_path, capsys, command):
+    path = tmp_path / 'pairs.csv'
+    path.write_bytes(np.random.default_rng(3).integers(0, 256, 4096, dtype=np.uint8).tobytes())
+    with pytest.raises(DatasetError, match=r'pairs\.csv'):
+        read_table(path)
+    argv = [command, str(path), '--out', str(tmp_path / 'm.json')] if command == 'train' else [
+        command, str(path)]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    assert 'pairs.csv' in err and 'Traceback' not in err
+
+
+def test_a_nul_byte_csv_is_one_line_too(tmp_path, capsys):
+    path = tmp_path / 'pairs.csv'
+    path.write_bytes(b'sequence,batch\n\x00\x00\x00\n')
+    assert main(['train', str(path), '--out', str(tmp_path / 'm.json')]) == 1
+    assert 'pairs.csv' in capsys.readouterr().err

@@ -1,0 +1,174 @@
+"""Tests for initsel_ros.learn.train: thresholds, grouped folds, families, degenerate labels.
+
+Issue 11: a single-class table wrote a model that always (or never) fires and exited 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from table_fixtures import synthetic_table
+
+from initsel_ros.cli import main
+from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES
+from initsel_ros.learn.table import write_table
+from initsel_ros.learn.train import (
+    Family,
+    TrainConfig,
+    TreeConfig,
+    choose_threshold,
+    grouped_folds,
+    out_of_fold_scores,
+    train_models,
+)
+from initsel_ros.models import ModelSet
+
+
+def test_threshold_selection_reaches_the_target_precision_with_most_recall():
+    rng = np.random.default_rng(1)
+    y = rng.random(2000) < 0.3
+    scores = np.clip(0.35 * y + rng.normal(0.3, 0.15, 2000), 0, 1)
+    for target in (0.7, 0.8, 0.9):
+        choice = choose_threshold(y, scores, target)
+        assert choice.reached
+        pred = scores >= choice.threshold
+        precision = (pred & y).sum() / pred.sum()
+        assert precision >= target
+        assert choice.precision == pytest.approx(precision)
+        # any lower threshold breaks the target or does not add recall
+        lower = np.sort(np.unique(scores[scores < choice.threshold]))[-20:]
+        for t in lower:
+            p = scores >= t
+            assert (p & y).sum() / p.sum() < target or (p & y).sum() <= (pred & y).sum()
+
+
+def test_unreachable_precision_is_reported_not_hidden():
+    rng = np.random.default_rng(2)
+    y = rng.random(500) < 0.5
+    scores = rng.random(500)  # uninformative
+    choice = choose_threshold(y, scores, 0.99)
+    assert not choice.reached
+    assert 'unreachable' in choice.rule
+    assert 0.0 < choice.threshold < 1.0
+
+
+def test_grouped_folds_never_split_a_batch():
+    groups = np.repeat(np.arange(12), 30)
+    folds = grouped_folds(groups, 5, seed=0)
+    assert sorted(np.concatenate(folds).tolist()) == list(range(len(groups)))
+    for val in folds:
+        inside = set(groups[val])
+        outside = set(groups) - inside
+        assert not inside & outside
+        assert all(np.all(np.isin(np.flatnonzero(groups == g), val)) for g in inside)
+    with pytest.raises(DatasetError, match='at least 2 batches'):
+        grouped_folds(np.zeros(10, int), 5, seed=0)
+
+
+def test_out_of_fold_scores_come_from_models_that_did_not_see_the_batch():
+    groups = np.repeat(np.arange(6), 10)
+    X = groups[:, None].astype(float)
+    y = (groups % 2).astype(int)
+
+    def fit(Xt, yt):
+        seen = set(Xt[:, 0].tolist())
+        return lambda Z: np.array([1.0 if z in seen else 0.0 for z in Z[:, 0]])
+
+    scores = out_of_fold_scores(X, y, groups, fit, folds=3, seed=0)
+    assert np.all(scores == 0.0)
+
+
+def test_each_model_gets_its_family_and_declares_its_features():
+    config = TrainConfig(family=Family.LOGISTIC, families={'F': Family.TREES_EXTRA,
+                                                            'R': Family.TREES},
+                         extra=('x_homography_residual', 'x_disp_p50'),
+                         trees=TreeConfig(20, 2, 0.2))
+    report = train_models(synthetic_table(), config)
+    ms = report.models
+    assert ms.kinds == {'F': 'trees', 'E': 'logistic', 'H': 'logistic', 'R': 'trees'}
+    # extras in the canonical order, whatever order they were asked in
+    assert ms.models['F'].features == (*FEATURE_NAMES, 'x_disp_p50', 'x_homography_residual')
+    assert ms.models['E'].features == FEATURE_NAMES
+    assert ms.extra_names == ('x_disp_p50', 'x_homography_residual')
+    training = ms.metadata['training']
+    assert training['families'] == {'F': 'trees+extra', 'E': 'logistic', 'H': 'logistic',
+                                    'R': 'trees'}
+    assert training['trees']['n_trees'] == 20
+    assert ms.models['F'].metrics['family'] == 'trees+extra'
+    assert len(ms.models['F'].trees) == 20
+    # the synthetic labels follow free__disparity_mean: the trees learn it
+    x = np.zeros(len(ms.input_names))
+    lo, hi = x.copy(), x.copy()
+    lo[1], hi[1] = -2.0, 2.0
+    assert ms.predict_proba(hi)['F'] > ms.predict_proba(lo)['F']
+
+
+def test_training_is_reproducible_for_tree_families():
+    a = train_models(synthetic_table(seed=4), TrainConfig()).models.to_dict()['models']
+    b = train_models(synthetic_table(seed=4), TrainConfig()).models.to_dict()['models']
+    assert a == b
+
+
+def test_bad_family_options_are_one_line(tmp_path, capsys):
+    path = tmp_path / 'pairs.csv'
+    write_table(synthetic_table(), path)
+    for spec in ('forest', 'X=trees', 'F=forest'):
+        assert main(['train', str(path), '--out', str(tmp_path / 'm.json'), '--family',
+                     spec]) == 1
+        err = capsys.readouterr().err
+        assert '--family' in err and len(err.strip().splitlines()) == 1
+    with pytest.raises(ConfigError, match='unknown extra features'):
+        TrainConfig(extra=('x_magic',))
+    with pytest.raises(ConfigError, match='tree depth'):
+        TreeConfig(depth=40)
+
+
+def test_cli_family_options_reach_the_model_file(tmp_path, capsys):
+    path = tmp_path / 'pairs.csv'
+    write_table(synthetic_table(), path)
+    out = tmp_path / 'models.json'
+    assert main(['train', str(path), '--out', str(out), '--family', 'logistic+extra',
+                 '--family', 'H=trees', '--extra-features', 'x_grid_entropy',
+                 '--trees', '12', '--tree-depth', '2']) == 0
+    assert '| H | trees |' in capsys.readouterr().out
+    ms = ModelSet.load(out)
+    assert ms.kinds == {'F': 'logistic', 'E': 'logistic', 'H': 'trees', 'R': 'logistic'}
+    assert ms.extra_names == ('x_grid_entropy',)
+    assert len(ms.models['H'].trees) == 12 and ms.models['H'].depth <= 2
+    assert set(ms.metadata['training']['extra_features']) <= set(EXTRA_FEATURE_NAMES)
+
+
+def test_single_class_training_is_an_error_naming_the_model_and_counts(tmp_path, capsys):
+    table = synthetic_table(R_label=1)
+    path = tmp_path / 'pairs.csv'
+    write_table(table, path)
+    out = tmp_path / 'models.json'
+    assert main(['train', str(path), '--out', str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert 'R' in err and '120 positive' in err and '0 negative' in err
+    assert '--allow-degenerate' in err
+    assert not out.exists()
+
+
+def test_allow_degenerate_writes_the_constant_model_with_a_warning(tmp_path, caplog):
+    table = synthetic_table(R_label=1)
+    path = tmp_path / 'pairs.csv'
+    write_table(table, path)
+    out = tmp_path / 'models.json'
+    assert main(['train', str(path), '--out', str(out), '--allow-degenerate']) == 0
+    assert 'always fire' in caplog.text
+    from initsel_ros.models import ModelSet
+
+    models = ModelSet.load(out)
+    assert models.metadata['training']['degenerate_models'] == ['R']
+
+
+def test_train_models_refuses_single_class_labels_by_default():
+    with pytest.raises(DatasetError, match=r'model F: .*0 positive'):
+        train_models(synthetic_table(F_label=0), TrainConfig())
+    report = train_models(synthetic_table(F_label=0), TrainConfig(allow_degenerate=True))
+    assert report.models.models['F'].bias < -math.log(1e4)
