@@ -29,9 +29,9 @@ import numpy as np
 from initsel_ros.image import to_bgr
 from initsel_ros.names import MODEL_NAMES
 from initsel_ros.policy import Decision, Reason
-from initsel_ros.selector import FrameResult, Initialization, Selector
+from initsel_ros.selector import FrameResult, Initialization
 
-__all__ = ['direction_colors', 'draw_overlay', 'draw_selector_overlay']
+__all__ = ['direction_colors', 'draw_frame_overlay', 'draw_overlay']
 
 #: Number of hue bins the track directions are quantized into (one polyline call each).
 HUE_BINS = 24
@@ -275,18 +275,17 @@ def _paste_wheel(canvas: np.ndarray, radius: int, pad: int) -> None:
     roi[mask] = wheel[:, :, :3][mask]
 
 
-def draw_selector_overlay(
-    image: np.ndarray, selector: Selector, result: FrameResult
-) -> np.ndarray:
-    """:func:`draw_overlay` with the tracks and thresholds taken from ``selector``.
+def draw_frame_overlay(image: np.ndarray, result: FrameResult) -> np.ndarray:
+    """:func:`draw_overlay` with the tracks and thresholds the result carries.
 
-    Call it right after ``result = selector.process(image, stamp)``. When that frame
-    initialized and the tracker already started over (mode 'continuous'), the initialization's
-    own correspondences are drawn instead of the fresh, zero-length tracks.
+    When the frame published an initialization after the tracker started over (mode
+    'continuous', or a verified candidate), the initialization's own correspondences are
+    drawn instead of the fresh, zero-length tracks.
     """
-    tracks = selector.tracker.tracks()
-    ref, cur = tracks.ref, tracks.cur
+    empty = np.zeros((0, 2), np.float32)
+    ref = result.tracks_ref if result.tracks_ref is not None else empty
+    cur = result.tracks_cur if result.tracks_cur is not None else empty
     init = result.initialization
     if init is not None and (len(ref) == 0 or np.array_equal(ref, cur)):
         ref, cur = init.pixels_ref, init.pixels_cur
-    return draw_overlay(image, result, ref, cur, selector.thresholds)
+    return draw_overlay(image, result, ref, cur, result.thresholds)

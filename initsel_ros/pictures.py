@@ -25,7 +25,7 @@ import numpy as np
 from initsel_ros.errors import ConfigError, InitselError
 from initsel_ros.models import ModelSet
 from initsel_ros.names import MODEL_NAMES
-from initsel_ros.overlay import draw_overlay
+from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.selector import FrameResult, Selector, SelectorConfig
 
@@ -88,8 +88,7 @@ def iter_overlays(
     for i in range(start, stop):
         image = sequence.image(i)
         result = selector.process(image, int(stamps[i]))
-        tracks = selector.tracker.tracks()
-        overlay = draw_overlay(image, result, tracks.ref, tracks.cur, selector.thresholds)
+        overlay = draw_frame_overlay(image, result)
         yield i, result, overlay, selector
 
 

@@ -8,6 +8,7 @@ when a model fires, recovers the pose with that method and checks it.
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import cv2
@@ -139,6 +140,10 @@ class FrameResult:
         frames_since_reference: frames between the reference and this frame.
         selection: on frames where a model fired, the candidates tried and their scores.
         verification: while a candidate is verified, this frame's check.
+        tracks_ref: (N, 2) float32 reference pixels of this frame's tracks, as tracked (not
+            undistorted: what an overlay draws on the image); None on skipped frames.
+        tracks_cur: (N, 2) float32 their pixels in this frame.
+        thresholds: the per-model thresholds the decision used.
     """
 
     frame_index: int
@@ -150,6 +155,9 @@ class FrameResult:
     frames_since_reference: int = 0
     selection: Selection | None = None
     verification: VerifyStep | None = None
+    tracks_ref: np.ndarray | None = field(default=None, repr=False, compare=False)
+    tracks_cur: np.ndarray | None = field(default=None, repr=False, compare=False)
+    thresholds: Mapping[str, float] = field(default_factory=dict, compare=False)
 
 
 def decide_pair(
@@ -198,6 +206,7 @@ class Selector:
         self._frame_index = 0
         self._reference_stamp_ns: int | None = None
         self._candidate: _Candidate | None = None
+        self._frame_tracks: Tracks | None = None
 
     def set_intrinsics(self, intrinsics: Intrinsics) -> bool:
         """Use new intrinsics from the next frame on (e.g. from CameraInfo).
@@ -254,6 +263,14 @@ class Selector:
         return out.reshape(-1, 2)
 
     def process(self, image: np.ndarray, stamp_ns: int) -> FrameResult:
+        """Handle one frame (see :meth:`_process`); the result carries its tracks too."""
+        self._frame_tracks = None
+        result = self._process(image, stamp_ns)
+        tracks = self._frame_tracks or self.tracker.tracks()
+        return replace(result, tracks_ref=tracks.ref, tracks_cur=tracks.cur,
+                       thresholds=dict(self.thresholds))
+
+    def _process(self, image: np.ndarray, stamp_ns: int) -> FrameResult:
         """Handle one frame.
 
         Args:
@@ -284,6 +301,7 @@ class Selector:
             return self._new_reference(gray, stamp_ns, Reason.NEW_REFERENCE, index)
 
         tracks = self.tracker.track(gray)
+        self._frame_tracks = tracks
         since = self.tracker.frames_since_reference
         ref, cur = self._undistort(tracks.ref), self._undistort(tracks.cur)
         decision = decide_pair(

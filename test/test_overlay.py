@@ -107,15 +107,10 @@ def test_initialization_inliers_are_marked_in_yellow():
     assert not math.isnan(float(out.mean()))
 
 
-def test_selector_overlay_draws_the_initializing_pairs_after_a_continuous_reset():
-    from types import SimpleNamespace
-
-    from initsel_ros.overlay import draw_selector_overlay
-    from initsel_ros.tracking import Tracks
+def test_frame_overlay_draws_the_initializing_pairs_after_a_continuous_reset():
+    from initsel_ros.overlay import draw_frame_overlay
 
     fresh = np.array([[100, 300], [500, 400]], np.float32)  # tracker restarted: ref == cur
-    tracker = SimpleNamespace(tracks=lambda: Tracks(fresh, fresh.copy(), np.arange(2)))
-    selector = SimpleNamespace(tracker=tracker, thresholds=THRESHOLDS)
     pixels = np.array([[300, 300]], np.float32)
     init = Initialization(
         method=Method.H, R=np.eye(3), t=np.array([0.1, 0, 0]), points=np.ones((1, 3)),
@@ -123,6 +118,24 @@ def test_selector_overlay_draws_the_initializing_pairs_after_a_continuous_reset(
         reference_stamp_ns=500_000_000, stamp_ns=1_000_000_000,
         frames_since_reference=3, probabilities={'H': 0.9}, parallax_deg=2.0,
     )
-    res = FrameResult(7, 1.0, 0.5, Decision(Reason.INITIALIZED, detail='H'), init)
-    out = draw_selector_overlay(np.zeros((480, 640, 3), np.uint8), selector, res)
+    res = FrameResult(7, 1, 0, Decision(Reason.INITIALIZED, detail='H'), init,
+                      tracks_ref=fresh, tracks_cur=fresh.copy(), thresholds=THRESHOLDS)
+    out = draw_frame_overlay(np.zeros((480, 640, 3), np.uint8), res)
     assert out[300, 280].sum() > 150  # the middle of the reference -> current segment
+
+
+def test_a_selector_result_carries_the_tracks_and_thresholds_it_used():
+    from test_selector import constant_models
+    from test_tracking import shifted, texture
+
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.selector import Selector
+
+    sel = Selector(constant_models(), Intrinsics.tum_fr3())
+    img = texture(3)
+    first = sel.process(img, 0)
+    second = sel.process(shifted(img, 2.0, 1.0), 33_000_000)
+    assert first.tracks_ref.shape == first.tracks_cur.shape and len(first.tracks_ref) > 50
+    assert second.thresholds == sel.thresholds
+    moved = np.median(second.tracks_cur - second.tracks_ref, axis=0)
+    assert np.allclose(moved, [2.0, 1.0], atol=0.1)

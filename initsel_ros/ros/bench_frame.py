@@ -15,7 +15,7 @@ import numpy as np
 
 from initsel_ros.benchmarks.common import Timing, time_calls
 from initsel_ros.names import Mode
-from initsel_ros.overlay import draw_selector_overlay
+from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.selector import Selector, SelectorConfig, to_gray
@@ -92,7 +92,7 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
         result = selector.process(image, stamp_ns)
         samples.append(clock() - t0)
         t0 = clock()  # the node draws this only while ~/debug_image has subscribers
-        draw_selector_overlay(image, selector, result)
+        draw_frame_overlay(image, result)
         overlay_samples.append(clock() - t0)
         posed.append(result.selection is not None or result.decision.reason in pose_reasons)
         reason = result.decision.reason.value

@@ -45,7 +45,7 @@ from std_srvs.srv import Trigger
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
 from initsel_ros.models import ModelSet
-from initsel_ros.overlay import draw_selector_overlay
+from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros.params import (
@@ -489,7 +489,7 @@ class SelectorNode(Node):
                              msg: Image | CompressedImage) -> None:
         """Tracks, probabilities and the reason drawn on the frame (see overlay.py)."""
         try:
-            debug = draw_selector_overlay(image, self._selector, result)
+            debug = draw_frame_overlay(image, result)
             self._debug_pub.publish(conv.numpy_to_image(
                 debug, 'bgr8', stamp=msg.header.stamp, frame_id=msg.header.frame_id
             ))
