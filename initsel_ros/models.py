@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from initsel_ros.config_files import config_dirs, find_config_file
 from initsel_ros.errors import GeometryError, ModelFileError
 from initsel_ros.features import (
     ALL_FEATURE_NAMES,
@@ -431,35 +431,6 @@ def _first_difference(a: tuple[str, ...], b: tuple[str, ...]) -> str:
         if x != y:
             return f'index {i}: {x!r} vs {y!r}'
     return f'length {len(a)} vs {len(b)}'
-
-
-def config_dirs() -> list[Path]:
-    """Where packaged configuration is looked for, most specific first.
-
-    The ament share directories (``$AMENT_PREFIX_PATH/*/share/initsel_ros/config``), the
-    interpreter prefix (``pip install``), then the source tree (editable installs).
-    """
-    dirs: list[Path] = []
-    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
-        dirs.append(Path(prefix) / 'share' / PACKAGE / 'config')
-    dirs.append(Path(sys.prefix) / 'share' / PACKAGE / 'config')
-    dirs.append(Path(__file__).resolve().parent.parent / 'config')
-    return dirs
-
-
-def find_config_file(name: str) -> Path:
-    """The first existing ``config/<name>`` among :func:`config_dirs`.
-
-    Raises:
-        ModelFileError: when no directory holds it (the message lists where it looked).
-    """
-    candidates = [d / name for d in config_dirs()]
-    for path in candidates:
-        if path.is_file():
-            return path
-    raise ModelFileError(
-        f'{name} not found; looked in: ' + ', '.join(str(p.parent) for p in candidates)
-    )
 
 
 def default_model_path() -> Path:

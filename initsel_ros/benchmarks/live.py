@@ -33,7 +33,7 @@ def configure_ros_environment() -> None:
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     os.environ.setdefault('ROS_LOG_DIR', tempfile.mkdtemp(prefix='initsel-bench-roslog-'))
     if 'FASTRTPS_DEFAULT_PROFILES_FILE' not in os.environ:
-        from initsel_ros.models import find_config_file
+        from initsel_ros.config_files import find_config_file
 
         try:
             os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(find_config_file('fastdds_shm.xml'))

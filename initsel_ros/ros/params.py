@@ -440,7 +440,7 @@ def default_params_file() -> Path:
     Raises:
         ModelFileError: when it cannot be found (the message lists where it looked).
     """
-    from initsel_ros.models import find_config_file
+    from initsel_ros.config_files import find_config_file
 
     return find_config_file(PARAMS_FILE_NAME)
 
