@@ -56,21 +56,20 @@ class ScaleRule(str, Enum):
 class LabelConfig:
     """Label thresholds.
 
-    Attributes
-    ----------
-    et_max : float
-        A pose is good when E_t is below this (chordal distance, 0..2).
-    er_max : float
-        ... and E_R is below this (metres).
-    rotation_baseline_m : float
-        R label = 1 when the ground-truth baseline is at most this (metres).
-    scale_rule : ScaleRule
-        Which E_R feeds the labels (both are stored).
-    ransac_threshold_px : float
-        RANSAC threshold given to ``estimate_pose`` (pixels).
-    rotation_error_max_deg : float
-        Without depth: a pose is good when E_t is below ``et_max`` and its rotation error
-        (degrees) below this.
+    Attributes:
+        et_max: (float)
+            A pose is good when E_t is below this (chordal distance, 0..2).
+        er_max: (float)
+            ... and E_R is below this (metres).
+        rotation_baseline_m: (float)
+            R label = 1 when the ground-truth baseline is at most this (metres).
+        scale_rule: (ScaleRule)
+            Which E_R feeds the labels (both are stored).
+        ransac_threshold_px: (float)
+            RANSAC threshold given to ``estimate_pose`` (pixels).
+        rotation_error_max_deg: (float)
+            Without depth: a pose is good when E_t is below ``et_max`` and its rotation error
+            (degrees) below this.
     """
 
     et_max: float = 0.8
@@ -144,21 +143,19 @@ class PairLabels:
 def backproject(pixels: np.ndarray, depth: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, ...]:
     """Back-project pixels with a depth image.
 
-    Parameters
-    ----------
-    pixels : (N, 2) array
-        Pixel coordinates (x right, y down); depth is read at the nearest pixel.
-    depth : (H, W) float32
-        Metres, 0 (or non-finite) = no data.
-    K : (3, 3) array
-        Camera matrix of the depth-registered image.
+    Args:
+        pixels: ((N, 2) array)
+            Pixel coordinates (x right, y down); depth is read at the nearest pixel.
+        depth: ((H, W) float32)
+            Metres, 0 (or non-finite) = no data.
+        K: ((3, 3) array)
+            Camera matrix of the depth-registered image.
 
-    Returns
-    -------
-    points : (N, 3) float64
-        Points in the camera frame, metres (NaN where there is no depth).
-    valid : (N,) bool
-        Where the depth was available.
+    Returns:
+        points: ((N, 3) float64)
+            Points in the camera frame, metres (NaN where there is no depth).
+        valid: ((N,) bool)
+            Where the depth was available.
     """
     pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
     h, w = depth.shape[:2]
@@ -237,23 +234,21 @@ def ground_truth_points(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Ground-truth 3D points of the reference pixels (the depth half of :func:`label_pair`).
 
-    Parameters
-    ----------
-    p0 : (N, 2) array
-        Reference pixels (undistorted).
-    K : (3, 3) array
-        Camera matrix.
-    depth_ref : (H, W) float32 or None
-        Reference depth, metres; None gives NaN points, none valid.
-    depth_pixels : (N, 2) array or None
-        Where to read the depth when it is on another pixel grid than ``p0``; default p0.
+    Args:
+        p0: ((N, 2) array)
+            Reference pixels (undistorted).
+        K: ((3, 3) array)
+            Camera matrix.
+        depth_ref: ((H, W) float32 or None)
+            Reference depth, metres; None gives NaN points, none valid.
+        depth_pixels: ((N, 2) array or None)
+            Where to read the depth when it is on another pixel grid than ``p0``; default p0.
 
-    Returns
-    -------
-    points : (N, 3) float64
-        Reference-frame points, NaN where there is no depth.
-    valid : (N,) bool
-        Where the depth was available.
+    Returns:
+        points: ((N, 3) float64)
+            Reference-frame points, NaN where there is no depth.
+        valid: ((N,) bool)
+            Where the depth was available.
     """
     if depth_ref is None:
         return np.full((len(p0), 3), np.nan), np.zeros(len(p0), dtype=bool)
@@ -307,20 +302,19 @@ def label_pair(
 ) -> PairLabels:
     """Label one pair.
 
-    Parameters
-    ----------
-    p0, p1 : (N, 2) float32
-        Reference and current pixels of the correspondences (undistorted).
-    K : (3, 3) array
-        Camera matrix.
-    depth_ref : (H, W) float32 or None
-        Reference frame depth, metres (0 = no data); None labels without depth (E_R NaN,
-        labels from E_t and the rotation error).
-    T_w_ref, T_w_cur : (4, 4) array
-        Ground-truth camera-to-world poses of the two frames.
-    depth_pixels : (N, 2) array or None
-        Where to read ``depth_ref`` for each correspondence, when the depth map is on another
-        pixel grid than ``p0`` (the distorted image, when ``p0`` is undistorted); default p0.
+    Args:
+        p0, p1: ((N, 2) float32)
+            Reference and current pixels of the correspondences (undistorted).
+        K: ((3, 3) array)
+            Camera matrix.
+        depth_ref: ((H, W) float32 or None)
+            Reference frame depth, metres (0 = no data); None labels without depth (E_R NaN,
+            labels from E_t and the rotation error).
+        T_w_ref, T_w_cur: ((4, 4) array)
+            Ground-truth camera-to-world poses of the two frames.
+        depth_pixels: ((N, 2) array or None)
+            Where to read ``depth_ref`` for each correspondence, when the depth map is on another
+            pixel grid than ``p0`` (the distorted image, when ``p0`` is undistorted); default p0.
     """
     gt_points, gt_valid = ground_truth_points(p0, K, depth_ref, depth_pixels)
     return label_pair_points(p0, p1, K, gt_points, gt_valid, T_w_ref, T_w_cur, config,

@@ -65,12 +65,11 @@ class Source(str, Enum):
 class Pair:
     """Correspondences between a batch's reference frame and one later frame.
 
-    Attributes
-    ----------
-    ref_index, cur_index : int
-        Frame indices in the sequence.
-    p0, p1 : (N, 2) float32
-        Reference and current pixels.
+    Attributes:
+        ref_index, cur_index: (int)
+            Frame indices in the sequence.
+        p0, p1: ((N, 2) float32)
+            Reference and current pixels.
     """
 
     ref_index: int
@@ -83,46 +82,45 @@ class Pair:
 class DatasetConfig:
     """Options of :func:`build_table`.
 
-    Attributes
-    ----------
-    batch : int
-        Frames per batch (the paper: 90 for training, 30 for testing).
-    source : Source
-        KLT tracks or ORB matches.
-    jobs : int
-        Worker processes (1 = in this process).
-    min_tracks : int
-        Pairs with fewer correspondences are skipped.
-    tracker : TrackerConfig
-        KLT settings.
-    orb_features : int
-        ORB keypoints per frame (ORB source).
-    orb_ratio : float
-        Lowe ratio test (ORB source).
-    label : LabelConfig
-        Label thresholds and scale rule.
-    orbslam_iterations : int
-        RANSAC iterations of the ORB-SLAM baseline (0 = skip it, columns NaN).
-    vins_ransac : bool
-        Run VINS-Mono's F-RANSAC stage when its cheap rule fires.
-    stride : int
-        Use every ``stride``-th frame (1 = all).
-    nearest_tolerance : float or None
-        Passed to the TUM, EuRoC and bag readers: frames outside the ground-truth trajectory
-        take the nearest pose within this many seconds (None = the reader's default).
-    sequence : str or None
-        KITTI sequence ('NN') for sources that are a KITTI odometry root.
-    image_topic : str or None
-        Image topic of bag sources (None = the reader's default).
-    chunk : int
-        Pairs per labelling task: a tracked batch is labelled in slices of this many pairs,
-        in parallel (0 = the whole batch in one task).
-    executor : str
-        ``'processes'`` (a local pool of ``jobs`` processes) or ``'dask'`` (a
-        dask.distributed cluster, see ``scheduler``).
-    scheduler : str or None
-        Dask scheduler address (e.g. ``tcp://host:8786``); None starts a LocalCluster of
-        ``jobs`` single-threaded worker processes on this machine.
+    Attributes:
+        batch: (int)
+            Frames per batch (the paper: 90 for training, 30 for testing).
+        source: (Source)
+            KLT tracks or ORB matches.
+        jobs: (int)
+            Worker processes (1 = in this process).
+        min_tracks: (int)
+            Pairs with fewer correspondences are skipped.
+        tracker: (TrackerConfig)
+            KLT settings.
+        orb_features: (int)
+            ORB keypoints per frame (ORB source).
+        orb_ratio: (float)
+            Lowe ratio test (ORB source).
+        label: (LabelConfig)
+            Label thresholds and scale rule.
+        orbslam_iterations: (int)
+            RANSAC iterations of the ORB-SLAM baseline (0 = skip it, columns NaN).
+        vins_ransac: (bool)
+            Run VINS-Mono's F-RANSAC stage when its cheap rule fires.
+        stride: (int)
+            Use every ``stride``-th frame (1 = all).
+        nearest_tolerance: (float or None)
+            Passed to the TUM, EuRoC and bag readers: frames outside the ground-truth trajectory
+            take the nearest pose within this many seconds (None = the reader's default).
+        sequence: (str or None)
+            KITTI sequence ('NN') for sources that are a KITTI odometry root.
+        image_topic: (str or None)
+            Image topic of bag sources (None = the reader's default).
+        chunk: (int)
+            Pairs per labelling task: a tracked batch is labelled in slices of this many pairs,
+            in parallel (0 = the whole batch in one task).
+        executor: (str)
+            ``'processes'`` (a local pool of ``jobs`` processes) or ``'dask'`` (a
+            dask.distributed cluster, see ``scheduler``).
+        scheduler: (str or None)
+            Dask scheduler address (e.g. ``tcp://host:8786``); None starts a LocalCluster of
+            ``jobs`` single-threaded worker processes on this machine.
     """
 
     batch: int = 90
@@ -206,19 +204,17 @@ def orb_pairs(
 def extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height: int) -> np.ndarray:
     """Extra cheap, resolution-free features (names in :data:`table.EXTRA_NAMES`).
 
-    Parameters
-    ----------
-    p0, p1 : (N, 2) array
-        Reference and current pixels.
-    width, height : int
-        Image size, pixels.
+    Args:
+        p0, p1: ((N, 2) array)
+            Reference and current pixels.
+        width, height: (int)
+            Image size, pixels.
 
-    Returns
-    -------
-    (7,) float64
-        Disparity percentiles 10/50/90 over the image diagonal; occupancy and normalized entropy
-        of the reference points over a 4x4 grid; RMS residuals (over the diagonal) of
-        least-squares affine and homography fits p0 -> p1 (small for pure rotation and planes).
+    Returns:
+        (7,) float64:
+            Disparity percentiles 10/50/90 over the image diagonal; occupancy and normalized
+            entropy of the reference points over a 4x4 grid; RMS residuals (over the diagonal) of
+            least-squares affine and homography fits p0 -> p1 (small for pure rotation and planes).
     """
     p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
     p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
@@ -372,17 +368,16 @@ class BatchTask:
 class PairInput:
     """Everything the labelling of one pair needs, without the images (small to send).
 
-    Attributes
-    ----------
-    pair : Pair
-        Correspondences (undistorted when the camera has lens distortion).
-    gt_points, gt_valid : (N, 3) float64, (N,) bool
-        Ground-truth points of ``pair.p0`` from the reference depth
-        (:func:`initsel_ros.learn.labels.ground_truth_points`).
-    T_ref, T_cur : (4, 4) float64
-        Ground-truth camera-to-world poses.
-    stamps : (float, float)
-        Reference and current image times.
+    Attributes:
+        pair: (Pair)
+            Correspondences (undistorted when the camera has lens distortion).
+        gt_points, gt_valid: ((N, 3) float64, (N,) bool)
+            Ground-truth points of ``pair.p0`` from the reference depth
+            (:func:`initsel_ros.learn.labels.ground_truth_points`).
+        T_ref, T_cur: ((4, 4) float64)
+            Ground-truth camera-to-world poses.
+        stamps: ((float, float))
+            Reference and current image times.
     """
 
     pair: Pair
@@ -671,16 +666,15 @@ def build_table(
     features: independent per pair), so that both stages spread over the workers. Rows come
     out in sequence, batch and frame order whatever the executor.
 
-    Parameters
-    ----------
-    sources : sequence of paths
-        TUM folders or bags (anything :func:`initsel_ros.datasets.open_sequence` reads).
-    config : DatasetConfig
-        Batch size, correspondence source, label thresholds, jobs, executor.
-    progress : bool
-        Draw a progress bar on stderr.
-    on_stats : callable
-        Receives the :class:`BuildStats` at the end (pairs/s etc.).
+    Args:
+        sources: (sequence of paths)
+            TUM folders or bags (anything :func:`initsel_ros.datasets.open_sequence` reads).
+        config: (DatasetConfig)
+            Batch size, correspondence source, label thresholds, jobs, executor.
+        progress: (bool)
+            Draw a progress bar on stderr.
+        on_stats: (callable)
+            Receives the :class:`BuildStats` at the end (pairs/s etc.).
     """
     config = config or DatasetConfig()
     start = time.perf_counter()
