@@ -58,8 +58,12 @@ def machine() -> dict[str, Any]:
     except OSError:
         pass
     return {
-        'cpu': cpu, 'cores': os.cpu_count(), 'python': platform.python_version(),
-        'numpy': np.__version__, 'opencv': cv2.__version__, 'platform': platform.platform(),
+        'cpu': cpu,
+        'cores': os.cpu_count(),
+        'python': platform.python_version(),
+        'numpy': np.__version__,
+        'opencv': cv2.__version__,
+        'platform': platform.platform(),
         'date': time.strftime('%Y-%m-%d'),
         'load_average_1min': os.getloadavg()[0],
     }
@@ -91,8 +95,10 @@ class Table:
 
     def render(self) -> str:
         """The table as Markdown."""
-        lines = ['| ' + ' | '.join(self.columns) + ' |',
-                 '|' + '|'.join('---' for _ in self.columns) + '|']
+        lines = [
+            '| ' + ' | '.join(self.columns) + ' |',
+            '|' + '|'.join('---' for _ in self.columns) + '|',
+        ]
         lines += ['| ' + ' | '.join(r) + ' |' for r in self.rows]
         return '\n'.join(lines)
 
@@ -112,8 +118,10 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
 
     results: dict[str, Any] = {'machine': machine()}
     info = results['machine']
-    print(f'machine: {info["cpu"]}, {info["cores"]} cores, load average '
-          f'{info["load_average_1min"]:.1f} (timings are only comparable on an idle machine)')
+    print(
+        f'machine: {info["cpu"]}, {info["cores"]} cores, load average '
+        f'{info["load_average_1min"]:.1f} (timings are only comparable on an idle machine)'
+    )
     seq = render_bench_sequence(work / 'bench_sequence', args.frames)
     print(f'sequence: {seq} in {seq.path}')
     models, model_path, model_note = bench_models(args.models, seq)
@@ -124,8 +132,10 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     n_tracks = int(np.median([len(p0) for p0, _ in pairs]))
     results['correspondences'] = {'sets': len(pairs), 'median_tracks': n_tracks}
     results['sequence'] = {'path': str(seq.path), 'frames': len(seq)}
-    print(f'correspondences: {len(pairs)} sets, median {n_tracks} tracks '
-          f'({WIDTH}x{HEIGHT}, 12 frames apart)\n')
+    print(
+        f'correspondences: {len(pairs)} sets, median {n_tracks} tracks '
+        f'({WIDTH}x{HEIGHT}, 12 frames apart)\n'
+    )
     table = Table('measurement', 'median', 'p99', 'target', 'result')
 
     if 'decision' not in args.skip:
@@ -135,27 +145,45 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         orb = micro.time_orbslam(pairs, base_repeat)
         estimators = micro.time_estimators(pairs, intrinsics.K, base_repeat)
         d = decision.median
-        table.add('decision: model inputs + 4 models + policy',
-                  _us(d), _us(decision.percentile(99)), '≤ 1 ms median (within the frame)',
-                  _verdict(d <= DECISION_TARGET_S))
+        table.add(
+            'decision: model inputs + 4 models + policy',
+            _us(d),
+            _us(decision.percentile(99)),
+            '≤ 1 ms median (within the frame)',
+            _verdict(d <= DECISION_TARGET_S),
+        )
         for part in parts:
             table.add(part.name, _us(part.median), _us(part.percentile(99)))
         ratio = orb.median / d
-        table.add(orb.name, _ms(orb.median), _ms(orb.percentile(99)),
-                  'decision ≥ 20x cheaper',
-                  f'{ratio:.0f}x: {_verdict(ratio >= BASELINE_RATIO_TARGET)}')
+        table.add(
+            orb.name,
+            _ms(orb.median),
+            _ms(orb.percentile(99)),
+            'decision ≥ 20x cheaper',
+            f'{ratio:.0f}x: {_verdict(ratio >= BASELINE_RATIO_TARGET)}',
+        )
         for est in estimators:
-            table.add(est.name, _ms(est.median), _ms(est.percentile(99)), '',
-                      f'decision {est.median / d:.0f}x cheaper')
+            table.add(
+                est.name,
+                _ms(est.median),
+                _ms(est.percentile(99)),
+                '',
+                f'decision {est.median / d:.0f}x cheaper',
+            )
         fire = micro.time_fire(pairs, intrinsics.K, base_repeat)
         for k, part in enumerate(fire):
-            table.add(part.name, _ms(part.median), _ms(part.percentile(99)),
-                      'a few ms, once' if k == 0 else '',
-                      f'{part.median / d:.0f}x a decision' if k == 0 else '')
+            table.add(
+                part.name,
+                _ms(part.median),
+                _ms(part.percentile(99)),
+                'a few ms, once' if k == 0 else '',
+                f'{part.median / d:.0f}x a decision' if k == 0 else '',
+            )
         results['decision'] = {
             'decision': decision.to_dict(),
             'parts': {p.name.strip(): p.to_dict() for p in parts},
-            'orbslam': orb.to_dict(), 'orbslam_ratio': ratio,
+            'orbslam': orb.to_dict(),
+            'orbslam_ratio': ratio,
             'estimators': {e.name: e.to_dict() for e in estimators},
             'fire': {p.name.strip(): p.to_dict() for p in fire},
         }
@@ -166,22 +194,36 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         frames = image_messages(seq, len(seq))
         path = time_frame_path(models, intrinsics, frames)
         main = path.decision_only
-        table.add('per-frame path: Image -> numpy, tracking, features, decision '
-                  f'({main.seconds.size} frames where no pose was estimated)',
-                  _ms(main.median), _ms(main.percentile(99)), '≤ 5 ms median, p99 < 15 ms',
-                  _verdict(main.median <= FRAME_MEDIAN_TARGET_S
-                           and main.percentile(99) < FRAME_P99_TARGET_S))
+        table.add(
+            'per-frame path: Image -> numpy, tracking, features, decision '
+            f'({main.seconds.size} frames where no pose was estimated)',
+            _ms(main.median),
+            _ms(main.percentile(99)),
+            '≤ 5 ms median, p99 < 15 ms',
+            _verdict(
+                main.median <= FRAME_MEDIAN_TARGET_S and main.percentile(99) < FRAME_P99_TARGET_S
+            ),
+        )
         for part in path.parts:
             table.add(part.name, _ms(part.median), _ms(part.percentile(99)))
         posed = path.with_pose
-        table.add(f'{posed.name} ({int(np.isfinite(posed.seconds).sum())} frames)',
-                  _ms(posed.median), _ms(posed.percentile(99)))
-        table.add(f'{path.total.name}, all {path.total.seconds.size} frames',
-                  _ms(path.total.median), _ms(path.total.percentile(99)))
-        results['frame'] = {'decision_only': main.to_dict(), 'with_pose': posed.to_dict(),
-                            'total': path.total.to_dict(),
-                            'parts': {p.name.strip(): p.to_dict() for p in path.parts},
-                            'reasons': path.reasons}
+        table.add(
+            f'{posed.name} ({int(np.isfinite(posed.seconds).sum())} frames)',
+            _ms(posed.median),
+            _ms(posed.percentile(99)),
+        )
+        table.add(
+            f'{path.total.name}, all {path.total.seconds.size} frames',
+            _ms(path.total.median),
+            _ms(path.total.percentile(99)),
+        )
+        results['frame'] = {
+            'decision_only': main.to_dict(),
+            'with_pose': posed.to_dict(),
+            'total': path.total.to_dict(),
+            'parts': {p.name.strip(): p.to_dict() for p in path.parts},
+            'reasons': path.reasons,
+        }
         if args.profile:
             _profile(models, intrinsics, frames)
 
@@ -190,11 +232,14 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         images = [seq.image(i) for i in range(len(seq))]
         mem = micro.memory_growth(models, intrinsics, images, n)
         growth = max(mem.traced_growth_bytes, mem.rss_growth_bytes)
-        table.add(f'memory over {mem.frames} frames (after {mem.warmup} warm-up; '
-                  f'{"--long" if n >= 10_000 else "use --long for 10,000"})',
-                  f'traced {mem.traced_growth_bytes / 2**20:+.2f} MiB',
-                  f'RSS {mem.rss_growth_bytes / 2**20:+.2f} MiB', '< 5 MB growth',
-                  _verdict(growth < MEMORY_TARGET_BYTES))
+        table.add(
+            f'memory over {mem.frames} frames (after {mem.warmup} warm-up; '
+            f'{"--long" if n >= 10_000 else "use --long for 10,000"})',
+            f'traced {mem.traced_growth_bytes / 2**20:+.2f} MiB',
+            f'RSS {mem.rss_growth_bytes / 2**20:+.2f} MiB',
+            '< 5 MB growth',
+            _verdict(growth < MEMORY_TARGET_BYTES),
+        )
         results['memory'] = mem.__dict__ | {'target_bytes': MEMORY_TARGET_BYTES}
 
     if 'node' not in args.skip:
@@ -210,8 +255,14 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     return results
 
 
-def _node_rows(table: Table, seq: Any, models: Any, model_path: Path | None, work: Path,
-               args: argparse.Namespace) -> list[dict[str, Any]]:
+def _node_rows(
+    table: Table,
+    seq: Any,
+    models: Any,
+    model_path: Path | None,
+    work: Path,
+    args: argparse.Namespace,
+) -> list[dict[str, Any]]:
     from initsel_ros.ros import ros_available
 
     if not ros_available():
@@ -227,11 +278,15 @@ def _node_rows(table: Table, seq: Any, models: Any, model_path: Path | None, wor
     for rate in args.rates:
         run = replay(images, seq.intrinsics, model_path, rate, args.node_frames)
         lat = run.latency
-        table.add(f'{run.label}: {run.published} published ({run.publish_rate_hz:.1f} Hz), '
-                  f'{run.received} received, {run.processed} processed, {run.dropped} dropped, '
-                  f'newest processed: {"yes" if run.newest_processed else "NO"}',
-                  f'{lat["median_ms"]:.1f} ms', f'{lat["p99_ms"]:.1f} ms',
-                  'latency: publish -> status', f'max {lat["max_ms"]:.1f} ms')
+        table.add(
+            f'{run.label}: {run.published} published ({run.publish_rate_hz:.1f} Hz), '
+            f'{run.received} received, {run.processed} processed, {run.dropped} dropped, '
+            f'newest processed: {"yes" if run.newest_processed else "NO"}',
+            f'{lat["median_ms"]:.1f} ms',
+            f'{lat["p99_ms"]:.1f} ms',
+            'latency: publish -> status',
+            f'max {lat["max_ms"]:.1f} ms',
+        )
         out.append(run.to_dict())
     return out
 
@@ -246,15 +301,30 @@ def _dataset_rows(table: Table, folder: Path) -> list[dict[str, Any]]:
     out = []
     for jobs in (1, 2):
         res = dataset_speed(folder, jobs, repeat=3)
-        table.add(f'initsel dataset, --jobs {jobs} ({res.pairs} labelled pairs: the sequence '
-                  f'3 times, batches of 30, chunks of 10 pairs)',
-                  f'{res.pairs_per_second:.0f} pairs/s', '', '',
-                  f'{res.seconds:.1f} s')
-        out.append({'jobs': jobs, 'pairs': res.pairs, 'seconds': res.seconds,
-                    'pairs_per_second': res.pairs_per_second})
+        table.add(
+            f'initsel dataset, --jobs {jobs} ({res.pairs} labelled pairs: the sequence '
+            f'3 times, batches of 30, chunks of 10 pairs)',
+            f'{res.pairs_per_second:.0f} pairs/s',
+            '',
+            '',
+            f'{res.seconds:.1f} s',
+        )
+        out.append(
+            {
+                'jobs': jobs,
+                'pairs': res.pairs,
+                'seconds': res.seconds,
+                'pairs_per_second': res.pairs_per_second,
+            }
+        )
     ratio = out[1]['pairs_per_second'] / out[0]['pairs_per_second']
-    table.add('initsel dataset, --jobs 2 / --jobs 1', f'{ratio:.2f} x', '', '',
-              f'load {os.getloadavg()[0]:.1f}')
+    table.add(
+        'initsel dataset, --jobs 2 / --jobs 1',
+        f'{ratio:.2f} x',
+        '',
+        '',
+        f'load {os.getloadavg()[0]:.1f}',
+    )
     out.append({'jobs_2_over_1': ratio})
     return out
 
@@ -287,8 +357,10 @@ def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         model_path = work / 'bench_models.json'
         models.save(model_path)
     print(f'models: {note}')
-    print(f'flooding the node with {width}x{height} {args.flood_encoding} at '
-          f'{args.flood_rate:g} Hz for {args.seconds:g} s ...')
+    print(
+        f'flooding the node with {width}x{height} {args.flood_encoding} at '
+        f'{args.flood_rate:g} Hz for {args.seconds:g} s ...'
+    )
     run = flood(model_path, args.seconds, args.flood_rate, width, height, args.flood_encoding)
     table = Table('flood', 'value')
     lat = run.latency
@@ -299,16 +371,19 @@ def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         ('dropped (node count)', run.dropped),
         ('lost in transport', max(0, run.published - run.received)),
         ('newest frame processed', 'yes' if run.newest_processed else '**NO**'),
-        ('latency stamp -> status, median / p99 / max',
-         f'{lat["median_ms"]:.1f} / {lat["p99_ms"]:.1f} / {lat["max_ms"]:.1f} ms'),
-        ('RSS start / mid-run / max / end',
-         f'{run.rss_start_mb:.0f} / {run.rss_mid_mb:.0f} / {run.rss_max_mb:.0f} / '
-         f'{run.rss_end_mb:.0f} MiB'),
+        (
+            'latency stamp -> status, median / p99 / max',
+            f'{lat["median_ms"]:.1f} / {lat["p99_ms"]:.1f} / {lat["max_ms"]:.1f} ms',
+        ),
+        (
+            'RSS start / mid-run / max / end',
+            f'{run.rss_start_mb:.0f} / {run.rss_mid_mb:.0f} / {run.rss_max_mb:.0f} / '
+            f'{run.rss_end_mb:.0f} MiB',
+        ),
     ):
         table.add(name, value)
     print(table.render())
-    return {'machine': machine(), 'models': note, 'flood': run.to_dict(),
-            'table': table.render()}
+    return {'machine': machine(), 'models': note, 'flood': run.to_dict(), 'table': table.render()}
 
 
 def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
@@ -319,8 +394,9 @@ def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     n = args.fuzz
     start = time.perf_counter()
     conversion = run_conversion_fuzz(n)
-    print(f'image conversion: {n} examples passed {conversion} '
-          f'({time.perf_counter() - start:.0f} s)')
+    print(
+        f'image conversion: {n} examples passed {conversion} ({time.perf_counter() - start:.0f} s)'
+    )
     out: dict[str, Any] = {'conversion': conversion}
     if not ros_available():
         print('node callbacks: skipped (rclpy not importable)')
@@ -331,8 +407,10 @@ def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         models.save(model_path)
     start = time.perf_counter()
     node = run_node_fuzz(str(model_path), n, extreme=args.fuzz_extreme)
-    print(f'node callbacks{" (extreme CameraInfo)" if args.fuzz_extreme else ""}: {n} '
-          f'examples passed {node} ({time.perf_counter() - start:.0f} s)')
+    print(
+        f'node callbacks{" (extreme CameraInfo)" if args.fuzz_extreme else ""}: {n} '
+        f'examples passed {node} ({time.perf_counter() - start:.0f} s)'
+    )
     out['node'] = node
     return out
 

@@ -55,11 +55,14 @@ class Intrinsics:
 
     def same_camera(self, other: Intrinsics) -> bool:
         """True when ``other`` has the same size, K and distortion (all-zero = none)."""
-        return (
-            (self.fx, self.fy, self.cx, self.cy, self.width, self.height)
-            == (other.fx, other.fy, other.cx, other.cy, other.width, other.height)
-            and _effective(self.distortion) == _effective(other.distortion)
-        )
+        return (self.fx, self.fy, self.cx, self.cy, self.width, self.height) == (
+            other.fx,
+            other.fy,
+            other.cx,
+            other.cy,
+            other.width,
+            other.height,
+        ) and _effective(self.distortion) == _effective(other.distortion)
 
     @classmethod
     def tum_fr3(cls) -> Intrinsics:
@@ -73,8 +76,13 @@ class Intrinsics:
         """Build from a (3, 3) camera matrix."""
         K = np.asarray(K, dtype=float).reshape(3, 3)
         return cls(
-            float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]),
-            int(width), int(height), tuple(float(d) for d in distortion),
+            float(K[0, 0]),
+            float(K[1, 1]),
+            float(K[0, 2]),
+            float(K[1, 2]),
+            int(width),
+            int(height),
+            tuple(float(d) for d in distortion),
         )
 
     @property
@@ -97,8 +105,13 @@ class Intrinsics:
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for YAML/JSON)."""
         return {
-            'fx': self.fx, 'fy': self.fy, 'cx': self.cx, 'cy': self.cy,
-            'width': self.width, 'height': self.height, 'distortion': list(self.distortion),
+            'fx': self.fx,
+            'fy': self.fy,
+            'cx': self.cx,
+            'cy': self.cy,
+            'width': self.width,
+            'height': self.height,
+            'distortion': list(self.distortion),
         }
 
     @classmethod
@@ -106,8 +119,12 @@ class Intrinsics:
         """Inverse of :meth:`to_dict`; raises ConfigError naming ``source`` on bad input."""
         try:
             return cls(
-                float(data['fx']), float(data['fy']), float(data['cx']), float(data['cy']),
-                int(data['width']), int(data['height']),
+                float(data['fx']),
+                float(data['fy']),
+                float(data['cx']),
+                float(data['cy']),
+                int(data['width']),
+                int(data['height']),
                 tuple(float(d) for d in data.get('distortion', []) or []),
             )
         except (KeyError, TypeError, ValueError) as exc:

@@ -51,15 +51,25 @@ def prepare_sequence(args: argparse.Namespace, work: Path):
             return seq
     from initsel_ros.synth import render_sequence
 
-    print(f'rendering {args.frames} frames ({args.scene} scene, {args.trajectory} trajectory) '
-          f'into {folder}')
-    render_sequence(folder, scene=args.scene, trajectory=args.trajectory,
-                    frames=args.frames, seed=args.seed)
+    print(
+        f'rendering {args.frames} frames ({args.scene} scene, {args.trajectory} trajectory) '
+        f'into {folder}'
+    )
+    render_sequence(
+        folder, scene=args.scene, trajectory=args.trajectory, frames=args.frames, seed=args.seed
+    )
     return open_sequence(folder)
 
 
-def judge(seq, frame_index: int, reference_index: int, method: str, t_est: np.ndarray,
-          probabilities: dict[str, float], n_points: int) -> InitRecord:
+def judge(
+    seq,
+    frame_index: int,
+    reference_index: int,
+    method: str,
+    t_est: np.ndarray,
+    probabilities: dict[str, float],
+    n_points: int,
+) -> InitRecord:
     """Compare an initialization's translation direction with the sequence's ground truth."""
     from initsel_ros.geometry import relative_pose, translation_chordal_error
 
@@ -69,8 +79,9 @@ def judge(seq, frame_index: int, reference_index: int, method: str, t_est: np.nd
         _, t_gt = relative_pose(ref, cur)
         error = translation_chordal_error(t_gt, t_est)
         baseline = float(np.linalg.norm(t_gt))
-    return InitRecord(frame_index, reference_index, method, dict(probabilities), n_points,
-                      error, baseline)
+    return InitRecord(
+        frame_index, reference_index, method, dict(probabilities), n_points, error, baseline
+    )
 
 
 def run_offline(seq, models, mode: str, frames: int) -> tuple[list[InitRecord], dict[str, int]]:
@@ -86,8 +97,9 @@ def run_offline(seq, models, mode: str, frames: int) -> tuple[list[InitRecord], 
         init = result.initialization
         if init is not None:
             ref = int(np.argmin(np.abs(stamps - init.reference_stamp_ns)))
-            records.append(judge(seq, i, ref, init.method.value, init.t, init.probabilities,
-                                 len(init.points)))
+            records.append(
+                judge(seq, i, ref, init.method.value, init.t, init.probabilities, len(init.points))
+            )
     return records, reasons
 
 
@@ -98,18 +110,24 @@ def print_report(records: list[InitRecord], reasons: dict[str, int], frames: int
     if not records:
         print('\nno initialization.')
         return
-    print('\ninitializations (E_t: translation direction error against ground truth, '
-          'good below 0.8):')
+    print(
+        '\ninitializations (E_t: translation direction error against ground truth, '
+        'good below 0.8):'
+    )
     print('  frame  ref  method   p_F   p_E   p_H   p_R  points  baseline_m   E_t  verdict')
     for r in records:
         p = r.probabilities
         points = str(r.n_points)
-        print(f'  {r.frame_index:5d} {r.reference_index:4d}  {r.method:>6}  '
-              + '  '.join(f'{p.get(m, float("nan")):.2f}' for m in MODEL_NAMES)
-              + f'  {points:>6}  {r.gt_baseline_m:10.3f}  {r.translation_error:.3f}  '
-              f'{"good" if r.good else "BAD"}')
+        print(
+            f'  {r.frame_index:5d} {r.reference_index:4d}  {r.method:>6}  '
+            + '  '.join(f'{p.get(m, float("nan")):.2f}' for m in MODEL_NAMES)
+            + f'  {points:>6}  {r.gt_baseline_m:10.3f}  {r.translation_error:.3f}  '
+            f'{"good" if r.good else "BAD"}'
+        )
     first = records[0]
     good = sum(r.good for r in records)
-    print(f'\nfirst initialization at frame {first.frame_index} with {first.method} '
-          f'({first.frame_index - first.reference_index} frames after its reference), '
-          f'{"good" if first.good else "bad"}; {good}/{len(records)} initializations good.')
+    print(
+        f'\nfirst initialization at frame {first.frame_index} with {first.method} '
+        f'({first.frame_index - first.reference_index} frames after its reference), '
+        f'{"good" if first.good else "bad"}; {good}/{len(records)} initializations good.'
+    )

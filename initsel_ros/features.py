@@ -34,9 +34,21 @@ import numpy as np
 from initsel_ros.errors import GeometryError
 
 FEATURE_NAMES: tuple[str, ...] = (
-    'count', 'disparity_mean', 'disparity_std',
-    'x0_min', 'x0_max', 'y0_min', 'y0_max', 'x1_min', 'x1_max', 'y1_min', 'y1_max',
-    'x0_range', 'y0_range', 'x1_range', 'y1_range',
+    'count',
+    'disparity_mean',
+    'disparity_std',
+    'x0_min',
+    'x0_max',
+    'y0_min',
+    'y0_max',
+    'x1_min',
+    'x1_max',
+    'y1_min',
+    'y1_max',
+    'x0_range',
+    'y0_range',
+    'x1_range',
+    'y1_range',
     *(f'direction_{45 * k}' for k in range(8)),
 )
 N_FEATURES = len(FEATURE_NAMES)
@@ -310,7 +322,8 @@ def extra_features(
             A = np.column_stack((q0, np.ones(n)))
             sol, *_ = np.linalg.lstsq(A, q1, rcond=None)
             values['x_affine_residual'] = math.sqrt(
-                float(np.mean(np.sum((q1 - A @ sol) ** 2, axis=1))))
+                float(np.mean(np.sum((q1 - A @ sol) ** 2, axis=1)))
+            )
         if 'x_homography_residual' in wanted and n >= 4:
             values['x_homography_residual'] = _homography_residual(p0, p1) / diag
     return np.array([values.get(name, math.nan) for name in names], dtype=np.float64)

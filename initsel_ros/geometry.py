@@ -58,13 +58,22 @@ class PoseEstimate:
 
 
 def _failure(
-    method: Method, n: int, reason: str, inliers: np.ndarray | None = None,
+    method: Method,
+    n: int,
+    reason: str,
+    inliers: np.ndarray | None = None,
     matrix: np.ndarray | None = None,
 ) -> PoseEstimate:
     return PoseEstimate(
-        method=method, ok=False, reason=reason, R=np.eye(3), t=np.zeros(3),
-        points=np.zeros((0, 3)), indices=np.zeros(0, dtype=np.int64),
-        inliers=np.zeros(n, dtype=bool) if inliers is None else inliers, parallax_deg=0.0,
+        method=method,
+        ok=False,
+        reason=reason,
+        R=np.eye(3),
+        t=np.zeros(3),
+        points=np.zeros((0, 3)),
+        indices=np.zeros(0, dtype=np.int64),
+        inliers=np.zeros(n, dtype=bool) if inliers is None else inliers,
+        parallax_deg=0.0,
         matrix=np.zeros((3, 3)) if matrix is None else np.asarray(matrix, dtype=np.float64),
     )
 
@@ -176,8 +185,14 @@ class HomographyChoice:
 
 
 def choose_homography_decomposition(
-    H: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray, inliers: np.ndarray,
-    max_reprojection_px: float, min_point_parallax_deg: float, min_baseline_ratio: float,
+    H: np.ndarray,
+    K: np.ndarray,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    inliers: np.ndarray,
+    max_reprojection_px: float,
+    min_point_parallax_deg: float,
+    min_baseline_ratio: float,
 ) -> HomographyChoice:
     """Choose among the decompositions of H by triangulating its inliers (as ORB-SLAM does).
 
@@ -211,15 +226,22 @@ def choose_homography_decomposition(
     good = tuple(item[0] for item in scored)
     best = scored[0]
     if best[0] == 0:
-        return replace(none, good=good,
-                       reason='no decomposition puts points in front of both cameras')
+        return replace(
+            none, good=good, reason='no decomposition puts points in front of both cameras'
+        )
     # Solutions that are the same motion up to numerical noise do not compete.
-    rivals = [item for item in scored[1:]
-              if rotation_angle_deg(item[2].T @ best[2]) > 0.5 or item[3] @ best[3] < 0.999]
+    rivals = [
+        item
+        for item in scored[1:]
+        if rotation_angle_deg(item[2].T @ best[2]) > 0.5 or item[3] @ best[3] < 0.999
+    ]
     second = rivals[0][0] if rivals else 0
     if second >= HOMOGRAPHY_AMBIGUITY_RATIO * best[0]:
-        return replace(none, good=good, reason=(
-            f'homography decomposition ambiguous: {best[0]} vs {second} good points'))
+        return replace(
+            none,
+            good=good,
+            reason=(f'homography decomposition ambiguous: {best[0]} vs {second} good points'),
+        )
     return HomographyChoice(best[2], best[3], good, '')
 
 
@@ -280,7 +302,11 @@ def estimate_pose(
 
     if method is Method.H:
         H, mask = cv2.findHomography(
-            f0, f1, cv2.RANSAC, ransac_threshold_px, maxIters=max_iterations,
+            f0,
+            f1,
+            cv2.RANSAC,
+            ransac_threshold_px,
+            maxIters=max_iterations,
             confidence=confidence,
         )
         if H is None or mask is None:
@@ -288,7 +314,13 @@ def estimate_pose(
         inliers = mask.ravel().astype(bool)
         matrix = np.asarray(H, dtype=np.float64)
         choice = choose_homography_decomposition(
-            matrix, K, a, b, inliers, max_reprojection_px, min_point_parallax_deg,
+            matrix,
+            K,
+            a,
+            b,
+            inliers,
+            max_reprojection_px,
+            min_point_parallax_deg,
             min_homography_baseline_ratio,
         )
         if choice.reason:
@@ -304,17 +336,16 @@ def estimate_pose(
             matrix = np.asarray(F, dtype=np.float64)
             E = K.T @ F @ K
         else:
-            E, mask = cv2.findEssentialMat(
-                f0, f1, K, cv2.RANSAC, confidence, ransac_threshold_px
-            )
+            E, mask = cv2.findEssentialMat(f0, f1, K, cv2.RANSAC, confidence, ransac_threshold_px)
             if E is None or E.shape[0] < 3 or mask is None:
                 return _failure(method, n, 'no essential matrix found')
             E = E[:3]
             matrix = np.asarray(E, dtype=np.float64)
         inliers = mask.ravel().astype(bool)
         if inliers.sum() < needed:
-            return _failure(method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers,
-                            matrix)
+            return _failure(
+                method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers, matrix
+            )
         _, R, t, _ = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
         t = t.reshape(3)
         t = t / max(np.linalg.norm(t), _EPS)
@@ -331,13 +362,24 @@ def estimate_pose(
     )
     indices = np.flatnonzero(keep)
     ok = indices.size >= min_points
-    reason = '' if ok else (
-        f'{indices.size} points triangulated with parallax >= {min_point_parallax_deg} deg '
-        f'(median parallax {parallax:.2f} deg)'
+    reason = (
+        ''
+        if ok
+        else (
+            f'{indices.size} points triangulated with parallax >= {min_point_parallax_deg} deg '
+            f'(median parallax {parallax:.2f} deg)'
+        )
     )
     return PoseEstimate(
-        method=method, ok=ok, reason=reason, R=np.asarray(R, dtype=np.float64), t=t,
-        points=tri.points[indices], indices=indices, inliers=inliers, parallax_deg=parallax,
+        method=method,
+        ok=ok,
+        reason=reason,
+        R=np.asarray(R, dtype=np.float64),
+        t=t,
+        points=tri.points[indices],
+        indices=indices,
+        inliers=inliers,
+        parallax_deg=parallax,
         matrix=matrix,
     )
 

@@ -51,8 +51,12 @@ _JPEG_MAGIC = b'\xff\xd8'
 
 # ---------------------------------------------------------------------------- raw images
 def decode_raw(
-    data: bytes | bytearray | memoryview | np.ndarray, encoding: str, width: int, height: int,
-    step: int, is_bigendian: bool = False,
+    data: bytes | bytearray | memoryview | np.ndarray,
+    encoding: str,
+    width: int,
+    height: int,
+    step: int,
+    is_bigendian: bool = False,
 ) -> np.ndarray:
     """Raw image bytes (a ``sensor_msgs/Image``'s fields) as an array in their channel order.
 
@@ -201,8 +205,7 @@ def to_bgr(image: np.ndarray, *, copy: bool = False) -> np.ndarray:
         return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
     if img.ndim == 3 and img.shape[2] == 3:
         return img.copy() if copy else img
-    raise ImageConversionError(
-        f'expected (H, W), (H, W, 3) or (H, W, 4) image, got {img.shape}')
+    raise ImageConversionError(f'expected (H, W), (H, W, 3) or (H, W, 4) image, got {img.shape}')
 
 
 # ------------------------------------------------------------------------- compressed images
@@ -213,7 +216,8 @@ _JPEG_MAGIC = b'\xff\xd8'
 
 
 def decode_compressed(
-    data: bytes | bytearray | memoryview | np.ndarray, fmt: str = '',
+    data: bytes | bytearray | memoryview | np.ndarray,
+    fmt: str = '',
 ) -> np.ndarray:
     """Decode JPEG or PNG bytes (a ``sensor_msgs/CompressedImage``) with ``cv2.imdecode``.
 
@@ -265,7 +269,9 @@ def decode_compressed(
 
 
 def encode_compressed(
-    pixels: np.ndarray, fmt: str = 'jpeg', quality: int = 95,
+    pixels: np.ndarray,
+    fmt: str = 'jpeg',
+    quality: int = 95,
 ) -> tuple[bytes, str]:
     """Encode (H, W) grey or (H, W, 3) BGR pixels (uint8; uint16 for PNG) as JPEG or PNG.
 
@@ -311,10 +317,10 @@ def _jpeg_size(data: np.ndarray) -> tuple[int, int] | None:
         if marker in (0x01, *range(0xD0, 0xD8)):  # markers without a length
             i += 2
             continue
-        length = int.from_bytes(buf[i + 2:i + 4], 'big')
+        length = int.from_bytes(buf[i + 2 : i + 4], 'big')
         if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            height = int.from_bytes(buf[i + 5:i + 7], 'big')
-            width = int.from_bytes(buf[i + 7:i + 9], 'big')
+            height = int.from_bytes(buf[i + 5 : i + 7], 'big')
+            width = int.from_bytes(buf[i + 7 : i + 9], 'big')
             return width, height
         if length < 2:
             return None

@@ -60,10 +60,12 @@ def sampson_homography(H: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndar
     e1 = v * Hx[:, 2] - Hx[:, 1]
     e2 = Hx[:, 0] - u * Hx[:, 2]
     # derivatives with respect to x0, y0 (through Hx) and u, v
-    d1 = np.stack([v * H[2, 0] - H[1, 0], v * H[2, 1] - H[1, 1],
-                   np.zeros_like(u), Hx[:, 2]], axis=1)
-    d2 = np.stack([H[0, 0] - u * H[2, 0], H[0, 1] - u * H[2, 1],
-                   -Hx[:, 2], np.zeros_like(u)], axis=1)
+    d1 = np.stack(
+        [v * H[2, 0] - H[1, 0], v * H[2, 1] - H[1, 1], np.zeros_like(u), Hx[:, 2]], axis=1
+    )
+    d2 = np.stack(
+        [H[0, 0] - u * H[2, 0], H[0, 1] - u * H[2, 1], -Hx[:, 2], np.zeros_like(u)], axis=1
+    )
     a = np.einsum('ij,ij->i', d1, d1)
     b = np.einsum('ij,ij->i', d1, d2)
     c = np.einsum('ij,ij->i', d2, d2)
@@ -87,8 +89,13 @@ def _transfer_sq(H: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         return np.sum((x[:, :2] / x[:, 2:3] - p1) ** 2, axis=1)
 
 
-def orb_scores(H: np.ndarray | None, F: np.ndarray | None, p0: np.ndarray, p1: np.ndarray,
-               sigma_px: float = 1.0) -> tuple[float, float]:
+def orb_scores(
+    H: np.ndarray | None,
+    F: np.ndarray | None,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    sigma_px: float = 1.0,
+) -> tuple[float, float]:
     """ORB-SLAM's ``(S_H, S_F)``: sums of ``5.991 - chi2`` over inlying directions."""
     inv = 1.0 / sigma_px**2
     s_h = s_f = 0.0
@@ -131,9 +138,12 @@ class CandidateScore:
     def to_dict(self) -> dict[str, object]:
         """JSON-ready fields (GRIC None when infinite)."""
         return {
-            'method': self.method.value, 'ok': self.ok, 'problem': self.problem,
+            'method': self.method.value,
+            'ok': self.ok,
+            'problem': self.problem,
             'gric': round(self.gric, 1) if math.isfinite(self.gric) else None,
-            'points': self.n_points, 'parallax_deg': round(self.parallax_deg, 3),
+            'points': self.n_points,
+            'parallax_deg': round(self.parallax_deg, 3),
             'inlier_ratio': round(self.inlier_ratio, 3),
         }
 
@@ -172,15 +182,18 @@ class Selection:
         for s in self.scores:
             mark = '*' if s.method is self.winner else ''
             if s.ok:
-                parts.append(f'{s.method.value}{mark} GRIC {s.gric:.0f}, {s.n_points} pts, '
-                             f'{s.parallax_deg:.1f} deg')
+                parts.append(
+                    f'{s.method.value}{mark} GRIC {s.gric:.0f}, {s.n_points} pts, '
+                    f'{s.parallax_deg:.1f} deg'
+                )
             else:
                 parts.append(f'{s.method.value} failed ({s.problem})')
         return '; '.join(parts)
 
 
-def _refined_essential(est: PoseEstimate, p0: np.ndarray, p1: np.ndarray,
-                       K: np.ndarray) -> np.ndarray:
+def _refined_essential(
+    est: PoseEstimate, p0: np.ndarray, p1: np.ndarray, K: np.ndarray
+) -> np.ndarray:
     """E at its maximum-likelihood fit on its inliers (OpenCV returns a minimal-sample E)."""
     if not est.ok or np.count_nonzero(est.inliers) < 6:
         return np.asarray(est.matrix, dtype=np.float64)
@@ -251,12 +264,21 @@ def select_method(
     for est, problem in zip(estimates, problems, strict=True):
         e = errors.get(est.method.value)
         value = math.inf if e is None else gric(e, est.method.value, sigma_px)
-        scores.append(CandidateScore(
-            est.method, not problem, problem, value, est.n_points, est.parallax_deg,
-            float(np.count_nonzero(est.inliers)) / n,
-        ))
-    H = next((np.asarray(e.matrix) for e in estimates
-              if e.method is Method.H and np.any(e.matrix)), None)
+        scores.append(
+            CandidateScore(
+                est.method,
+                not problem,
+                problem,
+                value,
+                est.n_points,
+                est.parallax_deg,
+                float(np.count_nonzero(est.inliers)) / n,
+            )
+        )
+    H = next(
+        (np.asarray(e.matrix) for e in estimates if e.method is Method.H and np.any(e.matrix)),
+        None,
+    )
     F = fundamentals.get('F', fundamentals.get('E'))
     orb_ratio = math.nan
     if H is not None and F is not None:
@@ -264,16 +286,20 @@ def select_method(
         orb_ratio = s_h / (s_h + s_f) if s_h + s_f > 0 else math.nan
     passed = [s for s in scores if s.ok]
     if not passed:
-        return Selection(None, tuple(scores), orb_ratio, 'no candidate passed the pose check',
-                         sigma_px)
+        return Selection(
+            None, tuple(scores), orb_ratio, 'no candidate passed the pose check', sigma_px
+        )
     best = min(passed, key=lambda s: s.gric)
     others = [s for s in passed if s is not best]
     if others:
         runner = min(others, key=lambda s: s.gric)
-        why = (f'{best.method.value} has the lowest GRIC ({best.gric:.0f} vs '
-               f'{runner.method.value} {runner.gric:.0f}, noise {sigma_px:.2f} px)')
+        why = (
+            f'{best.method.value} has the lowest GRIC ({best.gric:.0f} vs '
+            f'{runner.method.value} {runner.gric:.0f}, noise {sigma_px:.2f} px)'
+        )
     else:
         failed = [s.method.value for s in scores if not s.ok]
         why = f'{best.method.value} is the only candidate that passed the pose check' + (
-            f' ({", ".join(failed)} failed)' if failed else '')
+            f' ({", ".join(failed)} failed)' if failed else ''
+        )
     return Selection(best.method, tuple(scores), orb_ratio, why, sigma_px)

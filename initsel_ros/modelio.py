@@ -40,9 +40,15 @@ def read_bounded(path: Path, max_bytes: int = MAX_FILE_BYTES) -> bytes:
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
-            kind = ('a directory' if stat.S_ISDIR(info.st_mode) else 'a FIFO'
-                    if stat.S_ISFIFO(info.st_mode) else 'a device' if
-                    stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode) else 'a socket')
+            kind = (
+                'a directory'
+                if stat.S_ISDIR(info.st_mode)
+                else 'a FIFO'
+                if stat.S_ISFIFO(info.st_mode)
+                else 'a device'
+                if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode)
+                else 'a socket'
+            )
             raise ModelFileError(f'not a regular file ({kind}); a model file is a JSON file')
         if info.st_size > max_bytes:
             raise ModelFileError(
@@ -102,8 +108,9 @@ def parse_json_bounded(data: bytes, max_depth: int = MAX_JSON_DEPTH) -> Any:
         ) from exc
     depth = json_depth(data)
     if depth > max_depth:
-        raise ModelFileError(f'JSON nested deeper than {max_depth} levels ({depth}); '
-                             'not a model file')
+        raise ModelFileError(
+            f'JSON nested deeper than {max_depth} levels ({depth}); not a model file'
+        )
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
@@ -173,8 +180,9 @@ def name_list(value: Any, what: str, allowed: tuple[str, ...]) -> tuple[str, ...
         raise ModelFileError(f'{what} must be a non-empty list of feature names')
     unknown = [v for v in value if v not in allowed]
     if unknown:
-        raise ModelFileError(f'{what}: unknown features {unknown[:3]} (this version computes '
-                             f'{", ".join(allowed)})')
+        raise ModelFileError(
+            f'{what}: unknown features {unknown[:3]} (this version computes {", ".join(allowed)})'
+        )
     if len(set(value)) != len(value):
         raise ModelFileError(f'{what} lists a feature twice')
     return tuple(value)

@@ -111,8 +111,9 @@ class LogisticModel:
         for attr in ('weights', 'mean', 'scale'):
             arr = np.asarray(getattr(self, attr), dtype=np.float64)
             if arr.ndim != 1:
-                raise ModelFileError(f'{where}: {attr} must be a flat vector, got shape '
-                                     f'{arr.shape}')
+                raise ModelFileError(
+                    f'{where}: {attr} must be a flat vector, got shape {arr.shape}'
+                )
             object.__setattr__(self, attr, arr)
             if arr.shape != (n,):
                 raise ModelFileError(f'{where}: {attr} must have {n} values, got {arr.size}')
@@ -149,8 +150,9 @@ class LogisticModel:
         }
 
     @classmethod
-    def from_dict(cls, name: str, data: Any,
-                  features: tuple[str, ...] = FEATURE_NAMES) -> LogisticModel:
+    def from_dict(
+        cls, name: str, data: Any, features: tuple[str, ...] = FEATURE_NAMES
+    ) -> LogisticModel:
         """Inverse of :meth:`to_dict`; raises ModelFileError on any malformed entry."""
         if not isinstance(data, dict):
             raise ModelFileError(f'model {name!r}: expected a mapping, got {type(data).__name__}')
@@ -184,8 +186,9 @@ def model_from_dict(name: str, data: Any) -> Model:
     kind = data.get('kind', 'logistic')
     if kind not in KINDS:
         raise ModelFileError(f'model {name!r}: unknown kind {kind!r} (known: {", ".join(KINDS)})')
-    features = name_list(data.get('features', list(FEATURE_NAMES)),
-                         f'model {name!r}: features', ALL_FEATURE_NAMES)
+    features = name_list(
+        data.get('features', list(FEATURE_NAMES)), f'model {name!r}: features', ALL_FEATURE_NAMES
+    )
     if kind == 'trees':
         return TreeEnsembleModel.from_dict(name, data, features)
     return LogisticModel.from_dict(name, data, features)
@@ -241,8 +244,7 @@ class ModelSet:
         object.__setattr__(self, '_W', W)
         object.__setattr__(self, '_b', b)
         object.__setattr__(self, '_trees', np.array(trees, dtype=np.int64))
-        object.__setattr__(self, '_flat', FlatTrees.build(all_trees, columns) if trees
-                           else None)
+        object.__setattr__(self, '_flat', FlatTrees.build(all_trees, columns) if trees else None)
         object.__setattr__(self, '_owner', np.array(owner, dtype=np.int64))
         object.__setattr__(self, '_tree_bias', np.array(tree_bias))
 
@@ -267,7 +269,11 @@ class ModelSet:
         return {m: model.kind for m, model in self.models.items()}
 
     def input_vector(
-        self, p0: np.ndarray, p1: np.ndarray, width: int, height: int,
+        self,
+        p0: np.ndarray,
+        p1: np.ndarray,
+        width: int,
+        height: int,
         raw: np.ndarray | None = None,
     ) -> np.ndarray:
         """The input vector of one correspondence set (see :attr:`input_names`).
@@ -282,8 +288,9 @@ class ModelSet:
         Returns:
             (len(input_names),) float64; extra features only computed when a model needs them.
         """
-        x = scale_features(raw_features(p0, p1) if raw is None else raw, width, height,
-                           self.scaling)
+        x = scale_features(
+            raw_features(p0, p1) if raw is None else raw, width, height, self.scaling
+        )
         if not self._extra:  # type: ignore[attr-defined]
             return x
         return np.concatenate((x, extra_features(p0, p1, width, height, self._extra)))  # type: ignore[attr-defined]
@@ -327,7 +334,8 @@ class ModelSet:
             xt = x.astype(np.float32).astype(np.float64)  # finite already: see _check_inputs
             leaves = self._flat.leaf_values(xt)  # type: ignore[attr-defined]
             z[self._trees] = self._tree_bias + np.bincount(  # type: ignore[attr-defined]
-                self._owner, weights=leaves, minlength=len(self._trees))  # type: ignore[attr-defined]
+                self._owner, weights=leaves, minlength=len(self._trees)
+            )  # type: ignore[attr-defined]
         p = 1.0 / (1.0 + np.exp(-np.clip(z, -500.0, 500.0)))
         return dict(zip(self._names, p.tolist(), strict=True))  # type: ignore[attr-defined]
 
@@ -413,8 +421,9 @@ def dumps(data: Any) -> str:
         if isinstance(value, dict):
             return {k: collapse(v) for k, v in value.items()}
         if isinstance(value, list):
-            if value and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                             for v in value):
+            if value and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
+            ):
                 inline.append(json.dumps(value))
                 return f'{token}:{len(inline) - 1}'
             return [collapse(v) for v in value]

@@ -88,7 +88,7 @@ def direction_colors(ref: np.ndarray, cur: np.ndarray) -> np.ndarray:
 @functools.lru_cache(maxsize=8)
 def _wheel(radius: int) -> np.ndarray:
     """(2r+1, 2r+1, 4) uint8 BGR + mask: the direction colour key (hue by angle, y up)."""
-    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1].astype(np.float32)
+    yy, xx = np.mgrid[-radius : radius + 1, -radius : radius + 1].astype(np.float32)
     angle = np.arctan2(-yy, xx)
     bins = np.round(angle * (HUE_BINS / (2 * np.pi))).astype(np.int64) % HUE_BINS
     palette = np.array(_hue_palette(HUE_BINS), np.uint8)
@@ -120,12 +120,11 @@ def _draw_tracks(canvas: np.ndarray, ref: np.ndarray, cur: np.ndarray, thickness
     order = np.argsort(bins, kind='stable')
     bounds = np.searchsorted(bins[order], np.arange(HUE_BINS + 1))
     for k in range(HUE_BINS):
-        idx = order[bounds[k]:bounds[k + 1]]
+        idx = order[bounds[k] : bounds[k + 1]]
         if len(idx) == 0:
             continue
         cv2.polylines(canvas, list(seg[idx]), False, palette[k], thickness, cv2.LINE_8, shift)
-        cv2.polylines(canvas, list(dots[idx]), False, palette[k], thickness + 2, cv2.LINE_8,
-                      shift)
+        cv2.polylines(canvas, list(dots[idx]), False, palette[k], thickness + 2, cv2.LINE_8, shift)
 
 
 def _draw_inliers(canvas: np.ndarray, pixels: np.ndarray, half: int) -> None:
@@ -158,21 +157,32 @@ def _decision_lines(result: FrameResult, init: Initialization | None) -> list[tu
     colour = _GREEN if init is not None else (_RED if d.reason is Reason.ROTATION else _WHITE)
     lines = [(f'decision: {reason}', colour)]
     if init is not None:
-        lines.append((
-            f'INIT {init.method.value}: {len(init.points)} points, '
-            f'parallax {init.parallax_deg:.1f} deg', _YELLOW,
-        ))
+        lines.append(
+            (
+                f'INIT {init.method.value}: {len(init.points)} points, '
+                f'parallax {init.parallax_deg:.1f} deg',
+                _YELLOW,
+            )
+        )
     selection = init.selection if init is not None else result.selection
     if selection is not None:  # the fire-time candidates: one line each, the winner marked
         for score in selection.scores:
             mark = '*' if score.method is selection.winner else ' '
-            text = (f'{mark}{score.method.value} GRIC {score.gric:.0f}, {score.n_points} pts'
-                    if score.ok else f' {score.method.value} failed: {score.problem}')
+            text = (
+                f'{mark}{score.method.value} GRIC {score.gric:.0f}, {score.n_points} pts'
+                if score.ok
+                else f' {score.method.value} failed: {score.problem}'
+            )
             lines.append((text[:48], _YELLOW if mark == '*' else _GREY))
     if result.verification is not None:
         step = result.verification
-        lines.append((f'verify: {step.inliers} inliers ({100 * step.fraction:.0f} %), '
-                      f'RMS {step.rms_px:.2f} px', _GREEN if step.ok else _RED))
+        lines.append(
+            (
+                f'verify: {step.inliers} inliers ({100 * step.fraction:.0f} %), '
+                f'RMS {step.rms_px:.2f} px',
+                _GREEN if step.ok else _RED,
+            )
+        )
     if d.vetoed:
         lines.append((f'vetoed by R: {", ".join(d.vetoed)}', _ORANGE))
     if d.detail and init is None:
@@ -252,8 +262,10 @@ def draw_overlay(
         cv2.putText(canvas, tag, (bar_x + bar_w + pad, base), _FONT, font, _WHITE, 1, cv2.LINE_AA)
         y += line
     y += line
-    stats = (f'tracks {d.n_tracks}  disparity {d.mean_disparity:.1f} px  '
-             f'+{result.frames_since_reference} frames')
+    stats = (
+        f'tracks {d.n_tracks}  disparity {d.mean_disparity:.1f} px  '
+        f'+{result.frames_since_reference} frames'
+    )
     cv2.putText(canvas, stats, (label_x, y), _FONT, font, _WHITE, 1, cv2.LINE_AA)
     for text, colour in lines:
         y += line
@@ -270,7 +282,7 @@ def _paste_wheel(canvas: np.ndarray, radius: int, pad: int) -> None:
     if size + pad > min(h, w):
         return
     y0, x0 = h - size - pad, w - size - pad
-    roi = canvas[y0:y0 + size, x0:x0 + size]
+    roi = canvas[y0 : y0 + size, x0 : x0 + size]
     mask = wheel[:, :, 3].astype(bool)
     roi[mask] = wheel[:, :, :3][mask]
 

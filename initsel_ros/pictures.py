@@ -253,9 +253,7 @@ def plot_probabilities(
         ) from exc
     out_png = Path(out_png)
     out_png.parent.mkdir(parents=True, exist_ok=True)
-    x = np.asarray(
-        [r.frame_index for r in results] if indices is None else indices, np.float64
-    )
+    x = np.asarray([r.frame_index for r in results] if indices is None else indices, np.float64)
     thresholds = dict(thresholds or {})
     fig, ax = plt.subplots(figsize=(8, 4.4), dpi=100)
     try:
@@ -266,20 +264,43 @@ def plot_probabilities(
             ax.axhline(thresholds.get(name, 0.5), color=colour, lw=0.8, ls='--', alpha=0.8)
         rotation = np.array([r.decision.reason is Reason.ROTATION for r in results])
         if rotation.any():
-            ax.fill_between(x, 0, 1, where=rotation, step='mid', color='tab:red', alpha=0.08,
-                            lw=0, label='reason: rotation (R fired)')
+            ax.fill_between(
+                x,
+                0,
+                1,
+                where=rotation,
+                step='mid',
+                color='tab:red',
+                alpha=0.08,
+                lw=0,
+                label='reason: rotation (R fired)',
+            )
         done = np.array([r.decision.reason is Reason.DONE for r in results])
         if done.any():
-            ax.fill_between(x, 0, 1, where=done, step='mid', color='0.5', alpha=0.15, lw=0,
-                            label="initialized (mode 'once')")
+            ax.fill_between(
+                x,
+                0,
+                1,
+                where=done,
+                step='mid',
+                color='0.5',
+                alpha=0.15,
+                lw=0,
+                label="initialized (mode 'once')",
+            )
         new_ref = [xi for xi, r in zip(x, results, strict=True) if r.new_reference]
         for xi in new_ref:
             ax.axvline(xi, color='0.6', lw=0.6, ls=':')
         for xi, r in zip(x, results, strict=True):
             if r.initialization is not None:
                 ax.axvline(xi, color='k', lw=1.6)
-                ax.annotate(f'init {r.initialization.method.value}', (xi, 1.02),
-                            xycoords=('data', 'axes fraction'), ha='center', fontsize=8)
+                ax.annotate(
+                    f'init {r.initialization.method.value}',
+                    (xi, 1.02),
+                    xycoords=('data', 'axes fraction'),
+                    ha='center',
+                    fontsize=8,
+                )
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel('frame')
         ax.set_ylabel('probability (dashed: threshold)')
@@ -296,8 +317,15 @@ def plot_probabilities(
                 labels.append(f'R label limit ({r_baseline_m:g} m)')
             ax2.set_ylabel('baseline, metres')
             ax2.set_ylim(0, max(float(np.nanmax(groundtruth_baselines)) * 1.1, 0.1))
-        ax.legend(handles, labels, loc='upper center', bbox_to_anchor=(0.5, -0.16), fontsize=7,
-                  ncol=5, frameon=False)
+        ax.legend(
+            handles,
+            labels,
+            loc='upper center',
+            bbox_to_anchor=(0.5, -0.16),
+            fontsize=7,
+            ncol=5,
+            frameon=False,
+        )
         if title:
             ax.set_title(title, fontsize=10, pad=14)
         fig.tight_layout()
@@ -309,8 +337,10 @@ def plot_probabilities(
 
 # --- README pictures -----------------------------------------------------------------------
 
-def _rendered(work_dir: Path, trajectory: str, frames: int, seed: int = 0,
-              scene: str = 'structure_texture') -> Any:
+
+def _rendered(
+    work_dir: Path, trajectory: str, frames: int, seed: int = 0, scene: str = 'structure_texture'
+) -> Any:
     """A rendered sequence in ``work_dir`` (reused when it already has enough frames)."""
     from initsel_ros.datasets import open_sequence
 
@@ -389,8 +419,9 @@ def make_readme_pictures(
         near = _rendered(work_dir, 'near', frames)
         results, indices, init_overlay, init_at = [], [], None, None
         thresholds: dict[str, float] = {}
-        for i, res, ov, sel in iter_overlays(near, models, SelectorConfig(mode='once'),
-                                             stop=frames):
+        for i, res, ov, sel in iter_overlays(
+            near, models, SelectorConfig(mode='once'), stop=frames
+        ):
             results.append(res)
             indices.append(i)
             thresholds = dict(sel.thresholds)
@@ -403,10 +434,16 @@ def make_readme_pictures(
         else:
             written.append(write_png(out_dir / 'initialization.png', init_overlay, max_bytes))
         baselines = groundtruth_baselines(near, results, indices)
-        written.append(plot_probabilities(
-            results, baselines, out_dir / 'probabilities.png', thresholds, indices,
-            title='Rendered near trajectory: model probabilities and true baseline',
-        ))
+        written.append(
+            plot_probabilities(
+                results,
+                baselines,
+                out_dir / 'probabilities.png',
+                thresholds,
+                indices,
+                title='Rendered near trajectory: model probabilities and true baseline',
+            )
+        )
         return written
     finally:
         if tmp is not None:

@@ -156,8 +156,10 @@ def decide_batch(
     T = np.array([thresholds.get(m, 0.5) for m in PREFERENCE])
     enough = n_tracks >= config.min_tracks
     fired = (P >= T) & enough[:, None]
-    rotation = (np.broadcast_to(np.asarray(probabilities.get('R', 0.0), float), (n,))
-                >= thresholds.get('R', 0.5)) & enough
+    rotation = (
+        np.broadcast_to(np.asarray(probabilities.get('R', 0.0), float), (n,))
+        >= thresholds.get('R', 0.5)
+    ) & enough
     veto = np.array([m in config.r_veto for m in PREFERENCE])
     vetoed = fired & rotation[:, None] & veto[None, :]
     remaining = fired & ~vetoed
@@ -198,15 +200,14 @@ def decide(
         (pending the pose check) when positive.
     """
     common = {
-        'probabilities': dict(probabilities), 'n_tracks': int(n_tracks),
+        'probabilities': dict(probabilities),
+        'n_tracks': int(n_tracks),
         'mean_disparity': float(mean_disparity),
     }
     if n_tracks < config.min_tracks:
         detail = f'{n_tracks} < {config.min_tracks}'
         return Decision(Reason.TOO_FEW_TRACKS, detail=detail, **common)
-    fired = tuple(
-        m for m in PREFERENCE if probabilities.get(m, 0.0) >= thresholds.get(m, 0.5)
-    )
+    fired = tuple(m for m in PREFERENCE if probabilities.get(m, 0.0) >= thresholds.get(m, 0.5))
     rotation = probabilities.get('R', 0.0) >= thresholds.get('R', 0.5)
     vetoed = tuple(m for m in fired if rotation and m in config.r_veto)
     remaining = [m for m in fired if m not in vetoed]
@@ -224,7 +225,10 @@ def decide(
 
 
 def check_pose_batch(
-    ok: np.ndarray, n_points: np.ndarray, parallax_deg: np.ndarray, config: PolicyConfig,
+    ok: np.ndarray,
+    n_points: np.ndarray,
+    parallax_deg: np.ndarray,
+    config: PolicyConfig,
 ) -> np.ndarray:
     """:func:`check_pose` on N estimates: (N,) object array of Reason, or None when good."""
     ok = np.asarray(ok, dtype=bool)

@@ -77,8 +77,12 @@ def _projection_jacobian(K: np.ndarray, X: np.ndarray) -> np.ndarray:
 
 
 def reprojection_errors(
-    R: np.ndarray, t: np.ndarray, points: np.ndarray, K: np.ndarray,
-    p0: np.ndarray, p1: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    points: np.ndarray,
+    K: np.ndarray,
+    p0: np.ndarray,
+    p1: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per-point reprojection error in the reference and the current image, pixels.
 
@@ -100,7 +104,11 @@ def _rms(e0: np.ndarray, e1: np.ndarray) -> float:
 
 
 def refine_essential(
-    R: np.ndarray, t: np.ndarray, p0: np.ndarray, p1: np.ndarray, K: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
     max_evaluations: int = 60,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Refine an essential-matrix pose by its Sampson errors on its inliers (5 parameters).
@@ -182,8 +190,9 @@ def refine_two_view(
     rms_before = _rms(e0, e1)
     if n < 6:
         kept = (e0 <= max_reprojection_px) & (e1 <= max_reprojection_px)
-        return Refinement(R, t_unit, X0[kept], kept, rms_before, _rms(e0[kept], e1[kept]), 0,
-                          False)
+        return Refinement(
+            R, t_unit, X0[kept], kept, rms_before, _rms(e0[kept], e1[kept]), 0, False
+        )
     basis = _tangent_basis(t_unit)
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -232,14 +241,28 @@ def refine_two_view(
 
     x0 = np.concatenate([np.zeros(5), X0.ravel()])
     solution = least_squares(
-        residuals, x0, jac=jacobian, method='trf', loss='soft_l1', f_scale=huber_px,
-        x_scale='jac', max_nfev=max_evaluations, tr_solver='lsmr', ftol=1e-4, xtol=1e-5,
+        residuals,
+        x0,
+        jac=jacobian,
+        method='trf',
+        loss='soft_l1',
+        f_scale=huber_px,
+        x_scale='jac',
+        max_nfev=max_evaluations,
+        tr_solver='lsmr',
+        ftol=1e-4,
+        xtol=1e-5,
     )
     Rk, tk, X = unpack(solution.x)
     e0, e1 = reprojection_errors(Rk, tk, X, K, p0, p1)
     kept = (e0 <= max_reprojection_px) & (e1 <= max_reprojection_px)
     return Refinement(
-        R=Rk, t=tk, points=X[kept], kept=kept, rms_before_px=rms_before,
-        rms_after_px=_rms(e0[kept], e1[kept]), iterations=int(solution.nfev),
+        R=Rk,
+        t=tk,
+        points=X[kept],
+        kept=kept,
+        rms_before_px=rms_before,
+        rms_after_px=_rms(e0[kept], e1[kept]),
+        iterations=int(solution.nfev),
         converged=bool(solution.success),
     )

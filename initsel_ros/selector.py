@@ -243,8 +243,14 @@ class Selector:
         self._reference_stamp_ns = None
         self._candidate = None
 
-    def _new_reference(self, gray: np.ndarray, stamp_ns: int, reason: Reason, index: int,
-                       decision: Decision | None = None) -> FrameResult:
+    def _new_reference(
+        self,
+        gray: np.ndarray,
+        stamp_ns: int,
+        reason: Reason,
+        index: int,
+        decision: Decision | None = None,
+    ) -> FrameResult:
         found = self.tracker.reset(gray)
         self._reference_stamp_ns = stamp_ns
         self._candidate = None
@@ -257,8 +263,10 @@ class Selector:
             return pts
         K = self.intrinsics.K
         out = cv2.undistortPoints(
-            pts.reshape(-1, 1, 2).astype(np.float32), K,
-            np.asarray(self.intrinsics.distortion, dtype=np.float64), P=K,
+            pts.reshape(-1, 1, 2).astype(np.float32),
+            K,
+            np.asarray(self.intrinsics.distortion, dtype=np.float64),
+            P=K,
         )
         return out.reshape(-1, 2)
 
@@ -267,8 +275,9 @@ class Selector:
         self._frame_tracks = None
         result = self._process(image, stamp_ns)
         tracks = self._frame_tracks or self.tracker.tracks()
-        return replace(result, tracks_ref=tracks.ref, tracks_cur=tracks.cur,
-                       thresholds=dict(self.thresholds))
+        return replace(
+            result, tracks_ref=tracks.ref, tracks_cur=tracks.cur, thresholds=dict(self.thresholds)
+        )
 
     def _process(self, image: np.ndarray, stamp_ns: int) -> FrameResult:
         """Handle one frame.
@@ -304,21 +313,22 @@ class Selector:
         self._frame_tracks = tracks
         since = self.tracker.frames_since_reference
         ref, cur = self._undistort(tracks.ref), self._undistort(tracks.cur)
-        decision = decide_pair(
-            self.models, self.thresholds, self.config.policy, ref, cur, w, h
-        )
+        decision = decide_pair(self.models, self.thresholds, self.config.policy, ref, cur, w, h)
         if decision.reason is Reason.TOO_FEW_TRACKS:
             if self._candidate is not None:
-                decision = replace(decision, detail=decision.detail
-                                   + '; the candidate being verified lost its tracks')
+                decision = replace(
+                    decision,
+                    detail=decision.detail + '; the candidate being verified lost its tracks',
+                )
             result = self._new_reference(gray, stamp_ns, Reason.TOO_FEW_TRACKS, index, decision)
             return replace(result, reference_stamp_ns=stamp_ns)
 
         if self._candidate is not None:
             result = self._verify(tracks, cur, decision, index, stamp_ns, since)
         else:
-            result = FrameResult(index, stamp_ns, self._reference_stamp_ns, decision, None, False,
-                                 since)
+            result = FrameResult(
+                index, stamp_ns, self._reference_stamp_ns, decision, None, False, since
+            )
             if decision.positive:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since)
         if result.initialization is not None:
@@ -334,41 +344,69 @@ class Selector:
         return result
 
     def _fire(
-        self, result: FrameResult, ref: np.ndarray, cur: np.ndarray, ids: np.ndarray,
-        stamp_ns: int, since: int,
+        self,
+        result: FrameResult,
+        ref: np.ndarray,
+        cur: np.ndarray,
+        ids: np.ndarray,
+        stamp_ns: int,
+        since: int,
     ) -> FrameResult:
         """A model fired: estimate every candidate, choose by evidence, refine, maybe hold."""
         decision = result.decision
         residual = rotation_only_residual_px(ref, cur, self.intrinsics.K)
         if not residual >= self.config.policy.min_rotation_residual_px:
-            return replace(result, decision=replace(
-                decision, reason=Reason.ROTATION,
-                detail=f'{"/".join(m.value for m in decision.candidates)} fired, but a rotation '
-                       f'alone explains the flow (median residual {residual:.2f} px < '
-                       f'{self.config.policy.min_rotation_residual_px:g} px)'))
+            return replace(
+                result,
+                decision=replace(
+                    decision,
+                    reason=Reason.ROTATION,
+                    detail=f'{"/".join(m.value for m in decision.candidates)} fired, but a '
+                    f'rotation alone explains the flow (median residual {residual:.2f} px < '
+                    f'{self.config.policy.min_rotation_residual_px:g} px)',
+                ),
+            )
         selection, estimate, problem = self._choose(decision, ref, cur)
         result = replace(result, selection=selection)
         if estimate is None:
-            return replace(result, decision=replace(
-                decision, reason=problem, detail=selection.summary()))
-        init, map_indices = self._initialization(estimate, ref, cur, decision, stamp_ns, since,
-                                                 selection)
+            return replace(
+                result, decision=replace(decision, reason=problem, detail=selection.summary())
+            )
+        init, map_indices = self._initialization(
+            estimate, ref, cur, decision, stamp_ns, since, selection
+        )
         if init.points.shape[0] < self.config.policy.min_points:
-            return replace(result, decision=replace(
-                decision, reason=Reason.TOO_FEW_POINTS,
-                detail=f'{init.points.shape[0]} points left after refinement; '
-                       + selection.summary()))
+            return replace(
+                result,
+                decision=replace(
+                    decision,
+                    reason=Reason.TOO_FEW_POINTS,
+                    detail=f'{init.points.shape[0]} points left after refinement; '
+                    + selection.summary(),
+                ),
+            )
         detail = f'{init.method.value}: {selection.why}'
         if self.config.verify.frames > 0:
             self._candidate = _Candidate(init, np.asarray(ids)[map_indices])
-            return replace(result, decision=replace(
-                decision, reason=Reason.VERIFYING,
-                detail=f'{detail}; verifying on the next {self.config.verify.frames} frames'))
-        return replace(result, initialization=init,
-                       decision=replace(decision, reason=Reason.INITIALIZED, detail=detail))
+            return replace(
+                result,
+                decision=replace(
+                    decision,
+                    reason=Reason.VERIFYING,
+                    detail=f'{detail}; verifying on the next {self.config.verify.frames} frames',
+                ),
+            )
+        return replace(
+            result,
+            initialization=init,
+            decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
+        )
 
     def _choose(
-        self, decision: Decision, ref: np.ndarray, cur: np.ndarray,
+        self,
+        decision: Decision,
+        ref: np.ndarray,
+        cur: np.ndarray,
     ) -> tuple[Selection, PoseEstimate | None, Reason]:
         """Estimate with the fired methods and H, and select by GRIC among those that pass."""
         methods = list(decision.candidates)
@@ -379,15 +417,24 @@ class Selector:
         estimates, problems, reasons = [], [], []
         for method in methods:
             estimate = estimate_pose(
-                method, ref, cur, self.intrinsics.K,
+                method,
+                ref,
+                cur,
+                self.intrinsics.K,
                 ransac_threshold_px=self.config.ransac_threshold_px,
             )
             problem = check_pose(estimate, self.config.policy)
             estimates.append(estimate)
             reasons.append(problem)
-            problems.append('' if problem is None else (
-                estimate.reason or f'{problem.value}: {estimate.n_points} points, '
-                f'parallax {estimate.parallax_deg:.2f} deg'))
+            problems.append(
+                ''
+                if problem is None
+                else (
+                    estimate.reason
+                    or f'{problem.value}: {estimate.n_points} points, '
+                    f'parallax {estimate.parallax_deg:.2f} deg'
+                )
+            )
         selection = select_method(estimates, problems, ref, cur, self.intrinsics.K)
         if selection.winner is None:
             first = next(r for r in reasons if r is not None)
@@ -396,7 +443,12 @@ class Selector:
         return selection, winner, Reason.INITIALIZED
 
     def _verify(
-        self, tracks: Tracks, cur: np.ndarray, decision: Decision, index: int, stamp_ns: int,
+        self,
+        tracks: Tracks,
+        cur: np.ndarray,
+        decision: Decision,
+        index: int,
+        stamp_ns: int,
         since: int,
     ) -> FrameResult:
         """Check the held-back candidate on this frame; publish it once enough frames agree."""
@@ -409,32 +461,63 @@ class Selector:
         pixels = np.zeros((len(ids), 2))
         pixels[tracked] = cur[pos[tracked]]
         step = check_frame(init.points, pixels, tracked, self.intrinsics.K, self.config.verify)
-        base = FrameResult(index, stamp_ns, self._reference_stamp_ns, decision, None, False, since,
-                           verification=step)
+        base = FrameResult(
+            index,
+            stamp_ns,
+            self._reference_stamp_ns,
+            decision,
+            None,
+            False,
+            since,
+            verification=step,
+        )
         done = len(candidate.steps) + 1
         wanted = self.config.verify.frames
         if not step.ok:
             self._candidate = None
-            return replace(base, decision=replace(
-                decision, reason=Reason.VERIFICATION_FAILED,
-                detail=f'{init.method.value} candidate of frame {init.frames_since_reference} '
-                       f'failed on frame {done} of {wanted}: {step.detail}'))
+            return replace(
+                base,
+                decision=replace(
+                    decision,
+                    reason=Reason.VERIFICATION_FAILED,
+                    detail=f'{init.method.value} candidate of frame {init.frames_since_reference} '
+                    f'failed on frame {done} of {wanted}: {step.detail}',
+                ),
+            )
         steps = (*candidate.steps, step)
         if done < wanted:
             self._candidate = replace(candidate, steps=steps)
-            return replace(base, decision=replace(
-                decision, reason=Reason.VERIFYING,
-                detail=f'{init.method.value} candidate: frame {done} of {wanted} ok, '
-                       f'{step.detail}'))
+            return replace(
+                base,
+                decision=replace(
+                    decision,
+                    reason=Reason.VERIFYING,
+                    detail=f'{init.method.value} candidate: frame {done} of {wanted} ok, '
+                    f'{step.detail}',
+                ),
+            )
         self._candidate = None
         verified = replace(init, verification=steps)
-        return replace(base, initialization=verified, decision=replace(
-            decision, reason=Reason.INITIALIZED, probabilities=dict(init.probabilities),
-            detail=f'{init.method.value} verified on {wanted} frames (last: {step.detail})'))
+        return replace(
+            base,
+            initialization=verified,
+            decision=replace(
+                decision,
+                reason=Reason.INITIALIZED,
+                probabilities=dict(init.probabilities),
+                detail=f'{init.method.value} verified on {wanted} frames (last: {step.detail})',
+            ),
+        )
 
     def _initialization(
-        self, estimate: PoseEstimate, ref: np.ndarray, cur: np.ndarray,
-        decision: Decision, stamp_ns: int, since: int, selection: Selection,
+        self,
+        estimate: PoseEstimate,
+        ref: np.ndarray,
+        cur: np.ndarray,
+        decision: Decision,
+        stamp_ns: int,
+        since: int,
+        selection: Selection,
     ) -> tuple[Initialization, np.ndarray]:
         """The seed map of the chosen estimate, and its points' indices into the tracks."""
         R, t = estimate.R, estimate.t
@@ -442,7 +525,12 @@ class Selector:
         refinement = None
         if self.config.refine:
             refinement = refine_two_view(
-                R, t, points, ref[indices], cur[indices], self.intrinsics.K,
+                R,
+                t,
+                points,
+                ref[indices],
+                cur[indices],
+                self.intrinsics.K,
                 max_reprojection_px=MAP_MAX_REPROJECTION_PX,
             )
             R, t, points = refinement.R, refinement.t, refinement.points

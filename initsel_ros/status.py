@@ -25,8 +25,9 @@ if TYPE_CHECKING:  # the selector pulls in OpenCV; readers of the status need no
     from initsel_ros.verify import VerifyStep
 
 #: Reasons reported with level WARN (every other reason is OK).
-WARN_REASONS = frozenset({Reason.TOO_FEW_TRACKS, Reason.POSE_FAILED, Reason.SKIPPED_IMAGE,
-                          Reason.INTERNAL_ERROR})
+WARN_REASONS = frozenset(
+    {Reason.TOO_FEW_TRACKS, Reason.POSE_FAILED, Reason.SKIPPED_IMAGE, Reason.INTERNAL_ERROR}
+)
 NS_PER_S = 1_000_000_000
 
 
@@ -62,10 +63,14 @@ class VerificationStatus:
     @classmethod
     def from_step(cls, step: VerifyStep) -> VerificationStatus:
         """The status view of a :class:`~initsel_ros.verify.VerifyStep`."""
-        return cls(ok=bool(step.ok), tracked=int(step.tracked), inliers=int(step.inliers),
-                   fraction=round(float(step.fraction), 3),
-                   rms_px=round(float(step.rms_px), 3) if math.isfinite(step.rms_px) else None,
-                   detail=step.detail)
+        return cls(
+            ok=bool(step.ok),
+            tracked=int(step.tracked),
+            inliers=int(step.inliers),
+            fraction=round(float(step.fraction), 3),
+            rms_px=round(float(step.rms_px), 3) if math.isfinite(step.rms_px) else None,
+            detail=step.detail,
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields."""
@@ -176,10 +181,14 @@ class FrameStatus:
         probabilities = dict(decision.probabilities) if decision is not None else {}
         init = result.initialization if result is not None else None
         reference_sec, reference_nanosec = _split_ns(
-            result.reference_stamp_ns if result is not None else None)
+            result.reference_stamp_ns if result is not None else None
+        )
         init_sec, init_nanosec = _split_ns(init.stamp_ns if init is not None else None)
-        selection = init.selection if init is not None else (
-            result.selection if result is not None else None)
+        selection = (
+            init.selection
+            if init is not None
+            else (result.selection if result is not None else None)
+        )
         step = result.verification if result is not None else None
         return cls(
             stamp=stamp_sec + stamp_nanosec * 1e-9,  # for humans; exact: stamp_sec/_nanosec
@@ -241,10 +250,14 @@ class FrameStatus:
             'mean_disparity_px': _fmt(self.mean_disparity_px),
             'frames_since_reference': str(self.frames_since_reference),
             'dropped_frames': str(self.dropped_frames),
-            'reason': self.reason.value if not self.detail
+            'reason': self.reason.value
+            if not self.detail
             else f'{self.reason.value}: {self.detail}',
-            'intrinsics': (f'guessed: {self.intrinsics_warning}' if self.intrinsics_warning
-                           else self.intrinsics_source),
+            'intrinsics': (
+                f'guessed: {self.intrinsics_warning}'
+                if self.intrinsics_warning
+                else self.intrinsics_source
+            ),
         }
         if self.selection is not None:
             values['selection'] = str(self.selection['why'])
@@ -278,7 +291,8 @@ class FrameStatus:
         missing = [n for n in names if n not in data]
         unknown = sorted(set(data) - set(names))
         problems = ([f'missing {", ".join(missing)}'] if missing else []) + (
-            [f'unknown {", ".join(unknown)}'] if unknown else [])
+            [f'unknown {", ".join(unknown)}'] if unknown else []
+        )
         if problems:
             raise StatusError('not a FrameStatus: ' + '; '.join(problems))
         values = dict(data)

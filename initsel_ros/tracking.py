@@ -118,8 +118,11 @@ def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -
     if config.max_features <= 0 or h < 2 * config.block_size or w < 2 * config.block_size:
         return np.zeros((0, 2), np.float32)
     corners = cv2.goodFeaturesToTrack(
-        gray, maxCorners=2 * config.max_features, qualityLevel=config.quality_level,
-        minDistance=config.min_distance_px, blockSize=config.block_size,
+        gray,
+        maxCorners=2 * config.max_features,
+        qualityLevel=config.quality_level,
+        minDistance=config.min_distance_px,
+        blockSize=config.block_size,
     )
     if corners is None:
         return np.zeros((0, 2), np.float32)
@@ -136,7 +139,7 @@ def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -
     cap = math.ceil(config.max_features / (cols * rows))
     chosen = rank < cap
     if chosen.sum() > config.max_features:
-        chosen[np.flatnonzero(chosen)[config.max_features:]] = False
+        chosen[np.flatnonzero(chosen)[config.max_features :]] = False
     spare = config.max_features - int(chosen.sum())
     if spare > 0:
         chosen[np.flatnonzero(~chosen)[:spare]] = True
@@ -149,7 +152,8 @@ class KltTracker:
     def __init__(self, config: TrackerConfig = TrackerConfig()) -> None:
         self.config = config
         self._criteria = (
-            cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, config.lk_iterations,
+            cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT,
+            config.lk_iterations,
             config.lk_epsilon_px,
         )
         self._prev: np.ndarray | None = None
@@ -224,12 +228,17 @@ class KltTracker:
     def _zncc(self) -> bool:
         return self.config.photometric is Photometric.ZNCC
 
-    def _lk(self, prev: np.ndarray, gray: np.ndarray, guess: np.ndarray | None = None,
-            ) -> tuple[np.ndarray, np.ndarray]:
+    def _lk(
+        self,
+        prev: np.ndarray,
+        gray: np.ndarray,
+        guess: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Forward-backward KLT of the current points: (next points (N, 2), keep (N,))."""
         cfg = self.config
         lk = {
-            'winSize': (cfg.window_px, cfg.window_px), 'maxLevel': cfg.pyramid_levels,
+            'winSize': (cfg.window_px, cfg.window_px),
+            'maxLevel': cfg.pyramid_levels,
             'criteria': self._criteria,
         }
         prev_pts = self._cur.reshape(-1, 1, 2)
@@ -237,15 +246,25 @@ class KltTracker:
             nxt, status, _ = cv2.calcOpticalFlowPyrLK(prev, gray, prev_pts, None, **lk)
         else:
             nxt, status, _ = cv2.calcOpticalFlowPyrLK(
-                prev, gray, prev_pts, guess.reshape(-1, 1, 2).copy(),
-                flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **lk)
+                prev,
+                gray,
+                prev_pts,
+                guess.reshape(-1, 1, 2).copy(),
+                flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+                **lk,
+            )
         back, status_back, _ = cv2.calcOpticalFlowPyrLK(gray, prev, nxt, None, **lk)
         nxt = nxt.reshape(-1, 2)
         fb = np.linalg.norm(back.reshape(-1, 2) - self._cur, axis=1)
         h, w = gray.shape
         keep = (
-            (status.ravel() == 1) & (status_back.ravel() == 1) & (fb <= cfg.fb_max_error_px)
-            & (nxt[:, 0] >= 0) & (nxt[:, 0] <= w - 1) & (nxt[:, 1] >= 0) & (nxt[:, 1] <= h - 1)
+            (status.ravel() == 1)
+            & (status_back.ravel() == 1)
+            & (fb <= cfg.fb_max_error_px)
+            & (nxt[:, 0] >= 0)
+            & (nxt[:, 0] <= w - 1)
+            & (nxt[:, 1] >= 0)
+            & (nxt[:, 1] <= h - 1)
         )
         return nxt, keep
 
@@ -302,9 +321,14 @@ _GAIN_BIAS_ROUNDS = 4
 _GAIN_BIAS_SETTLED = 0.1
 
 
-def fit_gain_bias(prev: np.ndarray, cur: np.ndarray, p_prev: np.ndarray, p_cur: np.ndarray,
-                  window_px: int, iterations: int = 3,
-                  ) -> tuple[float, float, np.ndarray] | None:
+def fit_gain_bias(
+    prev: np.ndarray,
+    cur: np.ndarray,
+    p_prev: np.ndarray,
+    p_cur: np.ndarray,
+    window_px: int,
+    iterations: int = 3,
+) -> tuple[float, float, np.ndarray] | None:
     """Gain and bias mapping ``cur`` onto ``prev`` brightness: ``prev ~ a * cur + b``.
 
     Fitted to the mean intensities of ``window_px`` patches around corresponding points by a

@@ -60,8 +60,9 @@ class Tree:
     def from_dict(cls, data: Any, n_features: int, where: str) -> Tree:
         """Validate one tree of the file; raises ModelFileError."""
         if not isinstance(data, dict) or sorted(data) != sorted(TREE_KEYS):
-            raise ModelFileError(f'{where}: a tree must map exactly {", ".join(TREE_KEYS)} '
-                                 'to lists')
+            raise ModelFileError(
+                f'{where}: a tree must map exactly {", ".join(TREE_KEYS)} to lists'
+            )
         raw = data['feature']
         k = len(raw) if isinstance(raw, list) else 0
         if not 1 <= k <= MAX_NODES_PER_TREE:
@@ -124,16 +125,25 @@ class FlatTrees:
             own = np.arange(k) + offset
             feats.append(np.where(leaf, 0, cols[np.maximum(tree.feature, 0)]))
             splits.append(np.where(leaf, np.inf, tree.split))
-            kids.append(np.column_stack((np.where(leaf, own, tree.left + offset),
-                                         np.where(leaf, own, tree.right + offset))).ravel())
+            kids.append(
+                np.column_stack(
+                    (
+                        np.where(leaf, own, tree.left + offset),
+                        np.where(leaf, own, tree.right + offset),
+                    )
+                ).ravel()
+            )
             values.append(np.where(leaf, tree.value, 0.0))
             roots.append(offset)
             depth = max(depth, tree.depth)
             offset += k
         return cls(
-            np.concatenate(feats).astype(np.int64), np.concatenate(splits),
-            np.concatenate(kids).astype(np.int64), np.concatenate(values),
-            np.asarray(roots, dtype=np.int64), depth,
+            np.concatenate(feats).astype(np.int64),
+            np.concatenate(splits),
+            np.concatenate(kids).astype(np.int64),
+            np.concatenate(values),
+            np.asarray(roots, dtype=np.int64),
+            depth,
         )
 
     def leaf_values(self, x: np.ndarray) -> np.ndarray:
@@ -220,8 +230,9 @@ class TreeEnsembleModel:
         }
 
     @classmethod
-    def from_dict(cls, name: str, data: dict[str, Any], features: tuple[str, ...]
-                  ) -> TreeEnsembleModel:
+    def from_dict(
+        cls, name: str, data: dict[str, Any], features: tuple[str, ...]
+    ) -> TreeEnsembleModel:
         """Validate a ``"kind": "trees"`` entry (``features`` already checked)."""
         where = f'model {name!r}'
         trees = data.get('trees')
@@ -235,8 +246,9 @@ class TreeEnsembleModel:
         return cls(
             name=name,
             features=features,
-            trees=tuple(Tree.from_dict(t, len(features), f'{where}: tree {i}')
-                        for i, t in enumerate(trees)),
+            trees=tuple(
+                Tree.from_dict(t, len(features), f'{where}: tree {i}') for i, t in enumerate(trees)
+            ),
             bias=finite_number(data['bias'], f'{where}: bias'),
             threshold=unit_number(data.get('threshold', 0.5), f'{where}: threshold'),
             metrics=dict(metrics),

@@ -97,8 +97,14 @@ def check_frame(
     obj = np.ascontiguousarray(points[tracked], dtype=np.float64).reshape(-1, 1, 3)
     img = np.ascontiguousarray(pixels[tracked], dtype=np.float64).reshape(-1, 1, 2)
     ok, rvec, tvec, inliers = cv2.solvePnPRansac(
-        obj, img, K, None, iterationsCount=100, reprojectionError=config.ransac_px,
-        confidence=0.999, flags=cv2.SOLVEPNP_EPNP,
+        obj,
+        img,
+        K,
+        None,
+        iterationsCount=100,
+        reprojectionError=config.ransac_px,
+        confidence=0.999,
+        flags=cv2.SOLVEPNP_EPNP,
     )
     if not ok or inliers is None or len(inliers) < 6:
         return _with_detail(fail, m, config, 'PnP found no pose')
@@ -110,17 +116,26 @@ def check_frame(
     fraction = len(idx) / m
     R = cv2.Rodrigues(rvec)[0]
     step = VerifyStep(
-        fraction >= config.min_fraction and rms <= config.max_rms_px, n_tracked, len(idx),
-        fraction, rms, R, tvec.reshape(3), '',
+        fraction >= config.min_fraction and rms <= config.max_rms_px,
+        n_tracked,
+        len(idx),
+        fraction,
+        rms,
+        R,
+        tvec.reshape(3),
+        '',
     )
     return _with_detail(step, m, config, '')
 
 
 def _with_detail(step: VerifyStep, m: int, config: VerifyConfig, note: str) -> VerifyStep:
-    text = (f'{step.inliers} of {m} points PnP inliers ({100 * step.fraction:.0f} %, '
-            f'min {100 * config.min_fraction:.0f} %), RMS {step.rms_px:.2f} px '
-            f'(max {config.max_rms_px:.2f} px)')
+    text = (
+        f'{step.inliers} of {m} points PnP inliers ({100 * step.fraction:.0f} %, '
+        f'min {100 * config.min_fraction:.0f} %), RMS {step.rms_px:.2f} px '
+        f'(max {config.max_rms_px:.2f} px)'
+    )
     if note:
         text = f'{note}; {text}'
-    return VerifyStep(step.ok, step.tracked, step.inliers, step.fraction, step.rms_px, step.R,
-                      step.t, text)
+    return VerifyStep(
+        step.ok, step.tracked, step.inliers, step.fraction, step.rms_px, step.R, step.t, text
+    )

@@ -42,6 +42,7 @@ case "$job" in
     demo) exec initsel demo "$@" ;;
     test)
         ruff check initsel_ros test
+        ruff format --check initsel_ros test
         exec python -m pytest -q "$@" test ;;
     shell) exec "${SHELL:-bash}" -i ;;
     *) exec "$job" "$@" ;;

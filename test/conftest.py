@@ -46,15 +46,17 @@ def static_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope='session')
 def floor_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Sheets on the floor only (every visible point on z = 0), near frames 80-139."""
-    return _render(tmp_path_factory, 'floor', scene='floor', trajectory='near', frames=60,
-                   start=80)
+    return _render(
+        tmp_path_factory, 'floor', scene='floor', trajectory='near', frames=60, start=80
+    )
 
 
 @pytest.fixture(scope='session')
 def wall_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One textured wall (a single plane) seen from the arc trajectory, 60 frames."""
-    return _render(tmp_path_factory, 'wall_arc', scene='wall', trajectory='arc', frames=60,
-                   start=15)
+    return _render(
+        tmp_path_factory, 'wall_arc', scene='wall', trajectory='arc', frames=60, start=15
+    )
 
 
 @pytest.fixture(scope='session')
@@ -63,8 +65,23 @@ def near_pair_table(near_sequence: Path, tmp_path_factory: pytest.TempPathFactor
     from initsel_ros.cli import main
 
     out = tmp_path_factory.mktemp('pairs') / 'near.csv'
-    assert main(['dataset', str(near_sequence), '--out', str(out), '--batch', '30',
-                 '--jobs', '1', '--quiet', '--no-orbslam']) == 0
+    assert (
+        main(
+            [
+                'dataset',
+                str(near_sequence),
+                '--out',
+                str(out),
+                '--batch',
+                '30',
+                '--jobs',
+                '1',
+                '--quiet',
+                '--no-orbslam',
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -74,8 +91,9 @@ def near_bag_ros1(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory)
     from initsel_ros.datasets.bags import write_bag
     from initsel_ros.datasets.tum import TumSequence
 
-    return write_bag(TumSequence(near_sequence), tmp_path_factory.mktemp('bag1') / 'near.bag',
-                     'ros1')
+    return write_bag(
+        TumSequence(near_sequence), tmp_path_factory.mktemp('bag1') / 'near.bag', 'ros1'
+    )
 
 
 @pytest.fixture(scope='session')
@@ -84,8 +102,7 @@ def near_bag_ros2(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory)
     from initsel_ros.datasets.bags import write_bag
     from initsel_ros.datasets.tum import TumSequence
 
-    return write_bag(TumSequence(near_sequence), tmp_path_factory.mktemp('bag2') / 'near',
-                     'ros2')
+    return write_bag(TumSequence(near_sequence), tmp_path_factory.mktemp('bag2') / 'near', 'ros2')
 
 
 @pytest.fixture(scope='session')

@@ -11,7 +11,11 @@ K = Intrinsics.tum_fr3().K
 
 
 def two_view(
-    planar: bool, n: int = 250, baseline: float = 0.15, noise_px: float = 0.3, seed: int = 0,
+    planar: bool,
+    n: int = 250,
+    baseline: float = 0.15,
+    noise_px: float = 0.3,
+    seed: int = 0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Points seen by ``[I|0]`` and a camera moved sideways and turned back toward them.
 

@@ -35,9 +35,12 @@ def ros_context() -> Iterator[rclpy.Context]:
 
 def make_harness(context: rclpy.Context, **parameters: object) -> NodeHarness:
     """A stepped harness in a namespace of its own; ``a__b=v`` sets parameter ``a.b``."""
-    return NodeHarness({k.replace('__', '.'): v for k, v in parameters.items()},
-                       context=context, namespace=f'/itest{next(_namespaces)}',
-                       client_name='initsel_test_client')
+    return NodeHarness(
+        {k.replace('__', '.'): v for k, v in parameters.items()},
+        context=context,
+        namespace=f'/itest{next(_namespaces)}',
+        client_name='initsel_test_client',
+    )
 
 
 def harnesses(context: rclpy.Context) -> Iterator[Callable[..., NodeHarness]]:
@@ -63,9 +66,13 @@ def as_sequence(fixture_value):
     return open_sequence(fixture_value)
 
 
-def play(h: NodeHarness, sequence, stamps: list[Time] | None = None,
-         convert: Callable[[np.ndarray], np.ndarray] | None = None,
-         until_initialized: bool = False) -> list[FrameStatus]:
+def play(
+    h: NodeHarness,
+    sequence,
+    stamps: list[Time] | None = None,
+    convert: Callable[[np.ndarray], np.ndarray] | None = None,
+    until_initialized: bool = False,
+) -> list[FrameStatus]:
     """Send the sequence's camera_info and frames (with ``stamps``, pixels via ``convert``)."""
     h.send_camera_info(sequence.intrinsics)
     statuses = []

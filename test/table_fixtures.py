@@ -17,8 +17,11 @@ def synthetic_table(n: int = 120, seed: int = 0, **constant_labels: int) -> Pair
     for i in range(n):
         row = {}
         for name, kind in schema():
-            row[name] = float(rng.normal()) if kind is float else (
-                int(rng.integers(0, 2)) if kind is int else 'median')
+            row[name] = (
+                float(rng.normal())
+                if kind is float
+                else (int(rng.integers(0, 2)) if kind is int else 'median')
+            )
         row['sequence'] = f'seq{i % 2}'
         row['batch'] = i % 6
         signal = row['free__disparity_mean']

@@ -27,9 +27,27 @@ def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path,
     (tmp_path / 'work').mkdir()
     (tmp_path / 'work' / 'bench_sequence').symlink_to(near_sequence)
     out = tmp_path / 'bench.json'
-    status = main(['bench', '--work', str(tmp_path / 'work'), '--frames', '30', '--repeat', '50',
-                   '--node-frames', '20', '--rates', '60', '--memory-frames', '150',
-                   '--skip', 'dataset', '--json', str(out)])
+    status = main(
+        [
+            'bench',
+            '--work',
+            str(tmp_path / 'work'),
+            '--frames',
+            '30',
+            '--repeat',
+            '50',
+            '--node-frames',
+            '20',
+            '--rates',
+            '60',
+            '--memory-frames',
+            '150',
+            '--skip',
+            'dataset',
+            '--json',
+            str(out),
+        ]
+    )
     assert status == 0
     printed = capsys.readouterr().out
     assert '| decision: model inputs + 4 models + policy |' in printed
@@ -41,11 +59,17 @@ def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path,
     assert decision['n'] == 50 and 0 < decision['median_us'] < 1e5
     assert figures['decision']['orbslam_ratio'] > 1  # the RANSACs cost more than the decision
     assert set(figures['decision']['estimators']) == {
-        'estimate_pose F', 'estimate_pose E', 'estimate_pose H', 'F + E + H outright'}
+        'estimate_pose F',
+        'estimate_pose E',
+        'estimate_pose H',
+        'F + E + H outright',
+    }
     frames = figures['sequence']['frames']
     assert sum(figures['frame']['reasons'].values()) == 2 * frames
     assert figures['frame']['decision_only']['n'] + figures['frame']['with_pose']['n'] in (
-        2 * frames, 2 * frames + 1)
+        2 * frames,
+        2 * frames + 1,
+    )
     assert figures['memory']['frames'] == 150
     (node,) = figures['node']
     # Best-effort image QoS: on a busy machine frames may be lost before the node sees them.

@@ -54,8 +54,9 @@ def _track(n: int, position=None, rotation=None, rate: float = 30.0) -> PoseTrac
     return PoseTrack(stamps, poses)
 
 
-def _sensor(scene: Scene, effects: Effects, track: PoseTrack, camera: Intrinsics = CAM,
-            seed: int = 0) -> SensorRenderer:
+def _sensor(
+    scene: Scene, effects: Effects, track: PoseTrack, camera: Intrinsics = CAM, seed: int = 0
+) -> SensorRenderer:
     return SensorRenderer(scene, camera, effects, track, np.random.default_rng(seed))
 
 
@@ -81,7 +82,7 @@ def test_motion_blur_length_is_velocity_times_exposure_over_depth_times_focal(ex
     c1, s1 = _edge_spread(cv2.cvtColor(blurred, cv2.COLOR_BGR2GRAY), rows)
     expected = velocity * exposure_time / DEPTH * F  # 3.2 and 6.4 px
     # a box of length L has variance L^2 / 12, added to the sharp edge's own spread
-    length = np.sqrt(12 * (s1 ** 2 - s0 ** 2))
+    length = np.sqrt(12 * (s1**2 - s0**2))
     assert length == pytest.approx(expected, rel=0.08)
     # the frame time is the middle of the exposure: the blurred edge is centred on the sharp one
     assert c1 == pytest.approx(c0, abs=0.15)
@@ -92,6 +93,7 @@ def _rotation_y(omega: float):
     def rot(t: float) -> np.ndarray:
         c, s = np.cos(omega * t), np.sin(omega * t)
         return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
     return rot
 
 
@@ -109,7 +111,8 @@ def _edge_columns(gray: np.ndarray, level: float = 120.0) -> np.ndarray:
 
 @pytest.mark.parametrize('exposure_time', [0.0, 0.01])
 def test_rolling_shutter_leans_a_vertical_edge_by_focal_times_pan_rate_times_readout(
-        exposure_time):
+    exposure_time,
+):
     omega, line_delay = 0.5, 40e-6  # rad/s pan about the camera y axis; s per row
     scene = _plane_scene(_edge_texture(ramp=8))
     track = _track(4, rotation=_rotation_y(omega))
@@ -155,7 +158,7 @@ def test_shot_noise_variance_grows_linearly_with_intensity_as_gain_over_full_wel
     assert np.allclose(means, levels * gain, atol=0.3)
     # variance = gain * 255 / full_well * I + read^2 (grey levels squared)
     assert slope == pytest.approx(gain * 255 / full_well, rel=0.1)
-    assert intercept == pytest.approx(read ** 2 + 1 / 12, abs=0.6)  # + 8-bit quantization
+    assert intercept == pytest.approx(read**2 + 1 / 12, abs=0.6)  # + 8-bit quantization
 
 
 def test_read_noise_alone_is_flat_in_intensity():
@@ -164,9 +167,12 @@ def test_read_noise_alone_is_flat_in_intensity():
     image = _sensor(scene, Effects(noise=3.0, vignetting=0.0), _track(2)).frame(0)[0]
     stripe_px = 200 * F / 1000.0 / 1.5
     first = CAM.cx - len(levels) / 2 * stripe_px
-    var = [image[60:420, int(first + (k + 0.25) * stripe_px):
-                 int(first + (k + 0.75) * stripe_px)].astype(float).var()
-           for k in range(len(levels))]
+    var = [
+        image[60:420, int(first + (k + 0.25) * stripe_px) : int(first + (k + 0.75) * stripe_px)]
+        .astype(float)
+        .var()
+        for k in range(len(levels))
+    ]
     assert np.allclose(var, 9.0, rtol=0.12)
 
 
@@ -175,7 +181,7 @@ def test_vignetting_follows_cos4_of_the_ray_angle():
     scene = _plane_scene(flat, ppm=1000.0)
     strength = 0.6
     image = _sensor(scene, Effects(noise=0.0, vignetting=strength), _track(2)).frame(0)[0]
-    ys, xs = np.mgrid[0:CAM.height, 0:CAM.width]
+    ys, xs = np.mgrid[0 : CAM.height, 0 : CAM.width]
     tan2 = ((xs - CAM.cx) / CAM.fx) ** 2 + ((ys - CAM.cy) / CAM.fy) ** 2
     expected = 200 * (1 - strength * (1 - 1 / (1 + tan2) ** 2))
     assert np.max(np.abs(image[..., 1] - expected)) <= 0.51
@@ -186,8 +192,13 @@ def test_gain_ramp_scales_the_frames_as_auto_exposure_does(tmp_path):
     g = ramp_gains(np.array([0.0, 0.5, 1.0, 2.0, 3.0]), (0.6, 1.4, 2.0))
     assert np.allclose(g, [0.6, 0.8, 1.0, 1.4, 1.4])
     assert np.allclose(ramp_gains(np.array([0.0, 1.0, 1.5]), (1.0, 2.0, 1.0, 0.5)), [1, 1.5, 2])
-    path = render(tmp_path / 'ramp', scene='wall', trajectory='static', frames=61,
-                  effects=Effects(noise=0.0, gain_ramp=(0.6, 1.4, 2.0))).path
+    path = render(
+        tmp_path / 'ramp',
+        scene='wall',
+        trajectory='static',
+        frames=61,
+        effects=Effects(noise=0.0, gain_ramp=(0.6, 1.4, 2.0)),
+    ).path
     seq = open_sequence(path)
     dark = seq.gray(0).astype(float)
     unsaturated = (dark > 5) & (dark < 150)  # below 255 at the gain 1.4 as well
@@ -198,13 +209,18 @@ def test_gain_ramp_scales_the_frames_as_auto_exposure_does(tmp_path):
 
 
 def test_jpeg_frames_are_written_as_jpeg_and_lose_more_at_lower_quality(tmp_path):
-    png = open_sequence(render(tmp_path / 'png', trajectory='static', frames=1,
-                               effects=Effects(noise=0.0)).path)
+    png = open_sequence(
+        render(tmp_path / 'png', trajectory='static', frames=1, effects=Effects(noise=0.0)).path
+    )
     clean = png.image(0)
     errors = {}
     for q in (90, 40):
-        path = render(tmp_path / f'q{q}', trajectory='static', frames=1,
-                      effects=Effects(noise=0.0, jpeg_quality=q)).path
+        path = render(
+            tmp_path / f'q{q}',
+            trajectory='static',
+            frames=1,
+            effects=Effects(noise=0.0, jpeg_quality=q),
+        ).path
         files = list((path / 'rgb').iterdir())
         assert files[0].suffix == '.jpg' and files[0].read_bytes()[:2] == b'\xff\xd8'
         assert '.jpg' in (path / 'rgb.txt').read_text()
@@ -218,8 +234,15 @@ def test_jpeg_frames_are_written_as_jpeg_and_lose_more_at_lower_quality(tmp_path
 
 def test_barrel_distortion_renders_without_empty_borders_and_writes_d(tmp_path):
     dist = (-0.28, 0.08, 1e-3, -1e-3)
-    path = render(tmp_path / 'barrel', scene='wall', trajectory='arc', frames=2,
-                  distortion=dist, effects=Effects(noise=0.0), bags=('ros2',)).path
+    path = render(
+        tmp_path / 'barrel',
+        scene='wall',
+        trajectory='arc',
+        frames=2,
+        distortion=dist,
+        effects=Effects(noise=0.0),
+        bags=('ros2',),
+    ).path
     seq = open_sequence(path)
     assert seq.intrinsics.distortion == dist
     assert yaml.safe_load((path / 'intrinsics.yaml').read_text())['distortion'] == list(dist)
@@ -228,11 +251,17 @@ def test_barrel_distortion_renders_without_empty_borders_and_writes_d(tmp_path):
     assert bag.intrinsics.distortion == pytest.approx(dist)
     # a sensor pixel shows the ideal ray that the OpenCV model maps onto it
     d = Distorter(dataclasses.replace(CAM, distortion=dist))
-    rays = np.column_stack([(d.map_x.ravel() - d.canvas.cx) / CAM.fx,
-                            (d.map_y.ravel() - d.canvas.cy) / CAM.fy, np.ones(d.map_x.size)])
-    proj, _ = cv2.projectPoints(rays[::97].reshape(-1, 1, 3), np.zeros(3), np.zeros(3), CAM.K,
-                                np.array(dist))
-    grid = np.mgrid[0:CAM.height, 0:CAM.width][::-1].reshape(2, -1).T[::97]
+    rays = np.column_stack(
+        [
+            (d.map_x.ravel() - d.canvas.cx) / CAM.fx,
+            (d.map_y.ravel() - d.canvas.cy) / CAM.fy,
+            np.ones(d.map_x.size),
+        ]
+    )
+    proj, _ = cv2.projectPoints(
+        rays[::97].reshape(-1, 1, 3), np.zeros(3), np.zeros(3), CAM.K, np.array(dist)
+    )
+    grid = np.mgrid[0 : CAM.height, 0 : CAM.width][::-1].reshape(2, -1).T[::97]
     assert np.max(np.abs(proj.reshape(-1, 2) - grid)) < 0.01
 
 
@@ -242,10 +271,12 @@ def test_distortion_that_folds_the_image_is_rejected():
 
 
 def test_movers_change_only_their_own_pixels_and_move_on_their_own(tmp_path):
-    base = render(tmp_path / 'still', trajectory='static', frames=30,
-                  effects=Effects(noise=0.0)).path
-    moving = render(tmp_path / 'movers', trajectory='static', frames=30,
-                    effects=Effects(noise=0.0, movers=3)).path
+    base = render(
+        tmp_path / 'still', trajectory='static', frames=30, effects=Effects(noise=0.0)
+    ).path
+    moving = render(
+        tmp_path / 'movers', trajectory='static', frames=30, effects=Effects(noise=0.0, movers=3)
+    ).path
     a, b = open_sequence(base), open_sequence(moving)
     masks = []
     for i in (0, 29):
@@ -263,8 +294,9 @@ def test_repeated_texture_is_periodic_and_the_scene_has_many_corners(tmp_path):
     tex = repeated_texture(np.random.default_rng(3), 400, 300, 40)
     assert np.array_equal(tex[:, 40:], tex[:, :-40]) and np.array_equal(tex[40:], tex[:-40])
     assert not np.array_equal(tex[:, 20:], tex[:, :-20])
-    seq = open_sequence(render(tmp_path / 'rep', scene='repeated', trajectory='near', frames=1,
-                               start=80).path)
+    seq = open_sequence(
+        render(tmp_path / 'rep', scene='repeated', trajectory='near', frames=1, start=80).path
+    )
     corners = cv2.goodFeaturesToTrack(seq.gray(0), 300, 0.01, 8)
     assert len(corners) >= 200
 
@@ -303,9 +335,28 @@ def test_cli_realism_renders_and_records_the_drawn_effects(tmp_path, capsys):
     from initsel_ros.cli import main
 
     out = tmp_path / 'real'
-    assert main(['synth', '--out', str(out), '--frames', '2', '--realism', '--seed', '4',
-                 '--jpeg-quality', '70', '--width', '320', '--height', '240',
-                 '--no-progress']) == 0
+    assert (
+        main(
+            [
+                'synth',
+                '--out',
+                str(out),
+                '--frames',
+                '2',
+                '--realism',
+                '--seed',
+                '4',
+                '--jpeg-quality',
+                '70',
+                '--width',
+                '320',
+                '--height',
+                '240',
+                '--no-progress',
+            ]
+        )
+        == 0
+    )
     assert 'effects: ' in capsys.readouterr().out
     data = yaml.safe_load((out / 'effects.yaml').read_text())
     drawn = draw_realism(4)

@@ -29,14 +29,23 @@ _PROBE = textwrap.dedent("""
 
 
 def _clean_env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items()
-           if k not in ('_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ('_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')
+    }
     return env
 
 
 def _help_modules(*argv: str) -> tuple[int, list[str]]:
-    out = subprocess.run([sys.executable, '-c', _PROBE, *argv, '--help'], env=_clean_env(),
-                         capture_output=True, text=True, timeout=60, check=False)
+    out = subprocess.run(
+        [sys.executable, '-c', _PROBE, *argv, '--help'],
+        env=_clean_env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert out.returncode == 0, out.stderr
     record = json.loads(out.stdout.strip().splitlines()[-1])
     return record['code'], record['modules']
@@ -57,8 +66,14 @@ def test_console_script_help_runs_in_a_subprocess():
     script = Path(sys.executable).with_name('initsel')
     if not script.exists():
         pytest.skip('console script not installed next to this Python')
-    out = subprocess.run([str(script), '--help'], env=_clean_env(), capture_output=True,
-                         text=True, timeout=60, check=False)
+    out = subprocess.run(
+        [str(script), '--help'],
+        env=_clean_env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert out.returncode == 0, out.stderr
     for name in SUBCOMMANDS:
         assert name in out.stdout
@@ -90,7 +105,8 @@ def test_subcommand_module_with_a_failing_import_is_an_error(tmp_path, monkeypat
     (tmp_path / 'initsel_test_broken_cli.py').write_text(
         'import initsel_no_such_dependency  # noqa: F401\n'
         'def add_arguments(parser): pass\n'
-        'def run(args): return 0\n')
+        'def run(args): return 0\n'
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setitem(SUBCOMMANDS, 'broken', ('initsel_test_broken_cli', 'broken'))
     assert main(['synth', '--help']) == 1
@@ -99,7 +115,8 @@ def test_subcommand_module_with_a_failing_import_is_an_error(tmp_path, monkeypat
 
 
 def test_readme_pictures_default_folder_is_relative_to_the_working_directory(
-    tmp_path, monkeypatch,
+    tmp_path,
+    monkeypatch,
 ):
     import initsel_ros.pictures as pictures
 

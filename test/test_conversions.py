@@ -188,8 +188,9 @@ def test_point_cloud_has_seven_float32_fields_and_round_trips():
     assert not msg.is_bigendian and msg.is_dense
     assert len(msg.data) == 28 * 17
     cloud = conv.point_cloud_to_array(msg)
-    np.testing.assert_allclose(np.stack([cloud['x'], cloud['y'], cloud['z']], 1), points,
-                               rtol=1e-6)
+    np.testing.assert_allclose(
+        np.stack([cloud['x'], cloud['y'], cloud['z']], 1), points, rtol=1e-6
+    )
     np.testing.assert_allclose(np.stack([cloud['u1'], cloud['v1']], 1), cur, rtol=1e-6)
     table = np.frombuffer(bytes(msg.data), dtype='<f4').reshape(17, 7)
     np.testing.assert_allclose(table[:, 3:5], ref, rtol=1e-6)
@@ -216,8 +217,9 @@ def test_quaternions_round_trip_rotations():
         np.testing.assert_allclose(conv.quaternion_to_rotation(q), R, atol=1e-10)
     np.testing.assert_allclose(conv.rotation_to_quaternion(np.eye(3)), [0, 0, 0, 1])
     half_turn = np.diag([1.0, -1.0, -1.0])
-    np.testing.assert_allclose(np.abs(conv.rotation_to_quaternion(half_turn)), [1, 0, 0, 0],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        np.abs(conv.rotation_to_quaternion(half_turn)), [1, 0, 0, 0], atol=1e-12
+    )
 
 
 def test_pose_is_the_current_camera_in_the_reference_frame():
@@ -245,10 +247,18 @@ def test_pure_sideways_motion_gives_position_along_minus_t():
 
 
 # ------------------------------------------------------------------ exact stamps (integer ns)
-@pytest.mark.parametrize(('sec', 'nanosec'), [
-    (1_700_000_000, 666_666_985), (0, 0), (0, 1), (-1, 999_999_999), (-3, 876_543_211),
-    (2**31 - 1, 999_999_999), (-(2**31), 0),
-])
+@pytest.mark.parametrize(
+    ('sec', 'nanosec'),
+    [
+        (1_700_000_000, 666_666_985),
+        (0, 0),
+        (0, 1),
+        (-1, 999_999_999),
+        (-3, 876_543_211),
+        (2**31 - 1, 999_999_999),
+        (-(2**31), 0),
+    ],
+)
 def test_stamps_map_to_integer_nanoseconds_and_back_field_by_field(sec, nanosec):
     from builtin_interfaces.msg import Time
 
@@ -280,10 +290,16 @@ def test_sixteen_bit_images_use_their_significant_bits():
 
 
 # ------------------------------------------------------------------------ compressed images
-@pytest.mark.parametrize(('shape', 'dtype', 'fmt'), [
-    ((24, 32), np.uint8, 'jpeg'), ((24, 32, 3), np.uint8, 'jpeg'),
-    ((24, 32), np.uint8, 'png'), ((24, 32, 3), np.uint8, 'png'), ((24, 32), np.uint16, 'png'),
-])
+@pytest.mark.parametrize(
+    ('shape', 'dtype', 'fmt'),
+    [
+        ((24, 32), np.uint8, 'jpeg'),
+        ((24, 32, 3), np.uint8, 'jpeg'),
+        ((24, 32), np.uint8, 'png'),
+        ((24, 32, 3), np.uint8, 'png'),
+        ((24, 32), np.uint16, 'png'),
+    ],
+)
 def test_compressed_images_decode_to_the_selector_input(shape, dtype, fmt):
     rng = np.random.default_rng(4)
     pixels = rng.integers(0, 4096 if dtype == np.uint16 else 256, shape).astype(dtype)
@@ -318,22 +334,27 @@ def _png_declaring(width: int, height: int) -> bytes:
 def _jpeg_declaring(width: int, height: int) -> bytes:
     data = bytearray(cv2.imencode('.jpg', np.zeros((8, 8), np.uint8))[1].tobytes())
     sof = data.index(b'\xff\xc0')
-    data[sof + 5:sof + 7], data[sof + 7:sof + 9] = height.to_bytes(2, 'big'), width.to_bytes(
-        2, 'big')
+    data[sof + 5 : sof + 7], data[sof + 7 : sof + 9] = (
+        height.to_bytes(2, 'big'),
+        width.to_bytes(2, 'big'),
+    )
     return bytes(data)
 
 
-@pytest.mark.parametrize(('data', 'fmt', 'match'), [
-    (b'', 'jpeg', 'not JPEG or PNG'),
-    (b'GIF89a....', 'gif', 'not JPEG or PNG'),
-    (_png_declaring(100_000, 100_000), 'png', 'outside 1..'),  # a decompression bomb
-    (_png_declaring(0, 5), 'png', 'outside 1..'),
-    (_jpeg_declaring(65_535, 65_535), 'jpeg', 'outside 1..'),
-    (b'\x89PNG\r\n\x1a\n' + bytes(8), 'png', 'corrupt header'),
-    (b'\xff\xd8\xff', 'jpeg', 'corrupt header'),
-    (_png_declaring(2, 2)[:40], 'png', 'cannot decode'),
-    (b'\x89PNG\r\n\x1a\n', '16UC1; compressedDepth png', 'compressedDepth'),
-])
+@pytest.mark.parametrize(
+    ('data', 'fmt', 'match'),
+    [
+        (b'', 'jpeg', 'not JPEG or PNG'),
+        (b'GIF89a....', 'gif', 'not JPEG or PNG'),
+        (_png_declaring(100_000, 100_000), 'png', 'outside 1..'),  # a decompression bomb
+        (_png_declaring(0, 5), 'png', 'outside 1..'),
+        (_jpeg_declaring(65_535, 65_535), 'jpeg', 'outside 1..'),
+        (b'\x89PNG\r\n\x1a\n' + bytes(8), 'png', 'corrupt header'),
+        (b'\xff\xd8\xff', 'jpeg', 'corrupt header'),
+        (_png_declaring(2, 2)[:40], 'png', 'cannot decode'),
+        (b'\x89PNG\r\n\x1a\n', '16UC1; compressedDepth png', 'compressedDepth'),
+    ],
+)
 def test_bad_compressed_images_raise_image_conversion_error(data, fmt, match):
     with pytest.raises(ImageConversionError, match=match):
         conv.compressed_to_cv(CompressedImage(format=fmt, data=data))

@@ -47,8 +47,11 @@ def test_tum_listing_stamps_reach_the_frames_exactly(static_sequence, tmp_path):
     folder = tmp_path / 'tum'
     shutil.copytree(static_sequence, folder)
     lines = ['# color images', '# timestamp filename']
-    names = [line.split()[1] for line in (folder / 'rgb.txt').read_text().splitlines()
-             if not line.startswith('#')]
+    names = [
+        line.split()[1]
+        for line in (folder / 'rgb.txt').read_text().splitlines()
+        if not line.startswith('#')
+    ]
     lines += [f'1341839327.{392692 + k:06d} {n}' for k, n in enumerate(names)]
     (folder / 'rgb.txt').write_text('\n'.join(lines) + '\n')
     (folder / 'groundtruth.txt').unlink()
@@ -87,8 +90,9 @@ def test_compressed_image_bags_read_back_like_the_folder(static_sequence, tmp_pa
     from initsel_ros.datasets.bags import BagSequence, write_bag
 
     seq = _odd_stamped(static_sequence)
-    path = write_bag(seq, tmp_path / ('c.bag' if fmt == 'ros1' else 'c'), fmt,
-                     compressed=codec, jpeg_quality=95)
+    path = write_bag(
+        seq, tmp_path / ('c.bag' if fmt == 'ros1' else 'c'), fmt, compressed=codec, jpeg_quality=95
+    )
     back = open_sequence(path)  # default topic absent: <topic>/compressed is found
     assert isinstance(back, BagSequence)
     assert back.image_topic == '/camera/rgb/image_color/compressed'
@@ -133,11 +137,12 @@ def test_undecodable_compressed_frame_names_the_bag_topic_and_frame(static_seque
     path = tmp_path / 'garbage_jpeg'
     with Writer(path, version=9) as writer:
         conn = writer.add_connection('/cam/compressed', msgtype, typestore=store)
-        header = T['std_msgs/msg/Header'](stamp=T['builtin_interfaces/msg/Time'](sec=1,
-                                                                                nanosec=5),
-                                          frame_id='cam')
-        msg = T[msgtype](header=header, format='jpeg',
-                         data=np.frombuffer(b'not a jpeg at all', np.uint8))
+        header = T['std_msgs/msg/Header'](
+            stamp=T['builtin_interfaces/msg/Time'](sec=1, nanosec=5), frame_id='cam'
+        )
+        msg = T[msgtype](
+            header=header, format='jpeg', data=np.frombuffer(b'not a jpeg at all', np.uint8)
+        )
         writer.write(conn, 1_000_000_005, store.serialize_cdr(msg, msgtype))
     seq = open_sequence(path, image_topic='/cam/compressed')
     assert seq.frames[0].stamp_ns == 1_000_000_005
@@ -145,8 +150,9 @@ def test_undecodable_compressed_frame_names_the_bag_topic_and_frame(static_seque
         seq.image(0)
 
 
-def test_dataset_on_a_png_compressed_bag_gives_the_folder_s_table(static_sequence, near_sequence,
-                                                                  tmp_path):
+def test_dataset_on_a_png_compressed_bag_gives_the_folder_s_table(
+    static_sequence, near_sequence, tmp_path
+):
     """png is lossless: the compressed ROS 2 bag labels exactly like the TUM folder (with depth),
     and a TUM folder next to a KITTI root takes --sequence without complaint."""
     from initsel_ros.cli import main
@@ -159,8 +165,27 @@ def test_dataset_on_a_png_compressed_bag_gives_the_folder_s_table(static_sequenc
     tables = {}
     for name, source in (('bag', bag), ('folder', near_sequence)):
         out = tmp_path / f'{name}.csv'
-        assert main(['dataset', str(source), '--out', str(out), '--batch', '20', '--stride', '1',
-                     '--jobs', '1', '--quiet', '--no-orbslam', '--sequence', '00']) == 0
+        assert (
+            main(
+                [
+                    'dataset',
+                    str(source),
+                    '--out',
+                    str(out),
+                    '--batch',
+                    '20',
+                    '--stride',
+                    '1',
+                    '--jobs',
+                    '1',
+                    '--quiet',
+                    '--no-orbslam',
+                    '--sequence',
+                    '00',
+                ]
+            )
+            == 0
+        )
         tables[name] = read_table(out)
     bag_table = tables['bag']
     folder_table = tables['folder'].select(tables['folder']['cur_index'] < 20)

@@ -24,14 +24,16 @@ STEP_NS = 33_333_333
 
 def _rot_z(deg: float) -> np.ndarray:
     a = math.radians(deg)
-    return np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0],
-                     [0.0, 0.0, 1.0]])
+    return np.array(
+        [[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]]
+    )
 
 
 #: A non-identity camera-in-body pose, like EuRoC's cam0 (about 90 degrees about z, offset).
 T_BS = np.eye(4)
-T_BS[:3, :3] = _rot_z(90.0) @ np.array([[1.0, 0, 0], [0, math.cos(0.1), -math.sin(0.1)],
-                                        [0, math.sin(0.1), math.cos(0.1)]])
+T_BS[:3, :3] = _rot_z(90.0) @ np.array(
+    [[1.0, 0, 0], [0, math.cos(0.1), -math.sin(0.1)], [0, math.sin(0.1), math.cos(0.1)]]
+)
 T_BS[:3, 3] = (-0.0216, -0.0647, 0.0098)
 
 
@@ -40,8 +42,13 @@ def distorted_sequence(tmp_path_factory) -> Path:
     """30 frames of the near trajectory rendered with radial-tangential distortion."""
     from initsel_ros.synth import render
 
-    return render(tmp_path_factory.mktemp('distorted'), trajectory='near', frames=30, start=80,
-                  distortion=DISTORTION).path
+    return render(
+        tmp_path_factory.mktemp('distorted'),
+        trajectory='near',
+        frames=30,
+        start=80,
+        distortion=DISTORTION,
+    ).path
 
 
 def _restamped(folder: Path) -> TumSequence:
@@ -49,8 +56,16 @@ def _restamped(folder: Path) -> TumSequence:
     from initsel_ros.datasets import Frame
 
     seq = TumSequence(folder)
-    seq.frames = [Frame(f.index, (FIRST_NS + f.index * STEP_NS) * 1e-9, f.pose, f.depth_stamp,
-                        stamp_ns=FIRST_NS + f.index * STEP_NS) for f in seq.frames]
+    seq.frames = [
+        Frame(
+            f.index,
+            (FIRST_NS + f.index * STEP_NS) * 1e-9,
+            f.pose,
+            f.depth_stamp,
+            stamp_ns=FIRST_NS + f.index * STEP_NS,
+        )
+        for f in seq.frames
+    ]
     return seq
 
 
@@ -60,8 +75,9 @@ def euroc_folder(distorted_sequence, tmp_path_factory) -> Path:
     no frame time but the first and the last."""
     seq = _restamped(distorted_sequence)
     last = FIRST_NS + 29 * STEP_NS
-    gt_ns = np.concatenate([[FIRST_NS], np.arange(FIRST_NS + 1_234_567, last, 5_000_000),
-                            [last]])  # 200 Hz, bracketing every frame, exact at the two ends
+    gt_ns = np.concatenate(
+        [[FIRST_NS], np.arange(FIRST_NS + 1_234_567, last, 5_000_000), [last]]
+    )  # 200 Hz, bracketing every frame, exact at the two ends
     out = tmp_path_factory.mktemp('euroc') / 'MH_synth'
     write_euroc(seq, out, T_BS=T_BS, groundtruth_ns=gt_ns, rate_hz=30)
     return out
@@ -98,14 +114,16 @@ def test_euroc_reads_back_images_stamps_intrinsics_distortion_and_poses(
             assert seq.depth(i) is None
         # body poses were sampled at other times: interpolation plus T_BS gives the camera back
         np.testing.assert_allclose(seq.poses()[:, :3, 3], source.poses()[:, :3, 3], atol=2e-4)
-        R_err = [math.degrees(math.acos(np.clip((np.trace(a[:3, :3].T @ b[:3, :3]) - 1) / 2,
-                                                -1, 1)))
-                 for a, b in zip(seq.poses(), source.poses(), strict=True)]
+        R_err = [
+            math.degrees(math.acos(np.clip((np.trace(a[:3, :3].T @ b[:3, :3]) - 1) / 2, -1, 1)))
+            for a, b in zip(seq.poses(), source.poses(), strict=True)
+        ]
         assert max(R_err) < 0.05
 
 
-def _write_minimal_euroc(root: Path, gt_rows: list[str], t_bs: np.ndarray,
-                         distortion_model: str = 'radial-tangential') -> Path:
+def _write_minimal_euroc(
+    root: Path, gt_rows: list[str], t_bs: np.ndarray, distortion_model: str = 'radial-tangential'
+) -> Path:
     cam = root / 'mav0' / 'cam0'
     (cam / 'data').mkdir(parents=True)
     img = np.random.default_rng(0).integers(0, 256, (48, 64), dtype=np.uint8)
@@ -118,12 +136,14 @@ def _write_minimal_euroc(root: Path, gt_rows: list[str], t_bs: np.ndarray,
         'rate_hz: 20\nresolution: [64, 48]\ncamera_model: pinhole\n'
         'intrinsics: [50.0, 51.0, 32.0, 24.0] #fu, fv, cu, cv\n'
         f'distortion_model: {distortion_model}\n'
-        'distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]\n')
+        'distortion_coefficients: [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05]\n'
+    )
     gt = root / 'mav0' / 'state_groundtruth_estimate0'
     gt.mkdir()
-    (gt / 'data.csv').write_text('#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], '
-                                 'q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z []\n'
-                                 + '\n'.join(gt_rows) + '\n')
+    (gt / 'data.csv').write_text(
+        '#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], '
+        'q_RS_w [], q_RS_x [], q_RS_y [], q_RS_z []\n' + '\n'.join(gt_rows) + '\n'
+    )
     return root
 
 
@@ -131,18 +151,23 @@ def test_euroc_camera_pose_is_interpolated_body_pose_times_t_bs(tmp_path):
     """Body at x = 0 m yawed 0 deg at t = 1.45 s and x = 1 m yawed 90 deg at 1.55 s; the frame
     at 1.5 s: body at x = 0.5 m yawed 45 deg (slerp), camera = T_WB @ T_BS."""
     q90 = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # w x y z
-    rows = ['1450000000,0,0,0,1,0,0,0,0,0,0,0,0,0,0,0,0',
-            f'1550000000,1,0,0,{q90[0]!r},0,0,{q90[3]!r},0,0,0,0,0,0,0,0,0']
+    rows = [
+        '1450000000,0,0,0,1,0,0,0,0,0,0,0,0,0,0,0,0',
+        f'1550000000,1,0,0,{q90[0]!r},0,0,{q90[3]!r},0,0,0,0,0,0,0,0,0',
+    ]
     t_bs = np.eye(4)
     t_bs[:3, :3] = _rot_z(-90.0)
     t_bs[:3, 3] = (0.1, 0.0, 0.0)
     seq = open_sequence(_write_minimal_euroc(tmp_path, rows, t_bs))
-    T_WB = pose_matrix(np.array([0.5, 0.0, 0.0]),
-                       np.array([0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8)]))
+    T_WB = pose_matrix(
+        np.array([0.5, 0.0, 0.0]),
+        np.array([0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8)]),
+    )
     np.testing.assert_allclose(seq.frames[0].pose, T_WB @ t_bs, atol=1e-12)
     # the camera sits 0.1 m along the body's x axis, which is yawed 45 degrees
-    np.testing.assert_allclose(seq.frames[0].pose[:3, 3],
-                               [0.5 + 0.1 / math.sqrt(2), 0.1 / math.sqrt(2), 0.0], atol=1e-12)
+    np.testing.assert_allclose(
+        seq.frames[0].pose[:3, 3], [0.5 + 0.1 / math.sqrt(2), 0.1 / math.sqrt(2), 0.0], atol=1e-12
+    )
     assert seq.frames[0].stamp_ns == 1_500_000_000
     assert seq.intrinsics.distortion == (-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05)
     assert (seq.intrinsics.fx, seq.intrinsics.fy, seq.intrinsics.width) == (50.0, 51.0, 64)
@@ -159,9 +184,12 @@ def test_euroc_camera_pose_is_interpolated_body_pose_times_t_bs(tmp_path):
 )
 def test_broken_euroc_folders_give_one_dataset_error_naming_the_file(tmp_path, change, match):
     rows = ['1400000000,0,0,0,1,0,0,0', '1600000000,1,0,0,1,0,0,0']
-    root = _write_minimal_euroc(tmp_path, rows if change != 'bad_gt' else ['1,2,3'], np.eye(4),
-                                'equidistant' if change == 'equidistant' else
-                                'radial-tangential')
+    root = _write_minimal_euroc(
+        tmp_path,
+        rows if change != 'bad_gt' else ['1,2,3'],
+        np.eye(4),
+        'equidistant' if change == 'equidistant' else 'radial-tangential',
+    )
     cam = root / 'mav0' / 'cam0'
     if change == 'no_intrinsics':
         text = (cam / 'sensor.yaml').read_text()
@@ -176,8 +204,11 @@ def test_broken_euroc_folders_give_one_dataset_error_naming_the_file(tmp_path, c
 def test_kitti_reads_back_from_the_root_or_the_sequence_folder(near_sequence, kitti_root):
     source = TumSequence(near_sequence)
     first = source.frames[0].pose
-    for seq in (open_sequence(kitti_root, sequence='03'), open_sequence(kitti_root, sequence='3'),
-                open_sequence(kitti_root / 'sequences' / '03')):
+    for seq in (
+        open_sequence(kitti_root, sequence='03'),
+        open_sequence(kitti_root, sequence='3'),
+        open_sequence(kitti_root / 'sequences' / '03'),
+    ):
         assert isinstance(seq, KittiSequence)
         assert seq.name == 'kitti_03' and len(seq) == 30
         assert seq.intrinsics == source.intrinsics  # K from P0, size from the PNG
@@ -210,11 +241,16 @@ def test_kitti_calib_p0_gives_k_and_the_png_gives_the_size(tmp_path):
         for i in range(2):
             cv2.imwrite(str(folder / cam / f'{i:06d}.png'), np.zeros((376, 1241), np.uint8))
     (folder / 'times.txt').write_text('0.000000e+00\n1.036205e-01\n')
-    p0 = ('7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 0.000000000000e+00 '
-          '0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 0.000000000000e+00 '
-          '0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 0.000000000000e+00')
-    p1 = p0.replace('0.000000000000e+00 0.000000000000e+00 7.1', '-3.861448000000e+02 '
-                    '0.000000000000e+00 7.1', 1)
+    p0 = (
+        '7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 0.000000000000e+00 '
+        '0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 0.000000000000e+00 '
+        '0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 0.000000000000e+00'
+    )
+    p1 = p0.replace(
+        '0.000000000000e+00 0.000000000000e+00 7.1',
+        '-3.861448000000e+02 0.000000000000e+00 7.1',
+        1,
+    )
     (folder / 'calib.txt').write_text(f'P0: {p0}\nP1: {p1}\nP2: {p0}\nP3: {p0}\nTr: {p0}\n')
     seq = open_sequence(folder)
     cam = seq.intrinsics
@@ -223,8 +259,9 @@ def test_kitti_calib_p0_gives_k_and_the_png_gives_the_size(tmp_path):
     assert seq.frames[1].stamp_ns == 103_620_500
     assert not seq.has_pose.any()
     (tmp_path / 'poses').mkdir()
-    (tmp_path / 'poses' / '00.txt').write_text('1 0 0 0 0 1 0 0 0 0 1 0\n'
-                                               '1 0 0 0 0 1 0 0 0 0 1 2\n')
+    (tmp_path / 'poses' / '00.txt').write_text(
+        '1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 2\n'
+    )
     seq = open_sequence(folder)
     np.testing.assert_allclose(seq.frames[1].pose[:3, 3], [0, 0, 2])
     right = KittiSequence(folder, camera=1)  # P1 = K [I | t]: the right camera 0.537 m along x
@@ -267,22 +304,33 @@ def _dataset(tmp_path: Path, *args: str) -> tuple[int, str]:
     from initsel_ros.cli import main
 
     out = tmp_path / 'pairs.csv'
-    status = main(['dataset', *args, '--out', str(out), '--batch', '30', '--jobs', '1',
-                   '--quiet', '--no-orbslam'])
+    status = main(
+        [
+            'dataset',
+            *args,
+            '--out',
+            str(out),
+            '--batch',
+            '30',
+            '--jobs',
+            '1',
+            '--quiet',
+            '--no-orbslam',
+        ]
+    )
     return status, str(out)
 
 
 @pytest.mark.parametrize('layout', ['euroc', 'kitti'])
-def test_dataset_labels_euroc_and_kitti_pairs_without_depth(
-    request, tmp_path, capsys, layout
-):
+def test_dataset_labels_euroc_and_kitti_pairs_without_depth(request, tmp_path, capsys, layout):
     from initsel_ros.learn.table import read_table
 
     if layout == 'euroc':
         status, out = _dataset(tmp_path, str(request.getfixturevalue('euroc_folder')))
     else:
-        status, out = _dataset(tmp_path, str(request.getfixturevalue('kitti_root')),
-                               '--sequence', '03')
+        status, out = _dataset(
+            tmp_path, str(request.getfixturevalue('kitti_root')), '--sequence', '03'
+        )
     assert status == 0
     assert '29 pairs labelled without depth' in capsys.readouterr().out
     table = read_table(Path(out))
@@ -331,11 +379,40 @@ def test_training_reads_a_table_mixing_depth_and_no_depth_rows(
     from initsel_ros.models import ModelSet
 
     table = tmp_path / 'mixed.csv'
-    assert main(['dataset', str(euroc_folder), str(distorted_sequence), str(rotation_sequence),
-                 '--out', str(table), '--batch', '30', '--jobs', '1', '--quiet',
-                 '--no-orbslam']) == 0
+    assert (
+        main(
+            [
+                'dataset',
+                str(euroc_folder),
+                str(distorted_sequence),
+                str(rotation_sequence),
+                '--out',
+                str(table),
+                '--batch',
+                '30',
+                '--jobs',
+                '1',
+                '--quiet',
+                '--no-orbslam',
+            ]
+        )
+        == 0
+    )
     model = tmp_path / 'models.json'
     assert main(['train', str(table), '--out', str(model), '--target-precision', '0.7']) == 0
     assert set(ModelSet.load(model).models) == {'F', 'E', 'H', 'R'}
-    assert main(['train', str(table), '--out', str(tmp_path / 'relabelled.json'),
-                 '--et-max', '0.5', '--target-precision', '0.7']) == 0
+    assert (
+        main(
+            [
+                'train',
+                str(table),
+                '--out',
+                str(tmp_path / 'relabelled.json'),
+                '--et-max',
+                '0.5',
+                '--target-precision',
+                '0.7',
+            ]
+        )
+        == 0
+    )

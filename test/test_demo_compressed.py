@@ -29,8 +29,11 @@ def test_demo_warns_when_a_frame_exceeds_the_shared_memory_segment(
     from initsel_ros.ros import transport
 
     configure_this_process()
-    monkeypatch.setattr(transport, 'shm_limit',
-                        lambda environ=None: transport.ShmLimit(256 * 1024, 'a small profile'))
+    monkeypatch.setattr(
+        transport,
+        'shm_limit',
+        lambda environ=None: transport.ShmLimit(256 * 1024, 'a small profile'),
+    )
     assert main(['demo', '--source', str(near_sequence), '--frames', '8']) in (0, 1)
     out = capsys.readouterr().out
     assert out.count('does not fit the 0.25 MiB Fast DDS shared-memory segment') == 1

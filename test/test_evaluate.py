@@ -51,7 +51,8 @@ def test_model_rows_score_the_shipped_thresholds_on_every_pair(near_evaluation):
     assert report.n_pairs == len(table) > 0
     assert sum(report.sequences.values()) == len(table)
     probs = models.predict_proba_batch(
-        table.matrix(input_columns(models.input_names, models.scaling)))
+        table.matrix(input_columns(models.input_names, models.scaling))
+    )
     rows = {r.name: r for r in report.rows}
     for m in METHODS:
         y = np.asarray(table[f'{m}_label']).astype(bool)
@@ -61,7 +62,8 @@ def test_model_rows_score_the_shipped_thresholds_on_every_pair(near_evaluation):
     r_fired = probs['R'] >= models.thresholds['R']
     e_fired = probs['E'] >= models.thresholds['E']
     assert rows['Model E after R veto'].scores == binary_scores(
-        np.asarray(table['E_label']).astype(bool), e_fired & ~r_fired)
+        np.asarray(table['E_label']).astype(bool), e_fired & ~r_fired
+    )
     assert {r.group for r in report.rows} == {'model', 'veto', 'baseline'}
     assert report.decision_us > 0 and report.inference_ms_all_pairs >= 0
 
@@ -76,6 +78,6 @@ def test_report_markdown_and_csv_rows_carry_every_row(near_evaluation):
         assert system.name in text
     csv_rows = results_csv_rows(report)
     names = [r['classifier'] for r in csv_rows]
-    assert names[:len(report.rows)] == [r.name for r in report.rows]
-    assert names[len(report.rows):] == [f'sequence level: {s.name}' for s in report.systems]
+    assert names[: len(report.rows)] == [r.name for r in report.rows]
+    assert names[len(report.rows) :] == [f'sequence level: {s.name}' for s in report.systems]
     assert 'No candidate families' in verdict(report)  # evaluated without --train

@@ -96,13 +96,20 @@ def test_bag_with_garbage_in_the_middle_reads_or_fails_cleanly(small_bags, tmp_p
         shutil.copy(source, copy)
     data = bytearray(target.read_bytes())
     for start in np.linspace(len(data) * 0.2, len(data) * 0.8, 4).astype(int):
-        data[start: start + 512] = rng.integers(0, 256, 512, dtype=np.uint8).tobytes()
+        data[start : start + 512] = rng.integers(0, 256, 512, dtype=np.uint8).tobytes()
     target.write_bytes(bytes(data))
     _assert_clean_failure_or_success(copy, 'garbled')
 
 
-@pytest.mark.parametrize('text', ['', 'not: [valid yaml', 'rosbag2_bagfile_information: 3\n',
-                                  '!!python/object/apply:os.system ["true"]\n'])
+@pytest.mark.parametrize(
+    'text',
+    [
+        '',
+        'not: [valid yaml',
+        'rosbag2_bagfile_information: 3\n',
+        '!!python/object/apply:os.system ["true"]\n',
+    ],
+)
 def test_ros2_bag_with_bad_metadata_fails_naming_the_bag(small_bags, tmp_path, text):
     copy = tmp_path / 'bad_meta'
     shutil.copytree(small_bags['ros2'], copy)
@@ -129,12 +136,23 @@ def test_ros1_bag_with_an_overwritten_header_length_fails_with_one_line_and_a_re
     data[13:17] = b'\xff\xff\xff\x7f'  # header_len of the first record, after '#ROSBAG V2.0\n'
     bag = tmp_path / 'overwritten.bag'
     bag.write_bytes(bytes(data))
-    args = [str(bag)] if command == 'replay' else [str(bag), '--out', str(tmp_path / 't.csv'),
-                                                   '--jobs', '1', '--quiet']
-    env = {k: v for k, v in os.environ.items()
-           if k not in ('_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')}
-    proc = subprocess.run([sys.executable, '-c', _LIMITED_CLI, '1536', command, *args],
-                          capture_output=True, text=True, timeout=TIMEOUT_S, env=env)
+    args = (
+        [str(bag)]
+        if command == 'replay'
+        else [str(bag), '--out', str(tmp_path / 't.csv'), '--jobs', '1', '--quiet']
+    )
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ('_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')
+    }
+    proc = subprocess.run(
+        [sys.executable, '-c', _LIMITED_CLI, '1536', command, *args],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        env=env,
+    )
     err = proc.stderr.strip()
     assert proc.returncode == 1, err
     assert 'Traceback' not in err and 'MemoryError' in err
@@ -155,13 +173,15 @@ def _tum_folder(path: Path, n: int = 3) -> Path:
     (path / 'depth').mkdir()
     stamps = 1.0 + np.arange(n) / 30
     for i in range(n):
-        cv2.imwrite(str(path / 'rgb' / f'{i}.png'),
-                    rng.integers(0, 256, (48, 64, 3), dtype=np.uint8))
+        cv2.imwrite(
+            str(path / 'rgb' / f'{i}.png'), rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+        )
         cv2.imwrite(str(path / 'depth' / f'{i}.png'), np.full((48, 64), 5000, np.uint16))
     write_listing(path / 'rgb.txt', stamps, [f'rgb/{i}.png' for i in range(n)], 'color images')
     write_listing(path / 'depth.txt', stamps, [f'depth/{i}.png' for i in range(n)], 'depth')
-    write_trajectory(path / 'groundtruth.txt', stamps, np.zeros((n, 3)),
-                     np.tile([0, 0, 0, 1.0], (n, 1)))
+    write_trajectory(
+        path / 'groundtruth.txt', stamps, np.zeros((n, 3)), np.tile([0, 0, 0, 1.0], (n, 1))
+    )
     return path
 
 
@@ -250,15 +270,25 @@ def _break_rgb_txt_empty(p: Path) -> str:
 
 
 TUM_FAULTS = [
-    _break_empty_image, _break_truncated_image, _break_missing_image, _break_image_is_a_folder,
-    _break_empty_depth, _break_colour_depth, _break_rgb_three_columns, _break_rgb_nan_stamp,
-    _break_depth_listing, _break_groundtruth_short_line, _break_groundtruth_binary,
-    _break_intrinsics_yaml, _break_intrinsics_values, _break_rgb_txt_missing,
+    _break_empty_image,
+    _break_truncated_image,
+    _break_missing_image,
+    _break_image_is_a_folder,
+    _break_empty_depth,
+    _break_colour_depth,
+    _break_rgb_three_columns,
+    _break_rgb_nan_stamp,
+    _break_depth_listing,
+    _break_groundtruth_short_line,
+    _break_groundtruth_binary,
+    _break_intrinsics_yaml,
+    _break_intrinsics_values,
+    _break_rgb_txt_missing,
     _break_rgb_txt_empty,
 ]
 
 
-@pytest.mark.parametrize('fault', TUM_FAULTS, ids=lambda f: f.__name__[len('_break_'):])
+@pytest.mark.parametrize('fault', TUM_FAULTS, ids=lambda f: f.__name__[len('_break_') :])
 def test_broken_tum_folder_gives_one_dataset_error_naming_the_file(tmp_path, fault):
     folder = _tum_folder(tmp_path / 'seq')
     name = fault(folder)
@@ -284,8 +314,20 @@ def test_dataset_command_on_a_broken_source_writes_nothing_and_keeps_the_old_tab
     out = tmp_path / 'tables' / 'pairs.csv'
     out.parent.mkdir()
     out.write_text('previous table\n')
-    status = main(['dataset', str(folder), '--out', str(out), '--batch', '4', '--jobs', '1',
-                   '--quiet', '--no-orbslam'])
+    status = main(
+        [
+            'dataset',
+            str(folder),
+            '--out',
+            str(out),
+            '--batch',
+            '4',
+            '--jobs',
+            '1',
+            '--quiet',
+            '--no-orbslam',
+        ]
+    )
     err = capsys.readouterr().err
     assert status == 1
     assert '2.png' in err and 'Traceback' not in err
@@ -305,8 +347,23 @@ def test_dataset_on_a_tum_folder_without_depth_labels_from_et_and_rotation(
     shutil.copytree(static_sequence, folder)
     (folder / 'depth.txt').unlink()
     out = tmp_path / 'pairs.csv'
-    assert main(['dataset', str(folder), '--out', str(out), '--batch', '10', '--jobs', '1',
-                 '--quiet', '--no-orbslam']) == 0
+    assert (
+        main(
+            [
+                'dataset',
+                str(folder),
+                '--out',
+                str(out),
+                '--batch',
+                '10',
+                '--jobs',
+                '1',
+                '--quiet',
+                '--no-orbslam',
+            ]
+        )
+        == 0
+    )
     table = read_table(out)
     assert len(table) == 27  # 30 frames: 3 batches of 10, 9 pairs each
     assert set(table['scale_rule']) == {'no_depth'}
@@ -324,13 +381,26 @@ def test_dataset_that_can_label_nothing_fails_with_one_line_and_writes_nothing(
     (folder / 'depth.txt').unlink()
     (folder / 'groundtruth.txt').unlink()
     out = tmp_path / 'pairs.csv'
-    status = main(['dataset', str(folder), '--out', str(out), '--batch', '10', '--jobs', '1',
-                   '--quiet', '--no-orbslam'])
+    status = main(
+        [
+            'dataset',
+            str(folder),
+            '--out',
+            str(out),
+            '--batch',
+            '10',
+            '--jobs',
+            '1',
+            '--quiet',
+            '--no-orbslam',
+        ]
+    )
     err = capsys.readouterr().err.strip()
     assert status == 1
     assert len(err.splitlines()) == 1 and 'Traceback' not in err
-    assert 'no pair could be labelled: no_truth: none of its 30 frames has a ground-truth pose' \
-        in err
+    assert (
+        'no pair could be labelled: no_truth: none of its 30 frames has a ground-truth pose' in err
+    )
     assert not out.exists()
 
 
@@ -374,11 +444,14 @@ def test_model_file_holding_a_protocol_0_pickle_is_rejected_cleanly(tmp_path):
         ModelSet.load(path)
 
 
-@pytest.mark.parametrize('text', [
-    '!!python/object/apply:os.system ["touch {marker}"]\n',
-    '--- !!python/object/new:initsel_ros.models.ModelSet {{}}\n',
-    'format: initsel_ros/models\nversion: 1\nmodels: !!python/name:os.system\n',
-])
+@pytest.mark.parametrize(
+    'text',
+    [
+        '!!python/object/apply:os.system ["touch {marker}"]\n',
+        '--- !!python/object/new:initsel_ros.models.ModelSet {{}}\n',
+        'format: initsel_ros/models\nversion: 1\nmodels: !!python/name:os.system\n',
+    ],
+)
 def test_model_file_with_yaml_tags_is_rejected_and_never_executed(tmp_path, text):
     from initsel_ros.models import ModelSet
 
@@ -398,19 +471,25 @@ def _node_env() -> dict[str, str]:
     return env
 
 
-@pytest.mark.parametrize('content', [
-    None, b'{"format": "initsel_ros/models", "version": 1}',
-    pytest.param(b'\x80\x04\x95', id='pickle-header'),
-])
+@pytest.mark.parametrize(
+    'content',
+    [
+        None,
+        b'{"format": "initsel_ros/models", "version": 1}',
+        pytest.param(b'\x80\x04\x95', id='pickle-header'),
+    ],
+)
 def test_node_refuses_to_start_on_a_missing_or_malformed_model_file(tmp_path, content):
     pytest.importorskip('rclpy')
     path = tmp_path / 'bad_models.json'
     if content is not None:
         path.write_bytes(content)
     proc = subprocess.run(
-        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p',
-         f'model_file:={path}'],
-        capture_output=True, text=True, timeout=TIMEOUT_S, env=_node_env(),
+        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p', f'model_file:={path}'],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        env=_node_env(),
     )
     output = proc.stdout + proc.stderr
     assert proc.returncode == 1, output
@@ -459,9 +538,11 @@ def test_node_fails_at_once_with_one_line_on_hostile_model_files(tmp_path, kind)
         data['models']['E']['weights'] = [[1.0]] * 23
         path.write_text(json.dumps(data))
     proc = subprocess.run(
-        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p',
-         f'model_file:={path}'],
-        capture_output=True, text=True, timeout=TIMEOUT_S, env=_node_env(),
+        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p', f'model_file:={path}'],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        env=_node_env(),
     )
     output = proc.stdout + proc.stderr
     assert proc.returncode == 1, output

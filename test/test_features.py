@@ -35,8 +35,18 @@ def test_raw_features_match_hand_computed_values():
 
 @pytest.mark.parametrize(
     ('dx', 'dy', 'expected_bin'),
-    [(1, 0, 0), (1, -1, 1), (0, -1, 2), (-1, -1, 3), (-1, 0, 4), (-1, 1, 5), (0, 1, 6),
-     (1, 1, 7), (1, -0.41, 0), (1, -0.42, 1)],
+    [
+        (1, 0, 0),
+        (1, -1, 1),
+        (0, -1, 2),
+        (-1, -1, 3),
+        (-1, 0, 4),
+        (-1, 1, 5),
+        (0, 1, 6),
+        (1, 1, 7),
+        (1, -0.41, 0),
+        (1, -0.42, 1),
+    ],
 )
 def test_direction_bins_use_image_y_up_and_centre_on_multiples_of_45(dx, dy, expected_bin):
     bins = direction_bins(np.zeros((1, 2)), np.array([[dx, dy]]))
@@ -126,6 +136,11 @@ def test_homography_and_affine_residuals_vanish_on_their_own_motions():
     names = ('x_affine_residual', 'x_homography_residual')
     assert extra_features(p0, planar, 640, 480, names)[1] < 1e-5
     assert extra_features(p0, affine, 640, 480, names).max() < 1e-5
-    occupancy, entropy = extra_features(np.full((20, 2), 10.0), np.full((20, 2), 12.0), 640, 480,
-                                        ('x_grid_occupancy', 'x_grid_entropy'))
+    occupancy, entropy = extra_features(
+        np.full((20, 2), 10.0),
+        np.full((20, 2), 12.0),
+        640,
+        480,
+        ('x_grid_occupancy', 'x_grid_entropy'),
+    )
     assert occupancy == 1 / 16 and entropy == 0.0  # every point in one cell

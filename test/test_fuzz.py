@@ -25,9 +25,15 @@ from initsel_ros.ros.fuzz import (
     info_cases,
 )
 
-_COMMON = {'deadline': None, 'database': None,
-           'suppress_health_check': [HealthCheck.too_slow, HealthCheck.data_too_large,
-                                     HealthCheck.filter_too_much]}
+_COMMON = {
+    'deadline': None,
+    'database': None,
+    'suppress_health_check': [
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+        HealthCheck.filter_too_much,
+    ],
+}
 settings.register_profile('initsel-ci', max_examples=200, derandomize=True, **_COMMON)
 settings.register_profile('initsel-long', max_examples=10_000, **_COMMON)
 PROFILE = settings.get_profile(os.environ.get('INITSEL_FUZZ_PROFILE', 'initsel-ci'))
@@ -84,16 +90,23 @@ PLAUSIBLE_K = (525.0, 0.0, 320.0, 0.0, 525.0, 240.0, 0.0, 0.0, 1.0)
 @PROFILE
 @given(case=image_cases(), info=info_cases())
 @example(case=ImageCase('mono8', 0, 0, 0, 0, False, 0), info=None)
-@example(case=ImageCase('mono8', 1, 1, 1, 1, False, 0),
-         info=InfoCase((NAN,) * 9, 640, 480, (), 'plumb_bob'))
-@example(case=ImageCase('rgb8', 1, 1, 3, 3, False, 0),
-         info=InfoCase((0.0,) * 9, 640, 480, (), 'plumb_bob'))
-@example(case=ImageCase('bgr8', 3, 2, 6, 18, False, 0),
-         info=InfoCase(PLAUSIBLE_K, 0, 0, (), ''))
-@example(case=ImageCase('mono16', 5, 7, 14, 70, True, 1),
-         info=InfoCase(PLAUSIBLE_K, 640, 480, (NAN, 0, 0, 0, 0), 'plumb_bob'))
+@example(
+    case=ImageCase('mono8', 1, 1, 1, 1, False, 0),
+    info=InfoCase((NAN,) * 9, 640, 480, (), 'plumb_bob'),
+)
+@example(
+    case=ImageCase('rgb8', 1, 1, 3, 3, False, 0),
+    info=InfoCase((0.0,) * 9, 640, 480, (), 'plumb_bob'),
+)
+@example(case=ImageCase('bgr8', 3, 2, 6, 18, False, 0), info=InfoCase(PLAUSIBLE_K, 0, 0, (), ''))
+@example(
+    case=ImageCase('mono16', 5, 7, 14, 70, True, 1),
+    info=InfoCase(PLAUSIBLE_K, 640, 480, (NAN, 0, 0, 0, 0), 'plumb_bob'),
+)
 def test_node_survives_any_image_and_camera_info_and_processes_the_next_good_frame(
-    probe, case: ImageCase, info: InfoCase | None,
+    probe,
+    case: ImageCase,
+    info: InfoCase | None,
 ):
     check_node_callbacks(probe, case, info)
 
@@ -109,10 +122,13 @@ def test_node_check_catches_an_internal_error(probe, monkeypatch):
         check_node_callbacks(probe, ImageCase('mono8', 8, 8, 8, 64, False, 0), None)
 
 
-@pytest.mark.parametrize('info', [
-    InfoCase((1e307, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0), 1, 1, (), 'plumb_bob'),
-    InfoCase((1.0, 0.0, 0.0, 0.0, 5e-324, 0.0, 0.0, 0.0, 1.0), 1, 48, (), 'plumb_bob'),
-])
+@pytest.mark.parametrize(
+    'info',
+    [
+        InfoCase((1e307, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0), 1, 1, (), 'plumb_bob'),
+        InfoCase((1.0, 0.0, 0.0, 0.0, 5e-324, 0.0, 0.0, 0.0, 1.0), 1, 48, (), 'plumb_bob'),
+    ],
+)
 def test_node_survives_camera_info_with_absurd_finite_focal_lengths(probe, info):
     check_node_callbacks(probe, ImageCase('mono8', 1, 1, 1, 1, False, 0), info)
 
@@ -125,17 +141,22 @@ def _encoded_samples() -> list[bytes]:
     gray = rng.integers(0, 256, (24, 32), dtype=np.uint8)
     colour = rng.integers(0, 256, (24, 32, 3), dtype=np.uint8)
     deep = rng.integers(0, 4096, (24, 32), dtype=np.uint16)
-    return [cv2.imencode(ext, img)[1].tobytes()
-            for ext, img in (('.jpg', gray), ('.jpg', colour), ('.png', colour), ('.png', deep))]
+    return [
+        cv2.imencode(ext, img)[1].tobytes()
+        for ext, img in (('.jpg', gray), ('.jpg', colour), ('.png', colour), ('.png', deep))
+    ]
 
 
 ENCODED = _encoded_samples()
 
 
 @PROFILE
-@given(sample=st.integers(0, len(ENCODED) - 1), cut=st.integers(0, 4000),
-       flips=st.lists(st.tuples(st.integers(0, 4000), st.integers(0, 255)), max_size=6),
-       fmt=st.sampled_from(['jpeg', 'png', 'bgr8; jpeg compressed bgr8', '', 'tiff']))
+@given(
+    sample=st.integers(0, len(ENCODED) - 1),
+    cut=st.integers(0, 4000),
+    flips=st.lists(st.tuples(st.integers(0, 4000), st.integers(0, 255)), max_size=6),
+    fmt=st.sampled_from(['jpeg', 'png', 'bgr8; jpeg compressed bgr8', '', 'tiff']),
+)
 @example(sample=0, cut=0, flips=[], fmt='jpeg')
 @example(sample=1, cut=20, flips=[], fmt='jpeg')  # header only
 @example(sample=3, cut=4000, flips=[(18, 255), (19, 255)], fmt='png')  # huge declared width

@@ -31,15 +31,19 @@ def test_a_background_harness_records_every_status_with_its_arrival(tmp_path):
             statuses, arrivals = list(h.statuses), list(h.status_arrivals)
         context = h.context
     assert all(isinstance(s, FrameStatus) for s in statuses) and len(arrivals) == 3
-    assert [s.reason for s in statuses] == [Reason.NEW_REFERENCE, Reason.NO_MODEL_FIRED,
-                                            Reason.NO_MODEL_FIRED]
+    assert [s.reason for s in statuses] == [
+        Reason.NEW_REFERENCE,
+        Reason.NO_MODEL_FIRED,
+        Reason.NO_MODEL_FIRED,
+    ]
     assert [s.stamp for s in statuses] == pytest.approx([2.0, 2.0 + 1 / 30, 2.0 + 2 / 30])
     assert not context.ok()  # a private context is shut down with the harness
 
 
 def test_a_stepped_harness_sends_resets_and_times_out_with_one_error(tmp_path):
-    with NodeHarness({'model_file': double_model_file(tmp_path)}, domain_id=DOMAIN_ID,
-                     namespace='/harness_step') as h:
+    with NodeHarness(
+        {'model_file': double_model_file(tmp_path)}, domain_id=DOMAIN_ID, namespace='/harness_step'
+    ) as h:
         img = texture(31)
         assert h.send_array(img, 1.0).new_reference
         assert h.send_array(shifted(img, 1.0, 0.0), 1.033).frames_since_reference == 1

@@ -13,7 +13,7 @@ from initsel_ros.errors import ImageConversionError
 def test_decode_raw_honours_step_padding_and_big_endian():
     pixels = np.arange(12, dtype=np.uint16).reshape(3, 4) * 300
     rows = pixels.astype('>u2').tobytes()
-    padded = b''.join(rows[r * 8:(r + 1) * 8] + b'\0\0' for r in range(3))
+    padded = b''.join(rows[r * 8 : (r + 1) * 8] + b'\0\0' for r in range(3))
     out = image.decode_raw(padded, 'mono16', 4, 3, 10, is_bigendian=True)
     assert out.dtype == np.uint16 and np.array_equal(out, pixels)
 
@@ -25,12 +25,15 @@ def test_decode_raw_rgb8_to_cv_is_bgr():
     assert out.shape == (2, 3, 3) and out[0, 0, 2] == 200 and out[0, 0, 0] == 0
 
 
-@pytest.mark.parametrize(('args', 'words'), [
-    (('yuv422', 2, 2, 4), 'unsupported'),
-    (('mono8', 0, 2, 0), 'zero size'),
-    (('mono8', 4, 2, 3), 'step'),
-    (('mono8', 4, 4, 4), 'data has'),
-])
+@pytest.mark.parametrize(
+    ('args', 'words'),
+    [
+        (('yuv422', 2, 2, 4), 'unsupported'),
+        (('mono8', 0, 2, 0), 'zero size'),
+        (('mono8', 4, 2, 3), 'step'),
+        (('mono8', 4, 4, 4), 'data has'),
+    ],
+)
 def test_decode_raw_errors_are_image_conversion_errors(args, words):
     with pytest.raises(ImageConversionError, match=words):
         image.decode_raw(bytes(8), *args)
@@ -60,7 +63,7 @@ def test_to_gray_and_to_bgr():
 
 
 def test_compressed_round_trip_and_checks():
-    grey = (np.arange(48, dtype=np.uint16).reshape(6, 8) * 1000)
+    grey = np.arange(48, dtype=np.uint16).reshape(6, 8) * 1000
     data, fmt = image.encode_compressed(grey, 'png')
     assert fmt == 'mono16; png compressed mono16'
     assert np.array_equal(image.decode_compressed(data, fmt), grey)

@@ -18,12 +18,40 @@ def tables(far_sequence, rotation_sequence, static_sequence, near_sequence, tmp_
     """Train table (far + rotation + static, batches of 30) and test table (near)."""
     out = tmp_path_factory.mktemp('learn')
     train, test = out / 'train.csv', out / 'test.csv'
-    assert main([
-        'dataset', str(far_sequence), str(rotation_sequence), str(static_sequence),
-        '--out', str(train), '--batch', '30', '--jobs', '2', '--quiet',
-    ]) == 0
-    assert main(['dataset', str(near_sequence), '--out', str(test), '--batch', '30',
-                 '--jobs', '1', '--quiet']) == 0
+    assert (
+        main(
+            [
+                'dataset',
+                str(far_sequence),
+                str(rotation_sequence),
+                str(static_sequence),
+                '--out',
+                str(train),
+                '--batch',
+                '30',
+                '--jobs',
+                '2',
+                '--quiet',
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                'dataset',
+                str(near_sequence),
+                '--out',
+                str(test),
+                '--batch',
+                '30',
+                '--jobs',
+                '1',
+                '--quiet',
+            ]
+        )
+        == 0
+    )
     return train, test
 
 
@@ -76,13 +104,37 @@ def test_eval_prints_the_tables_and_writes_files(tables, tmp_path, capsys):
     main(['train', str(tables[0]), '--out', str(model_file)])
     capsys.readouterr()
     out_dir = tmp_path / 'eval'
-    assert main(['eval', str(tables[1]), '--models', str(model_file), '--out-dir',
-                 str(out_dir), '--train', str(tables[0]), '--candidates', 'logistic+extra']) == 0
+    assert (
+        main(
+            [
+                'eval',
+                str(tables[1]),
+                '--models',
+                str(model_file),
+                '--out-dir',
+                str(out_dir),
+                '--train',
+                str(tables[0]),
+                '--candidates',
+                'logistic+extra',
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
-    for needle in ('Model E after R veto', 'Butt 2020 H (mean)', 'VINS-Mono rule',
-                   'ORB-SLAM2 H', 'ORB-SLAM3 F', '0.5041', 'frames to first yes',
-                   'logistic+extra', 'precision at model-file recall', 'after R veto',
-                   'model file (trees+extra)'):
+    for needle in (
+        'Model E after R veto',
+        'Butt 2020 H (mean)',
+        'VINS-Mono rule',
+        'ORB-SLAM2 H',
+        'ORB-SLAM3 F',
+        '0.5041',
+        'frames to first yes',
+        'logistic+extra',
+        'precision at model-file recall',
+        'after R veto',
+        'model file (trees+extra)',
+    ):
         assert needle in text
     assert (out_dir / 'eval.md').read_text() in text + '\n'
     assert (out_dir / 'eval.csv').read_text().startswith('classifier,group,label')
@@ -91,8 +143,9 @@ def test_eval_prints_the_tables_and_writes_files(tables, tmp_path, capsys):
 
 
 def test_dataset_reads_a_bag_like_the_tum_folder(tables, near_bag_ros1):
-    from_bag = build_table([near_bag_ros1], DatasetConfig(batch=30, jobs=1, orbslam_iterations=0),
-                           progress=False)
+    from_bag = build_table(
+        [near_bag_ros1], DatasetConfig(batch=30, jobs=1, orbslam_iterations=0), progress=False
+    )
     from_tum = read_table(tables[1])
     assert len(from_bag) == len(from_tum) == 58
     np.testing.assert_allclose(from_bag['gt_baseline_m'], from_tum['gt_baseline_m'], atol=1e-6)

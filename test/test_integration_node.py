@@ -117,8 +117,17 @@ def test_status_reports_reasons_probabilities_and_diagnostics(harness_factory, t
     diag = h.diagnostics[-1]
     assert diag.level == DiagnosticStatus.OK and diag.message == 'no model fired'
     keys = {kv.key for kv in diag.values}
-    assert {'p_F', 'p_E', 'p_H', 'p_R', 'tracks', 'mean_disparity_px',
-            'frames_since_reference', 'dropped_frames', 'reason'} <= keys
+    assert {
+        'p_F',
+        'p_E',
+        'p_H',
+        'p_R',
+        'tracks',
+        'mean_disparity_px',
+        'frames_since_reference',
+        'dropped_frames',
+        'reason',
+    } <= keys
 
 
 def test_reset_service_makes_the_next_frame_the_reference(harness_factory, tmp_path):
@@ -149,9 +158,7 @@ def _bad_images() -> list[Image]:
     return [unknown, short_step, truncated, empty, good]
 
 
-def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(
-    harness_factory, tmp_path
-):
+def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(harness_factory, tmp_path):
     h = harness_factory(model_file=double_model_file(tmp_path))
     *bad, good = _bad_images()
     for msg in bad:
@@ -165,9 +172,7 @@ def test_bad_images_are_skipped_with_a_warning_and_the_node_keeps_going(
     assert status.skipped_frames == len(bad)
 
 
-def test_images_of_another_size_than_the_intrinsics_are_still_processed(
-    harness_factory, tmp_path
-):
+def test_images_of_another_size_than_the_intrinsics_are_still_processed(harness_factory, tmp_path):
     h = harness_factory(model_file=double_model_file(tmp_path), use_camera_info=False)
     small = texture(4, shape=(240, 320))
     assert h.send_array(small, 1.0).reason == 'new reference'
@@ -202,8 +207,10 @@ def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
         return process(image, stamp)
 
     h.node._selector.process = slow_process
-    frames = [conv.numpy_to_image(texture(6), 'mono8', stamp=conv.seconds_to_stamp(1.0 + k))
-              for k in range(4)]
+    frames = [
+        conv.numpy_to_image(texture(6), 'mono8', stamp=conv.seconds_to_stamp(1.0 + k))
+        for k in range(4)
+    ]
     h.node._on_image(frames[0])
     assert entered.wait(10.0)  # the worker is busy with frame 1 ...
     for msg in frames[1:]:  # ... while three more arrive
@@ -221,8 +228,11 @@ def test_missing_or_malformed_model_file_stops_the_node_with_one_error(context, 
     broken.write_text('{"format": "something else"')
     for path in (tmp_path / 'missing.json', broken):
         with pytest.raises(ModelFileError, match=str(path.name)):
-            SelectorNode(context=context, namespace='/broken',
-                         parameter_overrides=[Parameter('model_file', value=str(path))])
+            SelectorNode(
+                context=context,
+                namespace='/broken',
+                parameter_overrides=[Parameter('model_file', value=str(path))],
+            )
 
 
 def test_main_returns_1_on_a_bad_model_file(tmp_path, monkeypatch):
@@ -235,16 +245,22 @@ def test_main_returns_1_on_a_bad_model_file(tmp_path, monkeypatch):
 
 def test_parameter_of_the_wrong_type_is_a_config_error(context):
     with pytest.raises(ConfigError, match='parameter max_features'):
-        SelectorNode(context=context, namespace='/badparam',
-                     parameter_overrides=[Parameter('max_features', value='many')])
+        SelectorNode(
+            context=context,
+            namespace='/badparam',
+            parameter_overrides=[Parameter('max_features', value='many')],
+        )
 
 
 def test_empty_r_veto_from_a_params_file_disables_the_veto(context, tmp_path):
     params = tmp_path / 'no_veto.yaml'
-    params.write_text(f'/**/selector:\n  ros__parameters:\n    r_veto: []\n'
-                      f'    model_file: {double_model_file(tmp_path)}\n')
-    node = SelectorNode(context=context, namespace='/noveto',
-                        cli_args=['--ros-args', '--params-file', str(params)])
+    params.write_text(
+        f'/**/selector:\n  ros__parameters:\n    r_veto: []\n'
+        f'    model_file: {double_model_file(tmp_path)}\n'
+    )
+    node = SelectorNode(
+        context=context, namespace='/noveto', cli_args=['--ros-args', '--params-file', str(params)]
+    )
     try:
         assert node._selector.config.policy.r_veto == frozenset()
     finally:
@@ -258,10 +274,16 @@ def test_debug_image_is_drawn_only_while_someone_subscribes(harness_factory, nea
     h.send_array(sequence.image(0), sequence.frames[0].stamp)
     h.send_array(sequence.image(1), sequence.frames[1].stamp)
     assert not images  # nobody listened: nothing drawn
-    h.client.create_subscription(Image, 'selector/debug_image', images.append,
-                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
-    h.wait_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
-                 what='debug image subscriber')
+    h.client.create_subscription(
+        Image,
+        'selector/debug_image',
+        images.append,
+        QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT),
+    )
+    h.wait_until(
+        lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
+        what='debug image subscriber',
+    )
     raw = sequence.image(2)
     h.send_array(raw, sequence.frames[2].stamp)
     h.wait_until(lambda: images, what='a debug image')
@@ -271,4 +293,5 @@ def test_debug_image_is_drawn_only_while_someone_subscribes(harness_factory, nea
     changed = np.any(debug != raw, axis=2).mean()
     assert 0.01 < changed < 0.9  # tracks, bars and text drawn over the frame, not a blank
     assert conv.stamp_to_seconds(images[-1].header.stamp) == pytest.approx(
-        sequence.frames[2].stamp, abs=1e-6)
+        sequence.frames[2].stamp, abs=1e-6
+    )

@@ -75,40 +75,67 @@ def test_replayed_bag_initializes_the_installed_selector(
     ns = f'/proc{next(_namespaces)}'
     env = ros_environment()
 
-    listener = rclpy.create_node('initsel_process_listener', namespace=ns,
-                                 context=listener_context)
+    listener = rclpy.create_node(
+        'initsel_process_listener', namespace=ns, context=listener_context
+    )
     executor = SingleThreadedExecutor(context=listener_context)
     executor.add_node(listener)
     got: dict[str, list] = {'method': [], 'pose': [], 'points': [], 'status': []}
-    listener.create_subscription(String, 'init/method', lambda m: got['method'].append(m.data),
-                                 LATCHED_QOS)
+    listener.create_subscription(
+        String, 'init/method', lambda m: got['method'].append(m.data), LATCHED_QOS
+    )
     listener.create_subscription(PoseStamped, 'init/pose', got['pose'].append, LATCHED_QOS)
     listener.create_subscription(PointCloud2, 'init/points', got['points'].append, LATCHED_QOS)
     listener.create_subscription(
-        String, 'selector/status', lambda m: got['status'].append(FrameStatus.from_json(m.data)),
-        QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE))
+        String,
+        'selector/status',
+        lambda m: got['status'].append(FrameStatus.from_json(m.data)),
+        QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE),
+    )
 
     selector_log, replay_log = tmp_path / 'selector.log', tmp_path / 'replay.log'
     selector = replay = None
     try:
         with selector_log.open('w') as out:
             selector = subprocess.Popen(
-                [selector_exe, '--ros-args', '-r', f'__ns:={ns}',
-                 '--params-file', str(ROOT / 'config' / 'selector.yaml')],
-                env=env, stdout=out, stderr=subprocess.STDOUT)
+                [
+                    selector_exe,
+                    '--ros-args',
+                    '-r',
+                    f'__ns:={ns}',
+                    '--params-file',
+                    str(ROOT / 'config' / 'selector.yaml'),
+                ],
+                env=env,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+            )
         _wait_for_text(selector_log, 'ready:', selector, TIMEOUT_S)
         with replay_log.open('w') as out:
             replay = subprocess.Popen(
-                [initsel_exe, 'replay', str(bag), '--image-topic', f'{ns}/image_raw',
-                 '--camera-info-topic', f'{ns}/camera_info', '--wait-for-subscriber', '20'],
-                env=env, stdout=out, stderr=subprocess.STDOUT)
+                [
+                    initsel_exe,
+                    'replay',
+                    str(bag),
+                    '--image-topic',
+                    f'{ns}/image_raw',
+                    '--camera-info-topic',
+                    f'{ns}/camera_info',
+                    '--wait-for-subscriber',
+                    '20',
+                ],
+                env=env,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+            )
         deadline = time.monotonic() + TIMEOUT_S
         while not (got['method'] and got['pose'] and got['points']):
             if replay.poll() is not None:  # replay done: the node has 5 s to catch up
                 deadline = min(deadline, time.monotonic() + 5)
             assert time.monotonic() < deadline, (
                 f'no initialization received\nselector:\n{selector_log.read_text()}\n'
-                f'replay:\n{replay_log.read_text()}')
+                f'replay:\n{replay_log.read_text()}'
+            )
             executor.spin_once(timeout_sec=0.1)
         replay_code = replay.wait(timeout=TIMEOUT_S)
         selector.send_signal(stop_signal)

@@ -71,8 +71,7 @@ def sources(near_sequence, tmp_path_factory) -> dict[str, Path]:
     write_bag(open_sequence(tum), out / 'jpeg.bag', 'ros1', compressed='jpeg', jpeg_quality=95)
     write_kitti(seq, out / 'kitti', '03')
     cam = seq.intrinsics
-    seq.intrinsics = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height,
-                                DISTORTION)
+    seq.intrinsics = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height, DISTORTION)
     write_euroc(seq, out / 'euroc')
     return {'tum': tum, 'bag': out / 'jpeg.bag', 'euroc': out / 'euroc', 'kitti': out / 'kitti'}
 
@@ -90,8 +89,7 @@ CASES = {
     'tum-jpeg': ('tum', ['--compressed', '--jpeg-quality', '95']),
     'compressed-ros1-bag-raw': ('bag', []),
     'euroc-native-mono8': ('euroc', ['--encoding', 'native']),
-    'euroc-png': ('euroc', ['--encoding', 'native', '--compressed', '--compressed-format',
-                            'png']),
+    'euroc-png': ('euroc', ['--encoding', 'native', '--compressed', '--compressed-format', 'png']),
     'kitti-root': ('kitti', ['--sequence', '03']),
 }
 
@@ -120,16 +118,31 @@ def test_replay_publishes_every_frame_with_exact_stamps_and_the_calibration(
     try:
         with log.open('w') as out:
             replay = subprocess.Popen(
-                [_initsel(), 'replay', str(sources[layout]), *options,
-                 '--image-topic', f'{ns}/image_raw', '--camera-info-topic', f'{ns}/camera_info',
-                 '--wait-for-subscriber', '20', '--rate', '2'],
-                env=_environment(), stdout=out, stderr=subprocess.STDOUT)
+                [
+                    _initsel(),
+                    'replay',
+                    str(sources[layout]),
+                    *options,
+                    '--image-topic',
+                    f'{ns}/image_raw',
+                    '--camera-info-topic',
+                    f'{ns}/camera_info',
+                    '--wait-for-subscriber',
+                    '20',
+                    '--rate',
+                    '2',
+                ],
+                env=_environment(),
+                stdout=out,
+                stderr=subprocess.STDOUT,
+            )
         deadline = time.monotonic() + TIMEOUT_S
         while len(images) < N_FRAMES or len(infos) < N_FRAMES:
             if replay.poll() is not None:  # done: what is in flight has 3 s to arrive
                 deadline = min(deadline, time.monotonic() + 3)
             assert time.monotonic() < deadline, (
-                f'{len(images)} images, {len(infos)} infos\n{log.read_text()}')
+                f'{len(images)} images, {len(infos)} infos\n{log.read_text()}'
+            )
             executor.spin_once(timeout_sec=0.05)
         code = replay.wait(timeout=TIMEOUT_S)
     finally:
@@ -164,8 +177,11 @@ def test_replay_publishes_every_frame_with_exact_stamps_and_the_calibration(
             pixels = cv2.imdecode(np.frombuffer(bytes(msg.data), np.uint8), cv2.IMREAD_UNCHANGED)
         else:
             channels = 1 if msg.encoding.startswith('mono') else 3
-            pixels = np.frombuffer(bytes(msg.data), np.uint8).reshape(msg.height, msg.width,
-                                                                       channels).squeeze()
+            pixels = (
+                np.frombuffer(bytes(msg.data), np.uint8)
+                .reshape(msg.height, msg.width, channels)
+                .squeeze()
+            )
         if layout == 'euroc':  # grey source: mono8 published as stored
             assert pixels.ndim == 2
             want = sequence.gray(k)
@@ -195,13 +211,26 @@ def test_replay_warns_once_when_frames_exceed_the_shared_memory_segment(sources,
         '<participant profile_name="p" is_default_profile="true"><rtps><userTransports>'
         '<transport_id>shm</transport_id><transport_id>udp</transport_id></userTransports>'
         '<useBuiltinTransports>false</useBuiltinTransports></rtps></participant>'
-        '</profiles></dds>\n')
+        '</profiles></dds>\n'
+    )
     env = _environment()
     env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(profile)
     env.pop('FASTDDS_DEFAULT_PROFILES_FILE', None)
-    proc = subprocess.Popen([_initsel(), 'replay', str(sources['tum']), '--rate', '4',
-                             '--image-topic', '/shm_probe/image_raw'],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        [
+            _initsel(),
+            'replay',
+            str(sources['tum']),
+            '--rate',
+            '4',
+            '--image-topic',
+            '/shm_probe/image_raw',
+        ],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         output, _ = proc.communicate(timeout=TIMEOUT_S)
     finally:

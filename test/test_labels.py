@@ -125,7 +125,9 @@ def test_relabel_applies_new_thresholds_to_stored_errors():
     assert first_two['E_label'].tolist() == [0, 1, 0]
     assert first_two['scale_rule'][0] == 'first_two'
     assert relabel(columns, LabelConfig(rotation_baseline_m=0.25))['R_label'].tolist() == [
-        1, 1, 0,
+        1,
+        1,
+        0,
     ]
     assert columns['scale_rule'][0] == 'median'  # input untouched
 
@@ -142,8 +144,15 @@ def test_without_depth_labels_come_from_et_and_the_rotation_error():
     assert math.isnan(e.er_median) and math.isnan(e.er_first_two)
     assert e.rotation_error_deg < 0.5
     assert labels.label('E') == 1
-    strict = label_pair(p0, p1, K, None, np.eye(4), T_cur,
-                        LabelConfig(rotation_error_max_deg=e.rotation_error_deg / 2))
+    strict = label_pair(
+        p0,
+        p1,
+        K,
+        None,
+        np.eye(4),
+        T_cur,
+        LabelConfig(rotation_error_max_deg=e.rotation_error_deg / 2),
+    )
     assert strict.label('E') == 0
 
 

@@ -23,13 +23,22 @@ def test_launch_file_parses_and_declares_generate_launch_description():
     tree = ast.parse(LAUNCH_FILE.read_text(), filename=str(LAUNCH_FILE))
     functions = {node.name for node in tree.body if isinstance(node, ast.FunctionDef)}
     assert 'generate_launch_description' in functions
-    imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
-                for alias in node.names}
+    imported = {
+        alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+    }
     assert {'DeclareLaunchArgument', 'LaunchConfiguration', 'Node', 'FindPackageShare'} <= (
-        imported)
-    names = {elt.elts[0].value for node in ast.walk(tree) if isinstance(node, ast.Assign)
-             and any(getattr(t, 'id', '') == 'ARGUMENTS' for t in node.targets)
-             for elt in node.value.elts}
+        imported
+    )
+    names = {
+        elt.elts[0].value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Assign)
+        and any(getattr(t, 'id', '') == 'ARGUMENTS' for t in node.targets)
+        for elt in node.value.elts
+    }
     assert names == ARGUMENTS
 
 
@@ -51,16 +60,18 @@ class _Configuration(_Recorder):
 def launch_stand_ins(monkeypatch):
     modules = {
         'launch': {'LaunchDescription': type('LaunchDescription', (_Recorder,), {})},
-        'launch.actions': {'DeclareLaunchArgument': type('DeclareLaunchArgument', (_Recorder,),
-                                                         {})},
+        'launch.actions': {
+            'DeclareLaunchArgument': type('DeclareLaunchArgument', (_Recorder,), {})
+        },
         'launch.substitutions': {
             'LaunchConfiguration': _Configuration,
             'PathJoinSubstitution': type('PathJoinSubstitution', (_Recorder,), {}),
         },
         'launch_ros': {},
         'launch_ros.actions': {'Node': type('Node', (_Recorder,), {})},
-        'launch_ros.substitutions': {'FindPackageShare': type('FindPackageShare', (_Recorder,),
-                                                              {})},
+        'launch_ros.substitutions': {
+            'FindPackageShare': type('FindPackageShare', (_Recorder,), {})
+        },
     }
     for name, attributes in modules.items():
         module = types.ModuleType(name)
@@ -81,8 +92,10 @@ def test_launch_description_has_the_arguments_and_the_selector_node(launch_stand
     assert node.kwargs['name'] == 'selector'
     assert node.kwargs['namespace'] == _Configuration('namespace')
     assert node.kwargs['parameters'] == [_Configuration('params_file')]
-    assert dict(node.kwargs['remappings']) == {'image_raw': _Configuration('image'),
-                                              'camera_info': _Configuration('camera_info')}
+    assert dict(node.kwargs['remappings']) == {
+        'image_raw': _Configuration('image'),
+        'camera_info': _Configuration('camera_info'),
+    }
 
 
 def test_setup_installs_the_launch_files_into_share():

@@ -16,8 +16,13 @@ def make_set(seed: int = 0) -> ModelSet:
     rng = np.random.default_rng(seed)
     models = {
         m: LogisticModel(
-            m, rng.normal(size=N_FEATURES), float(rng.normal()), 0.3 + 0.1 * i,
-            rng.normal(size=N_FEATURES), rng.uniform(0.5, 2, N_FEATURES), {'precision': 0.5},
+            m,
+            rng.normal(size=N_FEATURES),
+            float(rng.normal()),
+            0.3 + 0.1 * i,
+            rng.normal(size=N_FEATURES),
+            rng.uniform(0.5, 2, N_FEATURES),
+            {'precision': 0.5},
         )
         for i, m in enumerate(METHODS)
     }

@@ -29,4 +29,5 @@ def test_the_node_parameters_use_the_shared_names():
     assert SPECS['mode'].check.values == tuple(m.value for m in Mode)
     assert SPECS['r_veto'].check.allowed == POSE_METHODS
     assert [name for name in SPECS if name.startswith('thresholds.')] == [
-        f'thresholds.{m}' for m in MODEL_NAMES]
+        f'thresholds.{m}' for m in MODEL_NAMES
+    ]

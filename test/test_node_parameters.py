@@ -40,22 +40,25 @@ def node(harness_factory, tmp_path):
     return harness_factory(model_file=double_model_file(tmp_path))
 
 
-@pytest.mark.parametrize(('name', 'value', 'reason'), [
-    ('max_features', -5, 'read-only'),
-    ('model_file', '/etc/passwd', 'read-only'),
-    ('image_transport', 'compressed', 'read-only'),
-    ('use_camera_info', False, 'read-only'),
-    ('thresholds.E', 2.0, 'thresholds.E must be a finite number <= 1'),
-    ('thresholds.E', math.nan, 'thresholds.E must be a finite number <= 1'),
-    ('mode', 'sometimes', "mode must be one of 'once', 'continuous'"),
-    ('r_veto', ['X'], 'r_veto must name models among F, E, H'),
-    ('min_parallax_deg', math.nan, r'min_parallax_deg must be a finite number in [0, 90]'),
-    ('min_tracks', 400, 'min_tracks (400) > max_features (300)'),
-    ('camera.fx', -1.0, 'focal lengths must be positive'),
-    ('camera.distortion', [0.01, 0.001, 0.0], 'camera.distortion: 3 distortion coefficients'),
-    ('bit_depth', 3, 'bit_depth must be 0 (automatic) or an integer in [8, 16]'),
-    ('min_parallax_deg', 2, 'Wrong parameter type'),  # an integer for a double
-])
+@pytest.mark.parametrize(
+    ('name', 'value', 'reason'),
+    [
+        ('max_features', -5, 'read-only'),
+        ('model_file', '/etc/passwd', 'read-only'),
+        ('image_transport', 'compressed', 'read-only'),
+        ('use_camera_info', False, 'read-only'),
+        ('thresholds.E', 2.0, 'thresholds.E must be a finite number <= 1'),
+        ('thresholds.E', math.nan, 'thresholds.E must be a finite number <= 1'),
+        ('mode', 'sometimes', "mode must be one of 'once', 'continuous'"),
+        ('r_veto', ['X'], 'r_veto must name models among F, E, H'),
+        ('min_parallax_deg', math.nan, r'min_parallax_deg must be a finite number in [0, 90]'),
+        ('min_tracks', 400, 'min_tracks (400) > max_features (300)'),
+        ('camera.fx', -1.0, 'focal lengths must be positive'),
+        ('camera.distortion', [0.01, 0.001, 0.0], 'camera.distortion: 3 distortion coefficients'),
+        ('bit_depth', 3, 'bit_depth must be 0 (automatic) or an integer in [8, 16]'),
+        ('min_parallax_deg', 2, 'Wrong parameter type'),  # an integer for a double
+    ],
+)
 def test_invalid_or_read_only_values_are_refused_with_a_reason_and_nothing_changes(
     node, name, value, reason
 ):
@@ -65,8 +68,9 @@ def test_invalid_or_read_only_values_are_refused_with_a_reason_and_nothing_chang
     assert not result.successful
     assert reason in result.reason
     after = node.get_parameter(name)
-    assert after == before or (isinstance(before, float) and math.isnan(before)
-                               and math.isnan(after))
+    assert after == before or (
+        isinstance(before, float) and math.isnan(before) and math.isnan(after)
+    )
     status = node.send_array(texture(20), 1.0)
     assert status.reason == 'new reference'
     assert node.node._selector.thresholds == thresholds
@@ -74,8 +78,9 @@ def test_invalid_or_read_only_values_are_refused_with_a_reason_and_nothing_chang
 
 def test_restart_parameters_are_declared_read_only_and_all_carry_constraints(node):
     names = [spec.name for spec in PARAMETERS]
-    response = node.call(node.describe_client, DescribeParameters.Request(names=names),
-                         'describe_parameters')
+    response = node.call(
+        node.describe_client, DescribeParameters.Request(names=names), 'describe_parameters'
+    )
     described = {d.name: d for d in response.descriptors}
     assert {n for n, d in described.items() if d.read_only} == set(READ_ONLY)
     assert all(d.additional_constraints and d.description for d in described.values())
@@ -113,9 +118,16 @@ def test_valid_changes_apply_to_the_running_selector_from_the_next_frame(node):
     assert status.reason == 'too few tracks' and status.new_reference
     assert node.node._selector.config.policy.min_points == 300
     # Several at once, including the mode and the R veto.
-    results = node.set_parameters({'mode': 'continuous', 'r_veto': ['F', 'E', 'H'],
-                                   'min_parallax_deg': 2.5, 'max_frames_since_reference': 2,
-                                   'min_tracks': 50, 'bit_depth': 12})
+    results = node.set_parameters(
+        {
+            'mode': 'continuous',
+            'r_veto': ['F', 'E', 'H'],
+            'min_parallax_deg': 2.5,
+            'max_frames_since_reference': 2,
+            'min_tracks': 50,
+            'bit_depth': 12,
+        }
+    )
     assert all(r.successful for r in results), [r.reason for r in results]
     node.send_array(shifted(img, 4, 0), 1.133)
     config = node.node._selector.config
@@ -154,19 +166,31 @@ def test_camera_parameters_are_live_until_a_camera_info_arrives(node):
 
 
 # ------------------------------------------------------------------------------- start-up
-@pytest.mark.parametrize(('override', 'match'), [
-    ('min_parallax_deg:=.nan', r'min_parallax_deg must be a finite number in \[0, 90\]'),
-    ('thresholds.E:=.nan', 'thresholds.E must be a finite number <= 1'),
-    ('max_features:=1000000000000', r'max_features must be an integer in \[1, 10000\]'),
-    ('camera.distortion:=[0.01, 0.001, 0.0]', 'camera.distortion: 3 distortion'),
-    ('bit_depth:=20', 'bit_depth must be 0'),
-])
+@pytest.mark.parametrize(
+    ('override', 'match'),
+    [
+        ('min_parallax_deg:=.nan', r'min_parallax_deg must be a finite number in \[0, 90\]'),
+        ('thresholds.E:=.nan', 'thresholds.E must be a finite number <= 1'),
+        ('max_features:=1000000000000', r'max_features must be an integer in \[1, 10000\]'),
+        ('camera.distortion:=[0.01, 0.001, 0.0]', 'camera.distortion: 3 distortion'),
+        ('bit_depth:=20', 'bit_depth must be 0'),
+    ],
+)
 def test_bad_start_up_values_are_refused(context, tmp_path, override, match):
     from initsel_ros.ros.node import SelectorNode
 
     with pytest.raises(ConfigError, match=match):
-        SelectorNode(context=context, namespace='/badstart', cli_args=[
-            '--ros-args', '-p', override, '-p', f'model_file:={double_model_file(tmp_path)}'])
+        SelectorNode(
+            context=context,
+            namespace='/badstart',
+            cli_args=[
+                '--ros-args',
+                '-p',
+                override,
+                '-p',
+                f'model_file:={double_model_file(tmp_path)}',
+            ],
+        )
 
 
 def _main_error(argv: list[str], monkeypatch, capfd) -> tuple[int, str]:
@@ -191,8 +215,10 @@ def test_a_yaml_syntax_error_in_the_params_file_is_one_line_and_exit_1(
 
 def test_a_nan_in_the_params_file_is_one_line_and_exit_1(tmp_path, monkeypatch, capfd):
     params = tmp_path / 'nan.yaml'
-    params.write_text(f'/**/selector:\n  ros__parameters:\n    min_parallax_deg: .nan\n'
-                      f'    model_file: {double_model_file(tmp_path)}\n')
+    params.write_text(
+        f'/**/selector:\n  ros__parameters:\n    min_parallax_deg: .nan\n'
+        f'    model_file: {double_model_file(tmp_path)}\n'
+    )
     code, err = _main_error(['--ros-args', '--params-file', str(params)], monkeypatch, capfd)
     assert code == 1 and 'Traceback' not in err
     assert 'cannot start: min_parallax_deg must be a finite number in [0, 90], got nan' in err
@@ -201,8 +227,20 @@ def test_a_nan_in_the_params_file_is_one_line_and_exit_1(tmp_path, monkeypatch, 
 def test_params_files_are_found_in_every_ros_args_section():
     from initsel_ros.ros.node import params_files
 
-    argv = ['selector', '--params-file', 'not_ros.yaml', '--ros-args', '--params-file', 'a.yaml',
-            '-p', 'x:=1', '--', '--ros-args', '--params-file', 'b.yaml']
+    argv = [
+        'selector',
+        '--params-file',
+        'not_ros.yaml',
+        '--ros-args',
+        '--params-file',
+        'a.yaml',
+        '-p',
+        'x:=1',
+        '--',
+        '--ros-args',
+        '--params-file',
+        'b.yaml',
+    ]
     assert params_files(argv) == ['a.yaml', 'b.yaml']
 
 
@@ -218,13 +256,14 @@ def test_selector_update_config_rebuilds_the_tracker_only_when_its_settings_chan
     selector.process(img, 0)
     tracker = selector.tracker
     config = dataclasses.replace(
-        selector.config, policy=dataclasses.replace(selector.config.policy,
-                                                    thresholds={'E': 0.2}))
+        selector.config, policy=dataclasses.replace(selector.config.policy, thresholds={'E': 0.2})
+    )
     selector.update_config(config)
     assert selector.tracker is tracker and selector.thresholds['E'] == 0.2
     assert not selector.process(shifted(img, 1, 0), 1).new_reference
-    selector.update_config(dataclasses.replace(
-        config, tracker=dataclasses.replace(config.tracker, max_features=100)))
+    selector.update_config(
+        dataclasses.replace(config, tracker=dataclasses.replace(config.tracker, max_features=100))
+    )
     assert selector.tracker is not tracker
     assert selector.process(shifted(img, 2, 0), 2).new_reference
     assert isinstance(selector.config, SelectorConfig)
@@ -247,5 +286,8 @@ def test_parameter_overrides_of_wrong_types_stay_a_config_error(context):
     from initsel_ros.ros.node import SelectorNode
 
     with pytest.raises(ConfigError, match='parameter bit_depth'):
-        SelectorNode(context=context, namespace='/badtype',
-                     parameter_overrides=[Parameter('bit_depth', value='auto')])
+        SelectorNode(
+            context=context,
+            namespace='/badtype',
+            parameter_overrides=[Parameter('bit_depth', value='auto')],
+        )

@@ -61,8 +61,10 @@ def init_and_reference(statuses: list[FrameStatus]) -> tuple[int, int]:
     status of the publishing frame names the initializing frame's stamp.
     """
     published = next(i for i, s in enumerate(statuses) if s.method)
-    own = (statuses[published].initializing_stamp_sec,
-           statuses[published].initializing_stamp_nanosec)
+    own = (
+        statuses[published].initializing_stamp_sec,
+        statuses[published].initializing_stamp_nanosec,
+    )
     cur = next(i for i, s in enumerate(statuses) if (s.stamp_sec, s.stamp_nanosec) == own)
     ref = max(i for i in range(cur) if statuses[i].new_reference)
     return cur, ref
@@ -96,10 +98,16 @@ def test_every_output_carries_the_exact_image_stamps_of_its_frames(
     tf = _FakeTfPublisher()
     h.node._tf_pub = tf
     debug: list[Image] = []
-    h.client.create_subscription(Image, 'selector/debug_image', debug.append,
-                                 QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT))
-    h.wait_until(lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
-                 what='debug image subscriber')
+    h.client.create_subscription(
+        Image,
+        'selector/debug_image',
+        debug.append,
+        QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT),
+    )
+    h.wait_until(
+        lambda: h.node.count_subscribers(f'{h.namespace}/selector/debug_image') > 0,
+        what='debug image subscriber',
+    )
     stamps = unix_stamps(len(sequence))
     statuses = play(h, sequence, stamps, until_initialized=True)
     h.wait_until(lambda: h.poses and h.clouds, what='init/pose and init/points')
@@ -112,14 +120,16 @@ def test_every_output_carries_the_exact_image_stamps_of_its_frames(
     assert same(pose.header.stamp, stamps[cur]) and index_of(pose.header.stamp, stamps) == cur
     assert same(cloud.header.stamp, stamps[ref]) and index_of(cloud.header.stamp, stamps) == ref
     for i, status in enumerate(statuses):
-        assert (status.stamp_sec, status.stamp_nanosec) == (
-            stamps[i].sec, stamps[i].nanosec)
+        assert (status.stamp_sec, status.stamp_nanosec) == (stamps[i].sec, stamps[i].nanosec)
         assert status.stamp == pytest.approx(stamps[i].sec + stamps[i].nanosec * 1e-9)
     init_status = next(s for s in statuses if s.method)
     assert (init_status.reference_stamp_sec, init_status.reference_stamp_nanosec) == (
-        stamps[ref].sec, stamps[ref].nanosec)
-    assert [(s.sec, s.nanosec) for s in h.diagnostic_stamps[:len(statuses)]] == [
-        (s.sec, s.nanosec) for s in stamps[:len(statuses)]]
+        stamps[ref].sec,
+        stamps[ref].nanosec,
+    )
+    assert [(s.sec, s.nanosec) for s in h.diagnostic_stamps[: len(statuses)]] == [
+        (s.sec, s.nanosec) for s in stamps[: len(statuses)]
+    ]
     h.wait_until(lambda: debug, what='debug images')
     sent = [index_of(d.header.stamp, stamps) for d in debug]
     assert sent == sorted(sent) and sent[-1] < len(statuses)
@@ -185,8 +195,7 @@ def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kin
     zero = send(6, 0)  # also backwards
     zero_again = send(7, 0)
     assert zero.new_reference and zero_again.frames_since_reference == 1
-    assert zero_again.stamp_issues == {'negative': 0, 'zero': 2, 'duplicate': 1,
-                                          'backwards': 3}
+    assert zero_again.stamp_issues == {'negative': 0, 'zero': 2, 'duplicate': 1, 'backwards': 3}
     err = capfd.readouterr().err
     for kind in ('backwards', 'duplicate', 'zero'):
         assert err.count(f'{kind} image stamp') == 1, kind
@@ -215,9 +224,19 @@ def test_compressed_subscription_follows_the_image_remapping(context, tmp_path):
 
     from initsel_ros.ros.node import SelectorNode
 
-    node = SelectorNode(context=context, namespace='/remapped', cli_args=[
-        '--ros-args', '-r', 'image_raw:=/cam7/image', '-p', 'image_transport:=compressed',
-        '-p', f'model_file:={double_model_file(tmp_path)}'])
+    node = SelectorNode(
+        context=context,
+        namespace='/remapped',
+        cli_args=[
+            '--ros-args',
+            '-r',
+            'image_raw:=/cam7/image',
+            '-p',
+            'image_transport:=compressed',
+            '-p',
+            f'model_file:={double_model_file(tmp_path)}',
+        ],
+    )
     probe = rclpy.create_node('remap_probe', context=context)
     try:
         assert node._image_topic == '/cam7/image/compressed'
@@ -239,8 +258,10 @@ def test_corrupt_or_foreign_compressed_data_is_a_skipped_frame_with_a_reason(
         (CompressedImage(format='jpeg', data=b'not an image at all'), 'not JPEG or PNG'),
         (CompressedImage(format='jpeg', data=b''), 'not JPEG or PNG'),
         (truncated, 'compressed image'),
-        (CompressedImage(format='16UC1; compressedDepth png', data=bytes(good.data)),
-         'compressedDepth'),
+        (
+            CompressedImage(format='16UC1; compressedDepth png', data=bytes(good.data)),
+            'compressedDepth',
+        ),
     ]
     for msg, match in cases:
         status = h.send(msg)
@@ -267,8 +288,9 @@ def test_a_12_bit_mono16_stream_initializes(harness_factory, near_sequence, expo
         highest.append(int(pixels.max()).bit_length())
         return pixels
 
-    statuses = play(h, sequence, unix_stamps(len(sequence)), convert=to_12_bit,
-                    until_initialized=True)
+    statuses = play(
+        h, sequence, unix_stamps(len(sequence)), convert=to_12_bit, until_initialized=True
+    )
     assert statuses[-1].method in ('F', 'E', 'H')
     assert statuses[-1].bit_depth == max(highest)
     h.wait_until(lambda: h.poses, what='init/pose')
@@ -284,8 +306,9 @@ def test_16_bit_images_are_scaled_by_their_real_range_or_the_bit_depth_parameter
     depth.encoding = '16UC1'
     np.testing.assert_array_equal(conv.image_to_cv(depth), (pixels >> 4).astype(np.uint8))
     # A fixed bit depth: 10 bits -> values above 1023 saturate.
-    np.testing.assert_array_equal(conv.image_to_cv(mono16, bit_depth=10),
-                                  (np.minimum(pixels, 1023) >> 2).astype(np.uint8))
+    np.testing.assert_array_equal(
+        conv.image_to_cv(mono16, bit_depth=10), (np.minimum(pixels, 1023) >> 2).astype(np.uint8)
+    )
     assert conv.significant_bits(np.array([255], np.uint16)) == 8
     assert conv.significant_bits(np.array([65535], np.uint16)) == 16
 
@@ -344,8 +367,7 @@ def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
 def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed(
     harness_factory, tmp_path
 ):
-    h = harness_factory(model_file=double_model_file(tmp_path), camera__fx=500.0,
-                        camera__fy=500.0)
+    h = harness_factory(model_file=double_model_file(tmp_path), camera__fx=500.0, camera__fy=500.0)
     status = h.send_array(texture(17, shape=(240, 320)), 1.0)
     assert status.reason == 'new reference' and not status.intrinsics_guessed
 
@@ -366,7 +388,8 @@ def test_camera_info_with_a_distortion_length_opencv_rejects_is_ignored(
     assert [s.reason for s in statuses] == ['no model fired'] * 3
     assert h.node._selector.intrinsics == good
     assert f'camera_info D has {len(coefficients)} distortion coefficients' in (
-        capfd.readouterr().err)
+        capfd.readouterr().err
+    )
 
 
 def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(context, tmp_path):
@@ -374,9 +397,17 @@ def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(co
     from initsel_ros.ros.node import SelectorNode
 
     with pytest.raises(ConfigError, match=r'camera\.distortion: 3 distortion coefficients'):
-        SelectorNode(context=context, namespace='/baddist', cli_args=[
-            '--ros-args', '-p', 'camera.distortion:=[0.01, 0.001, 0.0]',
-            '-p', f'model_file:={double_model_file(tmp_path)}'])
+        SelectorNode(
+            context=context,
+            namespace='/baddist',
+            cli_args=[
+                '--ros-args',
+                '-p',
+                'camera.distortion:=[0.01, 0.001, 0.0]',
+                '-p',
+                f'model_file:={double_model_file(tmp_path)}',
+            ],
+        )
 
 
 def test_a_failed_publication_is_never_reported_as_an_initialization(
@@ -403,7 +434,8 @@ def test_a_failed_publication_is_never_reported_as_an_initialization(
     assert not failed.initialized and failed.initializations == 0
     assert 'publishing the initialization failed' in failed.detail
     monkeypatch.undo()
-    rest = [h.send_array(sequence.image(i), stamps[i])
-            for i in range(len(statuses), len(sequence))]
+    rest = [
+        h.send_array(sequence.image(i), stamps[i]) for i in range(len(statuses), len(sequence))
+    ]
     assert any(s.method for s in rest) and rest[-1].initialized
     h.wait_until(lambda: h.poses, what='init/pose after the failure')

@@ -22,8 +22,13 @@ def frame(seed: int = 0, h: int = 480, w: int = 640) -> np.ndarray:
 
 def result(reason: Reason = Reason.NO_MODEL_FIRED, **kw) -> FrameResult:
     probabilities = kw.pop('probabilities', {'F': 0.2, 'E': 0.4, 'H': 0.8, 'R': 0.1})
-    decision = Decision(reason, probabilities=probabilities, n_tracks=kw.pop('n_tracks', 2),
-                        mean_disparity=12.5, **kw)
+    decision = Decision(
+        reason,
+        probabilities=probabilities,
+        n_tracks=kw.pop('n_tracks', 2),
+        mean_disparity=12.5,
+        **kw,
+    )
     return FrameResult(7, 1.0, 0.5, decision, frames_since_reference=3)
 
 
@@ -60,8 +65,13 @@ def test_tracks_that_did_not_move_are_grey():
 def test_zero_tracks_nan_probabilities_and_empty_decisions_do_not_raise():
     nan = float('nan')
     empty = np.zeros((0, 2), np.float32)
-    out = draw_overlay(frame(1), result(probabilities={'F': nan, 'E': nan, 'H': nan, 'R': nan},
-                                        n_tracks=0), empty, empty, THRESHOLDS)
+    out = draw_overlay(
+        frame(1),
+        result(probabilities={'F': nan, 'E': nan, 'H': nan, 'R': nan}, n_tracks=0),
+        empty,
+        empty,
+        THRESHOLDS,
+    )
     assert out.shape == (480, 640, 3)
     done = FrameResult(9, 2.0, 0.5, Decision(Reason.DONE))
     out = draw_overlay(frame(1), done, empty, empty, {})
@@ -83,8 +93,13 @@ def test_rotation_veto_is_shown_differently_from_a_plain_miss():
     probs = {'F': 0.9, 'E': 0.9, 'H': 0.1, 'R': 0.9}
     empty = np.zeros((0, 2), np.float32)
     img = np.zeros((480, 640, 3), np.uint8)
-    vetoed = draw_overlay(img, result(Reason.ROTATION, probabilities=probs, fired=('E', 'F'),
-                                      vetoed=('E', 'F')), empty, empty, THRESHOLDS)
+    vetoed = draw_overlay(
+        img,
+        result(Reason.ROTATION, probabilities=probs, fired=('E', 'F'), vetoed=('E', 'F')),
+        empty,
+        empty,
+        THRESHOLDS,
+    )
     plain = draw_overlay(img, result(probabilities=probs), empty, empty, THRESHOLDS)
     assert not np.array_equal(vetoed[:150, :300], plain[:150, :300])
 
@@ -92,10 +107,17 @@ def test_rotation_veto_is_shown_differently_from_a_plain_miss():
 def test_initialization_inliers_are_marked_in_yellow():
     pixels = np.array([[320, 300], [500, 420]], np.float32)
     init = Initialization(
-        method=Method.E, R=np.eye(3), t=np.array([0.1, 0, 0]), points=np.ones((2, 3)),
-        pixels_ref=pixels - 5, pixels_cur=pixels,
-        reference_stamp_ns=500_000_000, stamp_ns=1_000_000_000,
-        frames_since_reference=3, probabilities={'E': 0.9}, parallax_deg=2.0,
+        method=Method.E,
+        R=np.eye(3),
+        t=np.array([0.1, 0, 0]),
+        points=np.ones((2, 3)),
+        pixels_ref=pixels - 5,
+        pixels_cur=pixels,
+        reference_stamp_ns=500_000_000,
+        stamp_ns=1_000_000_000,
+        frames_since_reference=3,
+        probabilities={'E': 0.9},
+        parallax_deg=2.0,
     )
     res = result(Reason.INITIALIZED, detail='E')
     img = np.zeros((480, 640, 3), np.uint8)
@@ -113,13 +135,28 @@ def test_frame_overlay_draws_the_initializing_pairs_after_a_continuous_reset():
     fresh = np.array([[100, 300], [500, 400]], np.float32)  # tracker restarted: ref == cur
     pixels = np.array([[300, 300]], np.float32)
     init = Initialization(
-        method=Method.H, R=np.eye(3), t=np.array([0.1, 0, 0]), points=np.ones((1, 3)),
-        pixels_ref=pixels - [40, 0], pixels_cur=pixels,
-        reference_stamp_ns=500_000_000, stamp_ns=1_000_000_000,
-        frames_since_reference=3, probabilities={'H': 0.9}, parallax_deg=2.0,
+        method=Method.H,
+        R=np.eye(3),
+        t=np.array([0.1, 0, 0]),
+        points=np.ones((1, 3)),
+        pixels_ref=pixels - [40, 0],
+        pixels_cur=pixels,
+        reference_stamp_ns=500_000_000,
+        stamp_ns=1_000_000_000,
+        frames_since_reference=3,
+        probabilities={'H': 0.9},
+        parallax_deg=2.0,
     )
-    res = FrameResult(7, 1, 0, Decision(Reason.INITIALIZED, detail='H'), init,
-                      tracks_ref=fresh, tracks_cur=fresh.copy(), thresholds=THRESHOLDS)
+    res = FrameResult(
+        7,
+        1,
+        0,
+        Decision(Reason.INITIALIZED, detail='H'),
+        init,
+        tracks_ref=fresh,
+        tracks_cur=fresh.copy(),
+        thresholds=THRESHOLDS,
+    )
     out = draw_frame_overlay(np.zeros((480, 640, 3), np.uint8), res)
     assert out[300, 280].sum() > 150  # the middle of the reference -> current segment
 

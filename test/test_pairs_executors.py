@@ -44,14 +44,39 @@ def _reference_rows(folder: Path, config: DatasetConfig) -> list[dict]:
             depth_pixels = None
             if intr.has_distortion:
                 depth_pixels = pair.p0
-                pair = Pair(pair.ref_index, pair.cur_index, undistort_pixels(pair.p0, intr),
-                            undistort_pixels(pair.p1, intr))
-            labels = label_pair(pair.p0, pair.p1, intr.K, depth, T_ref, T_cur, config.label,
-                                depth_pixels=depth_pixels)
-            stamps = (float(sequence.frames[frames[0]].stamp),
-                      float(sequence.frames[pair.cur_index].stamp))
-            rows.append(pair_row(sequence.name, b, pair, stamps, (intr.width, intr.height),
-                                 intr.K, labels, config.source, config))
+                pair = Pair(
+                    pair.ref_index,
+                    pair.cur_index,
+                    undistort_pixels(pair.p0, intr),
+                    undistort_pixels(pair.p1, intr),
+                )
+            labels = label_pair(
+                pair.p0,
+                pair.p1,
+                intr.K,
+                depth,
+                T_ref,
+                T_cur,
+                config.label,
+                depth_pixels=depth_pixels,
+            )
+            stamps = (
+                float(sequence.frames[frames[0]].stamp),
+                float(sequence.frames[pair.cur_index].stamp),
+            )
+            rows.append(
+                pair_row(
+                    sequence.name,
+                    b,
+                    pair,
+                    stamps,
+                    (intr.width, intr.height),
+                    intr.K,
+                    labels,
+                    config.source,
+                    config,
+                )
+            )
     return rows
 
 
@@ -69,10 +94,10 @@ def reference(near_sequence, tmp_path_factory):
 
 
 @pytest.mark.parametrize(('jobs', 'chunk'), [(1, 10), (2, 7), (2, 0)])
-def test_every_executor_writes_the_reference_rows(near_sequence, reference, tmp_path, jobs,
-                                                  chunk):
-    table = build_table([near_sequence], DatasetConfig(batch=30, jobs=jobs, chunk=chunk),
-                        progress=False)
+def test_every_executor_writes_the_reference_rows(near_sequence, reference, tmp_path, jobs, chunk):
+    table = build_table(
+        [near_sequence], DatasetConfig(batch=30, jobs=jobs, chunk=chunk), progress=False
+    )
     assert _csv(table, tmp_path / 'new.csv') == reference
 
 
@@ -92,8 +117,7 @@ def test_chunk_bounds_cover_every_pair_once():
 
 def test_scheduler_without_dask_executor_is_refused(near_sequence):
     with pytest.raises(DatasetError, match='--executor dask'):
-        build_table([near_sequence], DatasetConfig(scheduler='tcp://127.0.0.1:1'),
-                    progress=False)
+        build_table([near_sequence], DatasetConfig(scheduler='tcp://127.0.0.1:1'), progress=False)
 
 
 def test_dask_executor_without_dask_says_how_to_install(near_sequence, monkeypatch):
@@ -105,11 +129,13 @@ def test_dask_executor_without_dask_says_how_to_install(near_sequence, monkeypat
 def test_dask_executor_writes_the_reference_rows(near_sequence, reference, tmp_path):
     distributed = pytest.importorskip('dask.distributed')
     threads = cv2.getNumThreads()
-    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                                       dashboard_address=None)
+    cluster = distributed.LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+    )
     try:
-        config = DatasetConfig(batch=30, executor='dask', scheduler=cluster.scheduler_address,
-                               chunk=8)
+        config = DatasetConfig(
+            batch=30, executor='dask', scheduler=cluster.scheduler_address, chunk=8
+        )
         table = build_table([near_sequence], config, progress=False)
     finally:
         cluster.close()

@@ -38,8 +38,9 @@ class ShiftSequence(Sequence):
     def __init__(self, n: int, seed: int = 3) -> None:
         rng = np.random.default_rng(seed)
         coarse = rng.uniform(0, 255, (60, 80, 3)).astype(np.float32)
-        self._texture = np.clip(cv2.resize(coarse, (640, 480), interpolation=cv2.INTER_CUBIC),
-                                0, 255).astype(np.uint8)
+        self._texture = np.clip(
+            cv2.resize(coarse, (640, 480), interpolation=cv2.INTER_CUBIC), 0, 255
+        ).astype(np.uint8)
         frames = []
         for i in range(n):
             pose = np.eye(4)
@@ -79,8 +80,9 @@ def test_overlay_video_is_readable_frame_by_frame(shift_sequence, tmp_path):
 
 
 def test_overlay_frames_as_png_folder_named_by_index(shift_sequence, tmp_path):
-    run = write_overlay_video(shift_sequence, constant_models(), tmp_path / 'frames',
-                              start=2, stop=6)
+    run = write_overlay_video(
+        shift_sequence, constant_models(), tmp_path / 'frames', start=2, stop=6
+    )
     names = sorted(p.name for p in (tmp_path / 'frames').glob('*.png'))
     assert names == [f'frame_{i:06d}.png' for i in range(2, 6)]
     assert list(run.indices) == [2, 3, 4, 5]
@@ -111,8 +113,9 @@ def test_probability_figure_is_written(shift_sequence, tmp_path):
     run = write_overlay_video(shift_sequence, models, tmp_path / 'o.mp4')
     assert any(r.decision.reason is Reason.ROTATION for r in run.results)
     base = groundtruth_baselines(shift_sequence, run.results, run.indices)
-    out = plot_probabilities(run.results, base, tmp_path / 'fig' / 'p.png', run.thresholds,
-                             run.indices, title='test')
+    out = plot_probabilities(
+        run.results, base, tmp_path / 'fig' / 'p.png', run.thresholds, run.indices, title='test'
+    )
     img = cv2.imread(str(out))
     assert img is not None and img.shape[0] >= 300 and img.shape[1] >= 600
     assert img.std() > 10  # not blank
@@ -129,8 +132,20 @@ def test_command_draws_a_rendered_rotation_sequence(rotation_sequence, tmp_path)
     model_file = tmp_path / 'models.json'
     constant_models(E=0.9, R=0.9).save(model_file)
     video, figure = tmp_path / 'rot.mp4', tmp_path / 'rot.png'
-    code = main(['--source', str(rotation_sequence), '--video', str(video), '--plot',
-                 str(figure), '--models', str(model_file), '--frames', '15'])
+    code = main(
+        [
+            '--source',
+            str(rotation_sequence),
+            '--video',
+            str(video),
+            '--plot',
+            str(figure),
+            '--models',
+            str(model_file),
+            '--frames',
+            '15',
+        ]
+    )
     assert code == 0
     cap = cv2.VideoCapture(str(video))
     assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 15
@@ -154,8 +169,13 @@ def test_rotation_sequence_has_no_baseline(rotation_sequence):
 
 def test_readme_pictures_are_small_pngs(tmp_path):
     pytest.importorskip('matplotlib', reason='the figure needs the optional matplotlib (plot)')
-    paths = make_readme_pictures(tmp_path / 'images', tmp_path / 'work',
-                                 constant_models(E=0.9, R=0.2), frames=12, rotation_frames=6)
+    paths = make_readme_pictures(
+        tmp_path / 'images',
+        tmp_path / 'work',
+        constant_models(E=0.9, R=0.2),
+        frames=12,
+        rotation_frames=6,
+    )
     names = {p.name for p in paths}
     assert {'rotation_veto.png', 'probabilities.png'} <= names
     for p in paths:

@@ -35,17 +35,22 @@ def test_rotation_vetoes_the_configured_models_only():
 
 
 def test_candidates_are_ordered_by_margin_over_threshold():
-    d = decide({'F': 0.95, 'E': 0.7, 'H': 0.9, 'R': 0.1}, {**T, 'H': 0.85}, 200, 40.0,
-               PolicyConfig())
+    d = decide(
+        {'F': 0.95, 'E': 0.7, 'H': 0.9, 'R': 0.1}, {**T, 'H': 0.85}, 200, 40.0, PolicyConfig()
+    )
     assert d.candidates == (Method.F, Method.E, Method.H)
     assert d.reason is Reason.INITIALIZED
 
 
 def test_nothing_fired_and_rotation_alone_are_distinguished():
-    assert decide({'F': 0.1, 'E': 0.1, 'H': 0.1, 'R': 0.1}, T, 200, 1.0,
-                  PolicyConfig()).reason is Reason.NO_MODEL_FIRED
-    assert decide({'F': 0.1, 'E': 0.1, 'H': 0.1, 'R': 0.9}, T, 200, 1.0,
-                  PolicyConfig()).reason is Reason.ROTATION
+    assert (
+        decide({'F': 0.1, 'E': 0.1, 'H': 0.1, 'R': 0.1}, T, 200, 1.0, PolicyConfig()).reason
+        is Reason.NO_MODEL_FIRED
+    )
+    assert (
+        decide({'F': 0.1, 'E': 0.1, 'H': 0.1, 'R': 0.9}, T, 200, 1.0, PolicyConfig()).reason
+        is Reason.ROTATION
+    )
 
 
 def test_threshold_overrides_replace_model_file_values():
@@ -54,8 +59,17 @@ def test_threshold_overrides_replace_model_file_values():
 
 
 def _estimate(ok=True, n=100, parallax=3.0):
-    return PoseEstimate(Method.E, ok, '' if ok else 'bad', np.eye(3), np.array([1.0, 0, 0]),
-                        np.ones((n, 3)), np.arange(n), np.ones(n, bool), parallax)
+    return PoseEstimate(
+        Method.E,
+        ok,
+        '' if ok else 'bad',
+        np.eye(3),
+        np.array([1.0, 0, 0]),
+        np.ones((n, 3)),
+        np.arange(n),
+        np.ones(n, bool),
+        parallax,
+    )
 
 
 def test_pose_check_reasons():
@@ -100,15 +114,17 @@ def test_vectorized_policy_agrees_on_a_real_pair_table(near_pair_table):
     table = read_table(near_pair_table)
     models = ModelSet.load(default_model_path())
     probs = models.predict_proba_batch(
-        table.matrix(input_columns(models.input_names, models.scaling)))
+        table.matrix(input_columns(models.input_names, models.scaling))
+    )
     config = PolicyConfig()
     thresholds = effective_thresholds(models.thresholds, config)
     _agree(probs, thresholds, np.asarray(table['n_tracks']), config)
     # and the evaluation's rule is that policy
     from initsel_ros.learn.evaluate import model_rule
 
-    rule = model_rule('m', probs, thresholds, veto=tuple(config.r_veto),
-                      n_tracks=np.asarray(table['n_tracks']))
+    rule = model_rule(
+        'm', probs, thresholds, veto=tuple(config.r_veto), n_tracks=np.asarray(table['n_tracks'])
+    )
     batch = decide_batch(probs, thresholds, np.asarray(table['n_tracks']), config)
     assert np.array_equal(rule.method, batch.first_method())
 

@@ -61,8 +61,9 @@ def test_bundle_adjustment_drops_outliers_and_resists_them():
     assert off_line.sum() >= 8 and not result.kept[:20][off_line].any()
     assert result.kept[20:].mean() > 0.95
     assert translation_chordal_error(t, result.t) < 0.03
-    e0, e1 = reprojection_errors(result.R, result.t, result.points, K, p0[result.kept],
-                                 p1[result.kept])
+    e0, e1 = reprojection_errors(
+        result.R, result.t, result.points, K, p0[result.kept], p1[result.kept]
+    )
     assert np.all(e0 <= 2.0) and np.all(e1 <= 2.0)
 
 

@@ -64,15 +64,18 @@ def test_segment_limit_of_a_profile_without_shm_or_unreadable_is_the_default(tmp
     from initsel_ros.ros.transport import DEFAULT_SEGMENT_BYTES, shm_limit
 
     udp_only = tmp_path / 'udp.xml'
-    udp_only.write_text('<dds><profiles><transport_descriptors><transport_descriptor>'
-                        '<transport_id>u</transport_id><type>UDPv4</type>'
-                        '</transport_descriptor></transport_descriptors></profiles></dds>')
+    udp_only.write_text(
+        '<dds><profiles><transport_descriptors><transport_descriptor>'
+        '<transport_id>u</transport_id><type>UDPv4</type>'
+        '</transport_descriptor></transport_descriptors></profiles></dds>'
+    )
     limit = shm_limit({'FASTRTPS_DEFAULT_PROFILES_FILE': str(udp_only)})
     assert limit.segment_bytes == DEFAULT_SEGMENT_BYTES and 'sets no SHM size' in limit.source
     broken = tmp_path / 'broken.xml'
     broken.write_text('<dds><profiles>')
     assert shm_limit({'FASTDDS_DEFAULT_PROFILES_FILE': str(broken)}).segment_bytes == (
-        DEFAULT_SEGMENT_BYTES)
+        DEFAULT_SEGMENT_BYTES
+    )
 
 
 def test_oversized_frames_are_reported_once(caplog):

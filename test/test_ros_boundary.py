@@ -22,12 +22,32 @@ PACKAGE = Path(__file__).resolve().parent.parent / 'initsel_ros'
 ROS_DIR = PACKAGE / 'ros'
 #: ROS packages by name; any ``*_msgs``, ``*_srvs``, ``*_interfaces`` or ``*_action(s)``
 #: package counts as a message package too.
-ROS_PACKAGES = frozenset({
-    'rclpy', 'rcl', 'rcl_interfaces', 'rcl_logging', 'rmw', 'rosidl_runtime_py',
-    'rosidl_parser', 'rosidl_generator_py', 'builtin_interfaces', 'std_msgs', 'sensor_msgs',
-    'geometry_msgs', 'diagnostic_msgs', 'std_srvs', 'tf2_msgs', 'tf2_ros', 'cv_bridge',
-    'sensor_msgs_py', 'launch', 'launch_ros', 'rosbag2_py', 'unique_identifier_msgs',
-})
+ROS_PACKAGES = frozenset(
+    {
+        'rclpy',
+        'rcl',
+        'rcl_interfaces',
+        'rcl_logging',
+        'rmw',
+        'rosidl_runtime_py',
+        'rosidl_parser',
+        'rosidl_generator_py',
+        'builtin_interfaces',
+        'std_msgs',
+        'sensor_msgs',
+        'geometry_msgs',
+        'diagnostic_msgs',
+        'std_srvs',
+        'tf2_msgs',
+        'tf2_ros',
+        'cv_bridge',
+        'sensor_msgs_py',
+        'launch',
+        'launch_ros',
+        'rosbag2_py',
+        'unique_identifier_msgs',
+    }
+)
 ROS_SUFFIXES = ('_msgs', '_srvs', '_interfaces', '_action', '_actions')
 
 
@@ -53,8 +73,9 @@ def _imports(tree: ast.AST, module: str, is_package: bool) -> list[tuple[ast.stm
 
     def visit(node: ast.AST, in_function: bool) -> None:
         for child in ast.iter_child_nodes(node):
-            inner = in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef,
-                                                      ast.Lambda))
+            inner = in_function or isinstance(
+                child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)
+            )
             if isinstance(child, ast.Import):
                 found.extend((child, alias.name, in_function) for alias in child.names)
             elif isinstance(child, ast.ImportFrom):
@@ -66,8 +87,9 @@ def _imports(tree: ast.AST, module: str, is_package: bool) -> list[tuple[ast.stm
                     target = child.module or ''
                 found.append((child, target, in_function))
                 if target == 'initsel_ros':  # from initsel_ros import ros
-                    found.extend((child, f'{target}.{alias.name}', in_function)
-                                 for alias in child.names)
+                    found.extend(
+                        (child, f'{target}.{alias.name}', in_function) for alias in child.names
+                    )
             visit(child, inner)
 
     visit(tree, False)
@@ -76,8 +98,12 @@ def _imports(tree: ast.AST, module: str, is_package: bool) -> list[tuple[ast.stm
 
 def violations(path: Path) -> list[str]:
     """The boundary violations of one file, as 'file:line: what' strings."""
-    return source_violations(path.read_text(), module_name(path), path.name == '__init__.py',
-                             str(path.relative_to(PACKAGE.parent)))
+    return source_violations(
+        path.read_text(),
+        module_name(path),
+        path.name == '__init__.py',
+        str(path.relative_to(PACKAGE.parent)),
+    )
 
 
 def source_violations(source: str, module: str, is_package: bool, where: str) -> list[str]:
@@ -87,8 +113,9 @@ def source_violations(source: str, module: str, is_package: bool, where: str) ->
     for node, target, in_function in _imports(tree, module, is_package):
         if is_ros_package(target):
             out.append(f'{where}:{node.lineno}: imports {target}')
-        elif (target == 'initsel_ros.ros' or target.startswith('initsel_ros.ros.')) \
-                and not in_function:
+        elif (
+            target == 'initsel_ros.ros' or target.startswith('initsel_ros.ros.')
+        ) and not in_function:
             out.append(f'{where}:{node.lineno}: imports {target} at module level')
     return sorted(set(out))
 
@@ -96,9 +123,17 @@ def source_violations(source: str, module: str, is_package: bool, where: str) ->
 def test_the_walk_finds_every_module_outside_ros():
     files = core_files()
     names = {module_name(p) for p in files}
-    assert {'initsel_ros', 'initsel_ros.selector', 'initsel_ros.status', 'initsel_ros.demo',
-            'initsel_ros.bench', 'initsel_ros.benchmarks.live', 'initsel_ros.learn.evaluate',
-            'initsel_ros.datasets.bags', 'initsel_ros.synth.render'} <= names
+    assert {
+        'initsel_ros',
+        'initsel_ros.selector',
+        'initsel_ros.status',
+        'initsel_ros.demo',
+        'initsel_ros.bench',
+        'initsel_ros.benchmarks.live',
+        'initsel_ros.learn.evaluate',
+        'initsel_ros.datasets.bags',
+        'initsel_ros.synth.render',
+    } <= names
     assert not any(n.startswith('initsel_ros.ros') for n in names)
     assert len(files) > 40
 
@@ -108,19 +143,24 @@ def test_no_module_outside_ros_imports_rclpy_or_a_message_package():
     assert problems == [], '\n'.join(problems)
 
 
-@pytest.mark.parametrize(('source', 'expected'), [
-    ('import rclpy', ['imports rclpy']),
-    ('def f():\n    from sensor_msgs.msg import Image', ['imports sensor_msgs.msg']),
-    ('from custom_msgs.msg import Thing', ['imports custom_msgs.msg']),
-    ('from initsel_ros.ros import conversions', ['imports initsel_ros.ros at module level']),
-    ('from .ros.node import SelectorNode', ['imports initsel_ros.ros.node at module level']),
-    ('from . import ros', ['imports initsel_ros.ros at module level']),
-    ('def f():\n    from initsel_ros.ros.demo_live import run_live', []),
-    ('import rosbags.highlevel\nimport numpy', []),
-])
+@pytest.mark.parametrize(
+    ('source', 'expected'),
+    [
+        ('import rclpy', ['imports rclpy']),
+        ('def f():\n    from sensor_msgs.msg import Image', ['imports sensor_msgs.msg']),
+        ('from custom_msgs.msg import Thing', ['imports custom_msgs.msg']),
+        ('from initsel_ros.ros import conversions', ['imports initsel_ros.ros at module level']),
+        ('from .ros.node import SelectorNode', ['imports initsel_ros.ros.node at module level']),
+        ('from . import ros', ['imports initsel_ros.ros at module level']),
+        ('def f():\n    from initsel_ros.ros.demo_live import run_live', []),
+        ('import rosbags.highlevel\nimport numpy', []),
+    ],
+)
 def test_the_scan_catches_ros_imports_anywhere(source, expected):
-    found = {v.split(': ', 1)[1]
-             for v in source_violations(source, 'initsel_ros.probe', False, 'probe.py')}
+    found = {
+        v.split(': ', 1)[1]
+        for v in source_violations(source, 'initsel_ros.probe', False, 'probe.py')
+    }
     assert set(expected) <= found
     assert bool(found) == bool(expected)
 
@@ -148,8 +188,11 @@ def ros_blocker() -> str:
 
 def without_ros_environment() -> dict[str, str]:
     """The environment of a fresh interpreter that must not see ROS."""
-    return {k: v for k, v in os.environ.items()
-            if k not in ('PYTHONPATH', '_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')}
+    return {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ('PYTHONPATH', '_ROS_WHEELS_BOOTSTRAP_COMPLETE', 'LD_LIBRARY_PATH')
+    }
 
 
 IMPORT_ALL = """
@@ -173,8 +216,13 @@ print(json.dumps(report))
 def test_every_module_outside_ros_imports_with_ros_blocked():
     modules = sorted({module_name(p) for p in core_files()})
     code = ros_blocker() + IMPORT_ALL.format(modules=modules)
-    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
-                         timeout=300, env=without_ros_environment())
+    out = subprocess.run(
+        [sys.executable, '-c', code],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=without_ros_environment(),
+    )
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert report['failed'] == {}, '\n'.join(report['failed'].values())

@@ -43,8 +43,10 @@ CORE_DEFAULTS = {
     'verify_frames': VerifyConfig().frames,
     'verify_min_fraction': VerifyConfig().min_fraction,
     'verify_max_rms_px': VerifyConfig().max_rms_px,
-    **{f'camera.{k}': getattr(Intrinsics.tum_fr3(), k)
-       for k in ('fx', 'fy', 'cx', 'cy', 'width', 'height')},
+    **{
+        f'camera.{k}': getattr(Intrinsics.tum_fr3(), k)
+        for k in ('fx', 'fy', 'cx', 'cy', 'width', 'height')
+    },
 }
 
 
@@ -77,10 +79,16 @@ def test_defaults_give_the_tum_camera_and_the_model_file_thresholds():
 
 
 def test_settings_build_the_selector_config():
-    settings = NodeSettings.from_values({
-        'thresholds.E': 0.7, 'max_features': 200, 'min_points': 30, 'mode': 'continuous',
-        'r_veto': ['F', 'E', 'H'], 'camera.distortion': [0.1, 0.0, 0.0, 0.0, 0.0],
-    })
+    settings = NodeSettings.from_values(
+        {
+            'thresholds.E': 0.7,
+            'max_features': 200,
+            'min_points': 30,
+            'mode': 'continuous',
+            'r_veto': ['F', 'E', 'H'],
+            'camera.distortion': [0.1, 0.0, 0.0, 0.0, 0.0],
+        }
+    )
     config = settings.selector_config()
     assert config.tracker.max_features == 200
     assert dict(config.policy.thresholds) == {'E': 0.7}
@@ -116,8 +124,10 @@ NAN = float('nan')
         ({'camera.fx': -1.0}, 'focal lengths must be positive'),
         ({'camera.cx': NAN}, 'camera.cx must be a finite number'),
         ({'camera.width': 0}, r'camera.width must be an integer in \[1, 100000\]'),
-        ({'camera.distortion': [0.01, 0.001, 0.0]},
-         'camera.distortion: 3 distortion coefficients .* OpenCV needs 4, 5, 8, 12, 14'),
+        (
+            {'camera.distortion': [0.01, 0.001, 0.0]},
+            'camera.distortion: 3 distortion coefficients .* OpenCV needs 4, 5, 8, 12, 14',
+        ),
         ({'camera.distortion': [0.1] * 6}, 'camera.distortion: 6 distortion coefficients'),
         ({'camera.distortion': [0.1, NAN, 0.0, 0.0]}, 'camera.distortion must be finite'),
         ({'image_transport': 'theora'}, "image_transport must be one of 'raw', 'compressed'"),
@@ -139,7 +149,8 @@ def test_valid_distortion_lengths_and_all_zero_vectors_are_accepted():
     for n in (4, 5, 8, 12, 14):
         coefficients = [0.01] + [0.0] * (n - 1)
         assert NodeSettings.from_values(
-            {'camera.distortion': coefficients}).intrinsics.distortion == tuple(coefficients)
+            {'camera.distortion': coefficients}
+        ).intrinsics.distortion == tuple(coefficients)
     for zeros in ([], [0.0] * 3, [0.0] * 5):
         assert NodeSettings.from_values({'camera.distortion': zeros}).intrinsics.distortion == ()
 
@@ -161,8 +172,9 @@ def test_default_intrinsics_are_recognized_until_camera_parameters_change():
 def test_yaml_syntax_error_is_one_line_with_its_position(tmp_path):
     path = tmp_path / 'broken.yaml'
     path.write_text('selector:\n  ros__parameters:\n    mode: [once\n    min_tracks: 5\n')
-    with pytest.raises(ConfigError, match=r'broken.yaml: YAML syntax error at line \d+, column'
-                       ) as info:
+    with pytest.raises(
+        ConfigError, match=r'broken.yaml: YAML syntax error at line \d+, column'
+    ) as info:
         read_params_yaml(path)
     assert '\n' not in str(info.value)
     with pytest.raises(ConfigError, match='YAML syntax error'):

@@ -24,9 +24,7 @@ def test_rviz_layout_shows_the_node_topics_in_the_reference_frame():
     params = load_params_file(CONFIG / 'selector.yaml')  # any node-section key
     manager = rviz['Visualization Manager']
     assert manager['Global Options']['Fixed Frame'] == params['reference_frame_id']
-    topics = {
-        d['Topic']['Value']: d for d in _displays(manager['Displays']) if 'Topic' in d
-    }
+    topics = {d['Topic']['Value']: d for d in _displays(manager['Displays']) if 'Topic' in d}
     assert topics['/image_raw']['Class'] == 'rviz_default_plugins/Image'
     assert topics['/selector/debug_image']['Class'] == 'rviz_default_plugins/Image'
     assert topics['/init/points']['Class'] == 'rviz_default_plugins/PointCloud2'

@@ -31,8 +31,9 @@ def test_depth_error_is_scale_free_and_measures_relative_error():
 
 
 def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence):
-    outcomes = evaluate_sequences([wall_arc_sequence, near_sequence], default_model_path(),
-                                  length=60, step=60, jobs=1)
+    outcomes = evaluate_sequences(
+        [wall_arc_sequence, near_sequence], default_model_path(), length=60, step=60, jobs=1
+    )
     systems = {o.system for o in outcomes}
     assert systems == {'initsel', 'ORB-SLAM2', 'ORB-SLAM3', 'VINS-Mono', 'Butt 2020'}
     ours = [o for o in outcomes if o.system == 'initsel']

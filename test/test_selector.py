@@ -20,6 +20,7 @@ def ns(seconds: float) -> int:
     """Seconds -> integer nanoseconds, the selector's time unit."""
     return round(seconds * 1e9)
 
+
 CAMERA = Intrinsics.tum_fr3()
 
 
@@ -74,8 +75,11 @@ def test_without_the_rotation_guard_the_pose_check_refuses_the_shift():
     sel.process(img, ns(0.0))
     result = sel.process(shifted(img, 8.0, 3.0), ns(0.1))
     assert result.initialization is None
-    assert result.decision.reason in (Reason.POSE_FAILED, Reason.LOW_PARALLAX,
-                                      Reason.TOO_FEW_POINTS)
+    assert result.decision.reason in (
+        Reason.POSE_FAILED,
+        Reason.LOW_PARALLAX,
+        Reason.TOO_FEW_POINTS,
+    )
     assert 'E failed' in result.decision.detail and 'H failed' in result.decision.detail
 
 
@@ -138,8 +142,7 @@ def _run(path, mode='once'):
     from initsel_ros.models import default_model_path
 
     seq = open_sequence(path)
-    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics,
-                   SelectorConfig(mode=mode))
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, SelectorConfig(mode=mode))
     return seq, [sel.process(seq.image(i), int(t)) for i, t in enumerate(seq.stamps_ns)]
 
 
@@ -153,7 +156,7 @@ def test_default_models_initialize_on_the_rendered_near_sequence_with_the_true_d
     assert len(inits) == 1  # mode 'once'
     index, init = inits[0]
     assert init.method.value in ('F', 'E', 'H')
-    assert all(r.decision.reason is Reason.DONE for r in results[index + 1:])
+    assert all(r.decision.reason is Reason.DONE for r in results[index + 1 :])
     ref = int(np.argmin(np.abs(seq.stamps_ns - init.reference_stamp_ns)))
     cur = int(np.argmin(np.abs(seq.stamps_ns - init.stamp_ns)))  # before 'index' (verified)
     _, t_gt = relative_pose(seq.frames[ref].pose, seq.frames[cur].pose)
@@ -208,7 +211,8 @@ def test_a_planar_wall_initializes_with_h_and_an_accurate_pose(wall_arc_sequence
     init = result.initialization
     assert init.method.value == 'H'
     assert init.selection.winner.value == 'H' and 'H' in [
-        s.method.value for s in init.selection.scores]
+        s.method.value for s in init.selection.scores
+    ]
     e_t, rot = _pose_errors(seq, init)
     assert e_t < 0.1 and rot < 1.0
 
@@ -239,12 +243,17 @@ def test_verification_rejects_a_wrong_candidate_and_keeps_looking(near_sequence,
         estimate = real(method, p0, p1, K, **kwargs)
         # the first candidates that would pass the pose check (all methods of that frame,
         # so that the winner is among them): bend their depths
-        if len(spoiled) < 3 and estimate.ok and estimate.n_points >= 50 and (
-                estimate.parallax_deg >= 1.0):
+        if (
+            len(spoiled) < 3
+            and estimate.ok
+            and estimate.n_points >= 50
+            and (estimate.parallax_deg >= 1.0)
+        ):
             spoiled.append(method)
             points = estimate.points.copy()
             points[:, 2] = 2 * np.median(points[:, 2]) - points[:, 2] * 0.5
             from dataclasses import replace as dc_replace
+
             return dc_replace(estimate, points=points)
         return estimate
 
@@ -262,7 +271,8 @@ def test_verification_rejects_a_wrong_candidate_and_keeps_looking(near_sequence,
 
 
 def test_without_verification_the_same_wrong_candidate_would_be_published(
-    near_sequence, monkeypatch,
+    near_sequence,
+    monkeypatch,
 ):
     import initsel_ros.selector as selector_module
     from initsel_ros.verify import VerifyConfig
@@ -272,14 +282,16 @@ def test_without_verification_the_same_wrong_candidate_would_be_published(
     def flipped(method, p0, p1, K, **kwargs):
         estimate = real(method, p0, p1, K, **kwargs)
         from dataclasses import replace as dc_replace
+
         points = estimate.points.copy()
         if len(points):
             points[:, 2] = 2 * np.median(points[:, 2]) - points[:, 2] * 0.5
         return dc_replace(estimate, points=points)
 
     monkeypatch.setattr(selector_module, 'estimate_pose', flipped)
-    _, _, result = _first_init(near_sequence,
-                               SelectorConfig(refine=False, verify=VerifyConfig(frames=0)))
+    _, _, result = _first_init(
+        near_sequence, SelectorConfig(refine=False, verify=VerifyConfig(frames=0))
+    )
     assert result.initialization is not None and result.initialization.verification == ()
 
 

@@ -46,8 +46,14 @@ def test_forgetting_the_last_stamp_accepts_any_next_one():
 def test_params_stamps_and_transport_import_without_ros():
     code = ros_blocker() + (
         'import initsel_ros.stamps, initsel_ros.ros.params, initsel_ros.ros.transport\n'
-        'initsel_ros.ros.params.NodeSettings.from_values({})\nprint("ok")\n')
-    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
-                         timeout=120, env=without_ros_environment())
+        'initsel_ros.ros.params.NodeSettings.from_values({})\nprint("ok")\n'
+    )
+    out = subprocess.run(
+        [sys.executable, '-c', code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=without_ros_environment(),
+    )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == 'ok'

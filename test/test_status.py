@@ -29,41 +29,62 @@ DOCS = Path(__file__).resolve().parent.parent / 'docs' / 'node.md'
 STAMP_NS = 1_700_000_000 * 10**9 + 666_666_985
 REFERENCE_NS = STAMP_NS - 12 * 33_333_333
 
-COUNTERS = NodeCounters(initialized=True, initializations=1, received_frames=40,
-                        dropped_frames=2, skipped_frames=1, intrinsics_source='camera_info',
-                        bit_depth=12, stamp_issues={'negative': 0, 'zero': 1, 'duplicate': 0,
-                                                    'backwards': 0})
+COUNTERS = NodeCounters(
+    initialized=True,
+    initializations=1,
+    received_frames=40,
+    dropped_frames=2,
+    skipped_frames=1,
+    intrinsics_source='camera_info',
+    bit_depth=12,
+    stamp_issues={'negative': 0, 'zero': 1, 'duplicate': 0, 'backwards': 0},
+)
 
 
 def _selection() -> Selection:
-    scores = (CandidateScore(Method.E, True, '', 812.4, 231, 2.345, 0.91),
-              CandidateScore(Method.H, False, 'too few triangulated points', float('inf'), 12,
-                             0.4, 0.5))
+    scores = (
+        CandidateScore(Method.E, True, '', 812.4, 231, 2.345, 0.91),
+        CandidateScore(Method.H, False, 'too few triangulated points', float('inf'), 12, 0.4, 0.5),
+    )
     return Selection(Method.E, scores, float('nan'), 'E: lowest GRIC', 1.0)
 
 
 def _initializing_result() -> FrameResult:
     probabilities = {'F': 0.2, 'E': 0.8, 'H': 0.4, 'R': 0.1}
-    decision = Decision(Reason.INITIALIZED, probabilities, fired=('E',), vetoed=(),
-                        candidates=(Method.E,), n_tracks=240, mean_disparity=14.5,
-                        detail='E verified on 3 frames')
+    decision = Decision(
+        Reason.INITIALIZED,
+        probabilities,
+        fired=('E',),
+        vetoed=(),
+        candidates=(Method.E,),
+        n_tracks=240,
+        mean_disparity=14.5,
+        detail='E verified on 3 frames',
+    )
     init = Initialization(
-        method=Method.E, R=np.eye(3), t=np.array([0.1, 0.0, 0.0]), points=np.ones((60, 3)),
-        pixels_ref=np.zeros((60, 2), np.float32), pixels_cur=np.zeros((60, 2), np.float32),
-        reference_stamp_ns=REFERENCE_NS, stamp_ns=STAMP_NS - 3 * 33_333_333,
-        frames_since_reference=9, probabilities=probabilities, parallax_deg=2.3,
+        method=Method.E,
+        R=np.eye(3),
+        t=np.array([0.1, 0.0, 0.0]),
+        points=np.ones((60, 3)),
+        pixels_ref=np.zeros((60, 2), np.float32),
+        pixels_cur=np.zeros((60, 2), np.float32),
+        reference_stamp_ns=REFERENCE_NS,
+        stamp_ns=STAMP_NS - 3 * 33_333_333,
+        frames_since_reference=9,
+        probabilities=probabilities,
+        parallax_deg=2.3,
         selection=_selection(),
     )
     step = VerifyStep(True, 58, 55, 0.91666, 0.41234, np.eye(3), np.zeros(3), '55/60 inliers')
-    return FrameResult(40, STAMP_NS, REFERENCE_NS, decision, init, False, 12,
-                       verification=step)
+    return FrameResult(40, STAMP_NS, REFERENCE_NS, decision, init, False, 12, verification=step)
 
 
 def _status(result: FrameResult | None = None, **kwargs) -> FrameStatus:
     result = _initializing_result() if result is None else result
     sec, nanosec = divmod(STAMP_NS, 10**9)
-    return FrameStatus.from_result(result, stamp_sec=sec, stamp_nanosec=nanosec,
-                                   counters=COUNTERS, **kwargs)
+    return FrameStatus.from_result(
+        result, stamp_sec=sec, stamp_nanosec=nanosec, counters=COUNTERS, **kwargs
+    )
 
 
 def test_status_of_an_initializing_frame_carries_the_result_and_the_counters():
@@ -94,8 +115,14 @@ def test_status_json_round_trips_and_keeps_the_published_key_order():
 
 
 def _skipped() -> FrameStatus:
-    return FrameStatus.from_result(None, stamp_sec=-2, stamp_nanosec=5, counters=NodeCounters(),
-                                   reason=Reason.SKIPPED_IMAGE, detail='unsupported encoding')
+    return FrameStatus.from_result(
+        None,
+        stamp_sec=-2,
+        stamp_nanosec=5,
+        counters=NodeCounters(),
+        reason=Reason.SKIPPED_IMAGE,
+        detail='unsupported encoding',
+    )
 
 
 def test_status_of_a_skipped_image_has_no_result_fields_and_warns():
@@ -118,9 +145,19 @@ def test_the_node_reasons_are_reasons_and_warn():
 
 def test_diagnostic_values_are_the_published_key_values():
     values = _status().diagnostic_values()
-    assert list(values) == ['p_F', 'p_E', 'p_H', 'p_R', 'tracks', 'mean_disparity_px',
-                            'frames_since_reference', 'dropped_frames', 'reason', 'intrinsics',
-                            'selection']
+    assert list(values) == [
+        'p_F',
+        'p_E',
+        'p_H',
+        'p_R',
+        'tracks',
+        'mean_disparity_px',
+        'frames_since_reference',
+        'dropped_frames',
+        'reason',
+        'intrinsics',
+        'selection',
+    ]
     assert values['p_E'] == '0.8000' and values['tracks'] == '240'
     assert values['reason'] == 'initialized: E verified on 3 frames'
     assert values['intrinsics'] == 'camera_info' and values['selection'] == 'E: lowest GRIC'
@@ -129,11 +166,14 @@ def test_diagnostic_values_are_the_published_key_values():
     assert guessed.diagnostic_values()['intrinsics'] == 'guessed: fr3 scaled'
 
 
-@pytest.mark.parametrize(('text', 'match'), [
-    ('[1, 2]', 'JSON list, not an object'),
-    ('{"stamp": 1', 'invalid JSON'),
-    ('{}', 'missing stamp, stamp_sec'),
-])
+@pytest.mark.parametrize(
+    ('text', 'match'),
+    [
+        ('[1, 2]', 'JSON list, not an object'),
+        ('{"stamp": 1', 'invalid JSON'),
+        ('{}', 'missing stamp, stamp_sec'),
+    ],
+)
 def test_malformed_status_text_is_a_status_error(text, match):
     with pytest.raises(StatusError, match=match):
         FrameStatus.from_json(text)
@@ -150,7 +190,7 @@ def test_unknown_keys_and_reasons_are_status_errors():
 def _documented_status_fields() -> list[str]:
     """The field names of the ``~/status`` table in docs/node.md (first column, in order)."""
     text = DOCS.read_text()
-    table = text[text.index('**Status.**'):]
+    table = text[text.index('**Status.**') :]
     rows = []
     for line in table.splitlines()[1:]:
         if rows and not line.startswith('|'):
@@ -169,6 +209,9 @@ def test_docs_table_lists_exactly_the_status_fields_in_order():
 
 def test_docs_list_every_reason():
     text = DOCS.read_text()
-    row = next(line for line in text[text.index('**Status.**'):].splitlines()
-               if line.startswith('| `reason`'))
+    row = next(
+        line
+        for line in text[text.index('**Status.**') :].splitlines()
+        if line.startswith('| `reason`')
+    )
     assert set(re.findall(r'`([^`]+)`', row.split('|', 3)[3])) == {r.value for r in Reason}

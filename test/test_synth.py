@@ -23,7 +23,7 @@ def _relative(T_w_ref: np.ndarray, T_w_cur: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _backproject(depth: np.ndarray, K: np.ndarray, step: int = 4):
-    v, u = np.mgrid[0:depth.shape[0]:step, 0:depth.shape[1]:step]
+    v, u = np.mgrid[0 : depth.shape[0] : step, 0 : depth.shape[1] : step]
     z = depth[v, u]
     ok = z > 0
     u, v, z = u[ok], v[ok], z[ok]
@@ -48,9 +48,12 @@ def test_texture_points_move_with_depth_and_pose_onto_the_same_intensities(tmp_p
     xi, yi = np.round(x[inside]).astype(int), np.round(y[inside]).astype(int)
     visible = np.abs(d_j[yi, xi] - Xj[2, inside]) < 0.01  # not occluded in frame j
     assert visible.sum() > 5000
-    sampled = cv2.remap(g_j, x[inside][visible].astype(np.float32).reshape(-1, 1),
-                        y[inside][visible].astype(np.float32).reshape(-1, 1),
-                        cv2.INTER_LINEAR).ravel()
+    sampled = cv2.remap(
+        g_j,
+        x[inside][visible].astype(np.float32).reshape(-1, 1),
+        y[inside][visible].astype(np.float32).reshape(-1, 1),
+        cv2.INTER_LINEAR,
+    ).ravel()
     residual = np.abs(sampled - g_i[v[inside][visible], u[inside][visible]])
     assert np.median(residual) < 2.0
     assert np.mean(residual < 10) > 0.9
@@ -82,10 +85,12 @@ def test_near_scene_is_seen_from_the_real_distances(near_sequence):
 
 
 def test_far_sequence_is_about_twice_as_far(near_sequence, far_sequence):
-    near = np.median([np.median(d[d > 0]) for d in (open_sequence(near_sequence).depth(i)
-                                                    for i in (0, 30))])
-    far = np.median([np.median(d[d > 0]) for d in (open_sequence(far_sequence).depth(i)
-                                                   for i in (0, 30))])
+    near = np.median(
+        [np.median(d[d > 0]) for d in (open_sequence(near_sequence).depth(i) for i in (0, 30))]
+    )
+    far = np.median(
+        [np.median(d[d > 0]) for d in (open_sequence(far_sequence).depth(i) for i in (0, 30))]
+    )
     assert 1.6 < far / near < 2.4
 
 
@@ -106,10 +111,12 @@ def _klt_tracks(seq, first: int, last: int) -> tuple[np.ndarray, np.ndarray]:
     keep = np.ones(len(p0), bool)
     for k in range(first + 1, last + 1):
         cur = seq.gray(k)
-        p_next, status, _ = cv2.calcOpticalFlowPyrLK(prev, cur, p, None, winSize=(21, 21),
-                                                     maxLevel=3)
-        back, status_b, _ = cv2.calcOpticalFlowPyrLK(cur, prev, p_next, None, winSize=(21, 21),
-                                                     maxLevel=3)
+        p_next, status, _ = cv2.calcOpticalFlowPyrLK(
+            prev, cur, p, None, winSize=(21, 21), maxLevel=3
+        )
+        back, status_b, _ = cv2.calcOpticalFlowPyrLK(
+            cur, prev, p_next, None, winSize=(21, 21), maxLevel=3
+        )
         fb = np.linalg.norm((back - p).reshape(-1, 2), axis=1)
         keep &= (status.ravel() == 1) & (status_b.ravel() == 1) & (fb < 1.0)
         p, prev = p_next, cur
@@ -137,8 +144,7 @@ def test_essential_matrix_recovers_the_translation_direction_of_a_20cm_pair(near
     assert angle < 1.0
 
 
-def test_pure_rotation_pair_has_no_parallax_so_its_translation_is_meaningless(
-        rotation_sequence):
+def test_pure_rotation_pair_has_no_parallax_so_its_translation_is_meaningless(rotation_sequence):
     """On a pure pan every correspondence follows the infinite homography K R K^-1 (no
     parallax); E-RANSAC still returns a unit t, but the points it triangulates have almost
     no parallax, which is what a pose check must reject."""
@@ -235,9 +241,24 @@ def test_cli_writes_distortion_and_size_into_intrinsics_yaml(tmp_path, capsys):
     from initsel_ros.cli import main
 
     out = tmp_path / 'small'
-    code = main(['synth', '--out', str(out), '--frames', '3', '--width', '320',
-                 '--height', '240', '--distortion', '0.1,-0.05,0,0', '--trajectory', 'static',
-                 '--no-progress'])
+    code = main(
+        [
+            'synth',
+            '--out',
+            str(out),
+            '--frames',
+            '3',
+            '--width',
+            '320',
+            '--height',
+            '240',
+            '--distortion',
+            '0.1,-0.05,0,0',
+            '--trajectory',
+            'static',
+            '--no-progress',
+        ]
+    )
     assert code == 0
     assert 'frames/s' in capsys.readouterr().out
     data = yaml.safe_load((out / 'intrinsics.yaml').read_text())
@@ -249,21 +270,22 @@ def test_cli_writes_distortion_and_size_into_intrinsics_yaml(tmp_path, capsys):
 
 def test_lens_distortion_moves_points_as_the_opencv_model_says(tmp_path):
     dist = (0.15, -0.1, 0.0, 0.0)
-    path = render(tmp_path / 'd', trajectory='static', frames=1, distortion=dist,
-                  effects=Effects(noise=0.0)).path
+    path = render(
+        tmp_path / 'd', trajectory='static', frames=1, distortion=dist, effects=Effects(noise=0.0)
+    ).path
     seq = TumSequence(path)
     K = seq.intrinsics.K
     ideal, depth = render_frame(build_scene(), Intrinsics.tum_fr3(), seq.frames[0].pose)
     u, v, X = _backproject(depth, K, step=8)
     # a point at ideal pixel (u, v) appears where cv2.projectPoints with the coefficients says
-    img, _ = cv2.projectPoints(X.T.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K,
-                               np.array(dist))
+    img, _ = cv2.projectPoints(X.T.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, np.array(dist))
     img = img.reshape(-1, 2).astype(np.float32)
     inside = (img[:, 0] > 2) & (img[:, 0] < 637) & (img[:, 1] > 2) & (img[:, 1] < 477)
     assert np.median(np.linalg.norm(img[inside] - np.column_stack([u, v])[inside], axis=1)) > 3
     gray_ideal = cv2.cvtColor(ideal, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    sampled = cv2.remap(seq.gray(0).astype(np.float32), img[inside, :1], img[inside, 1:],
-                        cv2.INTER_LINEAR).ravel()
+    sampled = cv2.remap(
+        seq.gray(0).astype(np.float32), img[inside, :1], img[inside, 1:], cv2.INTER_LINEAR
+    ).ravel()
     residual = np.abs(sampled - gray_ideal[v[inside], u[inside]])
     assert np.median(residual) < 3
 

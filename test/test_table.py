@@ -66,8 +66,11 @@ def test_a_random_bytes_csv_is_one_line_naming_the_file(tmp_path, capsys, comman
     path.write_bytes(np.random.default_rng(3).integers(0, 256, 4096, dtype=np.uint8).tobytes())
     with pytest.raises(DatasetError, match=r'pairs\.csv'):
         read_table(path)
-    argv = [command, str(path), '--out', str(tmp_path / 'm.json')] if command == 'train' else [
-        command, str(path)]
+    argv = (
+        [command, str(path), '--out', str(tmp_path / 'm.json')]
+        if command == 'train'
+        else [command, str(path)]
+    )
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1, err

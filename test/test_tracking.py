@@ -20,8 +20,9 @@ def texture(seed: int = 0, shape=(480, 640)) -> np.ndarray:
 
 def shifted(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
     M = np.float32([[1, 0, dx], [0, 1, dy]])
-    return cv2.warpAffine(img, M, img.shape[::-1], flags=cv2.INTER_LINEAR,
-                          borderMode=cv2.BORDER_REFLECT)
+    return cv2.warpAffine(
+        img, M, img.shape[::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
+    )
 
 
 def test_detection_respects_the_budget_and_spreads_over_the_grid():

@@ -82,10 +82,12 @@ def test_out_of_fold_scores_come_from_models_that_did_not_see_the_batch():
 
 
 def test_each_model_gets_its_family_and_declares_its_features():
-    config = TrainConfig(family=Family.LOGISTIC, families={'F': Family.TREES_EXTRA,
-                                                            'R': Family.TREES},
-                         extra=('x_homography_residual', 'x_disp_p50'),
-                         trees=TreeConfig(20, 2, 0.2))
+    config = TrainConfig(
+        family=Family.LOGISTIC,
+        families={'F': Family.TREES_EXTRA, 'R': Family.TREES},
+        extra=('x_homography_residual', 'x_disp_p50'),
+        trees=TreeConfig(20, 2, 0.2),
+    )
     report = train_models(synthetic_table(), config)
     ms = report.models
     assert ms.kinds == {'F': 'trees', 'E': 'logistic', 'H': 'logistic', 'R': 'trees'}
@@ -94,8 +96,12 @@ def test_each_model_gets_its_family_and_declares_its_features():
     assert ms.models['E'].features == FEATURE_NAMES
     assert ms.extra_names == ('x_disp_p50', 'x_homography_residual')
     training = ms.metadata['training']
-    assert training['families'] == {'F': 'trees+extra', 'E': 'logistic', 'H': 'logistic',
-                                    'R': 'trees'}
+    assert training['families'] == {
+        'F': 'trees+extra',
+        'E': 'logistic',
+        'H': 'logistic',
+        'R': 'trees',
+    }
     assert training['trees']['n_trees'] == 20
     assert ms.models['F'].metrics['family'] == 'trees+extra'
     assert len(ms.models['F'].trees) == 20
@@ -116,8 +122,7 @@ def test_bad_family_options_are_one_line(tmp_path, capsys):
     path = tmp_path / 'pairs.csv'
     write_table(synthetic_table(), path)
     for spec in ('forest', 'X=trees', 'F=forest'):
-        assert main(['train', str(path), '--out', str(tmp_path / 'm.json'), '--family',
-                     spec]) == 1
+        assert main(['train', str(path), '--out', str(tmp_path / 'm.json'), '--family', spec]) == 1
         err = capsys.readouterr().err
         assert '--family' in err and len(err.strip().splitlines()) == 1
     with pytest.raises(ConfigError, match='unknown extra features'):
@@ -130,9 +135,27 @@ def test_cli_family_options_reach_the_model_file(tmp_path, capsys):
     path = tmp_path / 'pairs.csv'
     write_table(synthetic_table(), path)
     out = tmp_path / 'models.json'
-    assert main(['train', str(path), '--out', str(out), '--family', 'logistic+extra',
-                 '--family', 'H=trees', '--extra-features', 'x_grid_entropy',
-                 '--trees', '12', '--tree-depth', '2']) == 0
+    assert (
+        main(
+            [
+                'train',
+                str(path),
+                '--out',
+                str(out),
+                '--family',
+                'logistic+extra',
+                '--family',
+                'H=trees',
+                '--extra-features',
+                'x_grid_entropy',
+                '--trees',
+                '12',
+                '--tree-depth',
+                '2',
+            ]
+        )
+        == 0
+    )
     assert '| H | trees |' in capsys.readouterr().out
     ms = ModelSet.load(out)
     assert ms.kinds == {'F': 'logistic', 'E': 'logistic', 'H': 'trees', 'R': 'logistic'}

@@ -31,9 +31,11 @@ def test_without_a_profile_the_fast_dds_default_applies_and_a_vga_frame_does_not
 
 def test_a_profile_without_shm_or_unreadable_counts_as_the_default(tmp_path):
     udp_only = tmp_path / 'udp.xml'
-    udp_only.write_text('<dds><profiles><transport_descriptors><transport_descriptor>'
-                        '<transport_id>u</transport_id><type>UDPv4</type>'
-                        '</transport_descriptor></transport_descriptors></profiles></dds>')
+    udp_only.write_text(
+        '<dds><profiles><transport_descriptors><transport_descriptor>'
+        '<transport_id>u</transport_id><type>UDPv4</type>'
+        '</transport_descriptor></transport_descriptors></profiles></dds>'
+    )
     for path in (udp_only, tmp_path / 'missing.xml'):
         limit = shm_limit({'FASTRTPS_DEFAULT_PROFILES_FILE': str(path)})
         assert limit.segment_bytes == DEFAULT_SEGMENT_BYTES and 'sets no SHM size' in limit.source

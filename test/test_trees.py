@@ -28,14 +28,15 @@ def test_exported_trees_reproduce_scikit_learn(depth, n_trees):
 
     X, y = _data()
     trees, bias = fit_trees(X, y, TreeConfig(n_trees, depth, 0.2), ClassWeight.BALANCED, 0)
-    model = TreeEnsembleModel('F', tuple(f'f{i}' for i in range(X.shape[1])), tuple(trees),
-                              bias)
-    ref = GradientBoostingClassifier(n_estimators=n_trees, max_depth=depth, learning_rate=0.2,
-                                     random_state=0)
+    model = TreeEnsembleModel('F', tuple(f'f{i}' for i in range(X.shape[1])), tuple(trees), bias)
+    ref = GradientBoostingClassifier(
+        n_estimators=n_trees, max_depth=depth, learning_rate=0.2, random_state=0
+    )
     ref.fit(X, y, sample_weight=compute_sample_weight('balanced', y))
     X_new, _ = _data(200, seed=1)
-    np.testing.assert_allclose(model.predict_proba(X_new), ref.predict_proba(X_new)[:, 1],
-                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        model.predict_proba(X_new), ref.predict_proba(X_new)[:, 1], rtol=0, atol=1e-9
+    )
     assert model.depth <= depth
     one = np.array([model.predict_proba(x) for x in X_new[:20]]).ravel()
     np.testing.assert_allclose(one, model.predict_proba(X_new[:20]), rtol=0, atol=1e-12)
@@ -59,15 +60,15 @@ def _tree_models(seed: int = 0) -> dict[str, object]:
     X23 = rng.uniform(0, 1, (300, N_FEATURES))
     y = (X23[:, 1] > 0.5).astype(int)
     f_features = (*FEATURE_NAMES, 'x_homography_residual', 'x_disp_p50')
-    f_trees, f_bias = fit_trees(np.c_[X23, rng.uniform(0, 1, (300, 2))], y,
-                                TreeConfig(15, 3, 0.1), ClassWeight.BALANCED, 0)
+    f_trees, f_bias = fit_trees(
+        np.c_[X23, rng.uniform(0, 1, (300, 2))], y, TreeConfig(15, 3, 0.1), ClassWeight.BALANCED, 0
+    )
     r_trees, r_bias = fit_trees(X23, 1 - y, TreeConfig(10, 2, 0.1), ClassWeight.BALANCED, 0)
     h_features = (*FEATURE_NAMES, 'x_grid_entropy')
     return {
         'F': TreeEnsembleModel('F', f_features, tuple(f_trees), f_bias, 0.6),
         'E': LogisticModel('E', rng.normal(size=N_FEATURES), 0.1, 0.4),
-        'H': LogisticModel('H', rng.normal(size=N_FEATURES + 1), -0.2, 0.5,
-                           features=h_features),
+        'H': LogisticModel('H', rng.normal(size=N_FEATURES + 1), -0.2, 0.5, features=h_features),
         'R': TreeEnsembleModel('R', FEATURE_NAMES, tuple(r_trees), r_bias, 0.3),
     }
 
@@ -96,8 +97,9 @@ def test_a_tree_model_file_round_trips_compactly(tmp_path):
     loaded = ModelSet.load(path)
     X = np.random.default_rng(4).uniform(0, 1, (20, len(ms.input_names)))
     for m in METHODS:
-        np.testing.assert_array_equal(loaded.predict_proba_batch(X)[m],
-                                      ms.predict_proba_batch(X)[m])
+        np.testing.assert_array_equal(
+            loaded.predict_proba_batch(X)[m], ms.predict_proba_batch(X)[m]
+        )
     text = path.read_text()
     assert json.loads(text)['version'] == 2
     assert '"feature": [' in text and len(text.splitlines()) < 400  # lists of numbers inline
@@ -136,8 +138,9 @@ def test_decide_pair_feeds_the_extra_features_to_the_models():
     p0 = rng.uniform(0, 400, (80, 2))
     p1 = p0 + rng.normal(0, 2, p0.shape) + 20
     policy = PolicyConfig()
-    decision = decide_pair(ms, effective_thresholds(ms.thresholds, policy), policy, p0, p1,
-                           640, 480)
+    decision = decide_pair(
+        ms, effective_thresholds(ms.thresholds, policy), policy, p0, p1, 640, 480
+    )
     assert decision.probabilities == ms.predict_proba(ms.input_vector(p0, p1, 640, 480))
 
 
@@ -156,16 +159,21 @@ def _first_tree(d):
 @pytest.mark.parametrize(
     ('change', 'message'),
     [
-        (lambda d: _first_tree(d)['left'].__setitem__(0, 0),  # the root its own child
-         'children must come after their parent'),
+        (
+            lambda d: _first_tree(d)['left'].__setitem__(0, 0),  # the root its own child
+            'children must come after their parent',
+        ),
         (lambda d: _first_tree(d)['left'].__setitem__(-1, 0), 'leaf .* must have left'),
         (lambda d: _first_tree(d)['feature'].__setitem__(0, 99), r'feature must lie in'),
-        (lambda d: _first_tree(d).update(split=[[0.5]] * len(_first_tree(d)['split'])),
-         'split must be a flat list'),
-        (lambda d: _first_tree(d).update(value=_first_tree(d)['value'][:-1]),
-         'value must have'),
-        (lambda d: _first_tree(d).update(feature=[0.0] * len(_first_tree(d)['feature'])),
-         'feature must be a flat list of .* integers'),
+        (
+            lambda d: _first_tree(d).update(split=[[0.5]] * len(_first_tree(d)['split'])),
+            'split must be a flat list',
+        ),
+        (lambda d: _first_tree(d).update(value=_first_tree(d)['value'][:-1]), 'value must have'),
+        (
+            lambda d: _first_tree(d).update(feature=[0.0] * len(_first_tree(d)['feature'])),
+            'feature must be a flat list of .* integers',
+        ),
         (lambda d: _first_tree(d).pop('split'), 'a tree must map exactly'),
         (lambda d: d.update(trees=[]), 'trees. must be a list of 1 to'),
         (lambda d: d.update(trees={'a': 1}), 'trees. must be a list of 1 to'),
@@ -202,11 +210,21 @@ def test_version_1_files_and_the_shipped_file_still_load(tmp_path):
 
     rng = np.random.default_rng(7)
     legacy = {
-        'format': 'initsel_ros/models', 'version': 1, 'scaling': 'resolution_free',
-        'feature_names': list(FEATURE_NAMES), 'metadata': {},
-        'models': {m: {'weights': rng.normal(size=N_FEATURES).tolist(), 'bias': 0.5,
-                       'threshold': 0.5, 'mean': [0.0] * N_FEATURES,
-                       'scale': [1.0] * N_FEATURES} for m in METHODS},
+        'format': 'initsel_ros/models',
+        'version': 1,
+        'scaling': 'resolution_free',
+        'feature_names': list(FEATURE_NAMES),
+        'metadata': {},
+        'models': {
+            m: {
+                'weights': rng.normal(size=N_FEATURES).tolist(),
+                'bias': 0.5,
+                'threshold': 0.5,
+                'mean': [0.0] * N_FEATURES,
+                'scale': [1.0] * N_FEATURES,
+            }
+            for m in METHODS
+        },
     }
     path = tmp_path / 'v1.json'
     path.write_text(json.dumps(legacy))

@@ -46,8 +46,10 @@ def test_losing_most_tracks_fails_verification():
     assert not step.ok and 'still tracked' in step.detail
 
 
-@pytest.mark.parametrize('bad', [dict(frames=-1), dict(min_fraction=0.0),
-                                 dict(max_rms_px=float('nan')), dict(ransac_px=0.0)])
+@pytest.mark.parametrize(
+    'bad',
+    [dict(frames=-1), dict(min_fraction=0.0), dict(max_rms_px=float('nan')), dict(ransac_px=0.0)],
+)
 def test_verify_config_rejects_out_of_range_values(bad):
     with pytest.raises(ConfigError):
         VerifyConfig(**bad)

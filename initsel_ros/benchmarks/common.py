@@ -45,9 +45,12 @@ class Timing:
         """Median, p90, p99, min and max in microseconds, and the sample count."""
         s = self.seconds * 1e6
         return {
-            'n': int(s.size), 'median_us': float(np.median(s)),
-            'p90_us': float(np.percentile(s, 90)), 'p99_us': float(np.percentile(s, 99)),
-            'min_us': float(s.min()), 'max_us': float(s.max()),
+            'n': int(s.size),
+            'median_us': float(np.median(s)),
+            'p90_us': float(np.percentile(s, 90)),
+            'p99_us': float(np.percentile(s, 99)),
+            'min_us': float(s.min()),
+            'max_us': float(s.max()),
         }
 
 
@@ -78,8 +81,9 @@ def rss_bytes(pid: int | None = None) -> int:
     return pages * os.sysconf('SC_PAGE_SIZE')
 
 
-def random_models(seed: int = 0, features: np.ndarray | None = None,
-                  positive_rate: float = 0.5) -> Any:
+def random_models(
+    seed: int = 0, features: np.ndarray | None = None, positive_rate: float = 0.5
+) -> Any:
     """A ModelSet fitted with scikit-learn on random (or given) features and random labels.
 
     Only the shapes matter for timing; the probabilities mean nothing. With ``features``
@@ -104,12 +108,20 @@ def random_models(seed: int = 0, features: np.ndarray | None = None,
         y[:2] = (True, False)  # both classes present
         fit = LogisticRegression(max_iter=500).fit(Xs, y.astype(int))
         models[name] = LogisticModel(
-            name, fit.coef_[0], float(fit.intercept_[0]), 0.5, scaler.mean_, scale,
+            name,
+            fit.coef_[0],
+            float(fit.intercept_[0]),
+            0.5,
+            scaler.mean_,
+            scale,
             {'note': 'random labels, benchmark only'},
         )
     source = 'random features' if features is None else f'{len(X)} feature rows'
-    return ModelSet(models, Scaling.RESOLUTION_FREE,
-                    metadata={'trained_on': f'{source} with random labels (initsel bench)'})
+    return ModelSet(
+        models,
+        Scaling.RESOLUTION_FREE,
+        metadata={'trained_on': f'{source} with random labels (initsel bench)'},
+    )
 
 
 def sequence_features(seq: Any, span: int = 30, max_features: int = TRACKS) -> np.ndarray:
@@ -127,8 +139,11 @@ def sequence_features(seq: Any, span: int = 30, max_features: int = TRACKS) -> n
             continue
         tracks = tracker.track(gray)
         if len(tracks) >= 8:
-            rows.append(pair_features(tracks.ref, tracks.cur, intr.width, intr.height,
-                                      Scaling.RESOLUTION_FREE))
+            rows.append(
+                pair_features(
+                    tracks.ref, tracks.cur, intr.width, intr.height, Scaling.RESOLUTION_FREE
+                )
+            )
     return np.array(rows).reshape(-1, 23)
 
 
@@ -151,14 +166,20 @@ def bench_models(path: Path | None, seq: Any = None) -> tuple[Any, Path | None, 
     if path is not None and Path(path).is_file():
         return ModelSet.load(path), Path(path), f'model file {path}'
     if seq is None:
-        return (random_models(), None,
-                'no model file found: models fitted with scikit-learn on random features '
-                '(realistic shapes, meaningless probabilities)')
+        return (
+            random_models(),
+            None,
+            'no model file found: models fitted with scikit-learn on random features '
+            '(realistic shapes, meaningless probabilities)',
+        )
     features = sequence_features(seq)
-    return (random_models(features=features, positive_rate=0.05), None,
-            "no model file found: models fitted with scikit-learn on this sequence's "
-            f'{len(features)} feature rows with random labels (5 % positive): realistic '
-            'shapes, meaningless probabilities')
+    return (
+        random_models(features=features, positive_rate=0.05),
+        None,
+        "no model file found: models fitted with scikit-learn on this sequence's "
+        f'{len(features)} feature rows with random labels (5 % positive): realistic '
+        'shapes, meaningless probabilities',
+    )
 
 
 def render_bench_sequence(folder: Path, frames: int, seed: int = 0) -> Any:
@@ -177,16 +198,17 @@ def render_bench_sequence(folder: Path, frames: int, seed: int = 0) -> Any:
     try:
         from initsel_ros.synth import render_sequence
     except ImportError as exc:
-        raise InitselError(f'the renderer (initsel_ros.synth.render_sequence) is missing: {exc}'
-                           ) from exc
+        raise InitselError(
+            f'the renderer (initsel_ros.synth.render_sequence) is missing: {exc}'
+        ) from exc
     log.info('rendering %d frames into %s', frames, folder)
-    render_sequence(folder, scene='structure_texture', trajectory='near', frames=frames,
-                    seed=seed)
+    render_sequence(folder, scene='structure_texture', trajectory='near', frames=frames, seed=seed)
     return open_sequence(folder)
 
 
-def correspondence_sets(seq: Any, n_sets: int, span: int = 12,
-                        max_features: int = TRACKS) -> list[tuple[np.ndarray, np.ndarray]]:
+def correspondence_sets(
+    seq: Any, n_sets: int, span: int = 12, max_features: int = TRACKS
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """KLT correspondences between frames ``span`` apart, from several references.
 
     Returns:

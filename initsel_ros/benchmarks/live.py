@@ -44,11 +44,19 @@ def configure_ros_environment() -> None:
 def percentiles(values: list[float]) -> dict[str, float]:
     """Median, p90, p99 and max of durations in seconds, as milliseconds (NaN when empty)."""
     if not values:
-        return {'median_ms': float('nan'), 'p90_ms': float('nan'), 'p99_ms': float('nan'),
-                'max_ms': float('nan')}
+        return {
+            'median_ms': float('nan'),
+            'p90_ms': float('nan'),
+            'p99_ms': float('nan'),
+            'max_ms': float('nan'),
+        }
     a = np.asarray(values) * 1e3
-    return {'median_ms': float(np.median(a)), 'p90_ms': float(np.percentile(a, 90)),
-            'p99_ms': float(np.percentile(a, 99)), 'max_ms': float(a.max())}
+    return {
+        'median_ms': float(np.median(a)),
+        'p90_ms': float(np.percentile(a, 90)),
+        'p99_ms': float(np.percentile(a, 99)),
+        'max_ms': float(a.max()),
+    }
 
 
 @dataclass
@@ -102,8 +110,9 @@ def summarize(run: NodeRun, statuses: Sequence[FrameStatus]) -> None:
         run.reasons[s.reason.value] = run.reasons.get(s.reason.value, 0) + 1
 
 
-def textured_frames(width: int, height: int, count: int, shift_px: int = 3,
-                    seed: int = 0) -> list[np.ndarray]:
+def textured_frames(
+    width: int, height: int, count: int, shift_px: int = 3, seed: int = 0
+) -> list[np.ndarray]:
     """``count`` (H, W, 3) uint8 BGR views of one blurred-noise texture, each shifted right.
 
     Blurred noise has corners everywhere, so the tracker does its full work.
@@ -116,7 +125,7 @@ def textured_frames(width: int, height: int, count: int, shift_px: int = 3,
     base = cv2.normalize(base, None, 0, 255, cv2.NORM_MINMAX)
     frames = []
     for k in range(count):
-        gray = np.ascontiguousarray(base[:, k * shift_px: k * shift_px + width])
+        gray = np.ascontiguousarray(base[:, k * shift_px : k * shift_px + width])
         frames.append(cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR))
     return frames
 
@@ -135,5 +144,11 @@ def stop_process(proc: subprocess.Popen, grace: float = 5.0) -> tuple[str, str]:
     return proc.communicate()
 
 
-__all__ = ['NodeRun', 'configure_ros_environment', 'percentiles', 'stop_process', 'summarize',
-           'textured_frames']
+__all__ = [
+    'NodeRun',
+    'configure_ros_environment',
+    'percentiles',
+    'stop_process',
+    'summarize',
+    'textured_frames',
+]

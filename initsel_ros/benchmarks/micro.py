@@ -45,8 +45,9 @@ def time_decision(models: Any, pairs: Pairs, repeat: int, width: int, height: in
     return Timing('decision', time_calls(lambda i: fn(*pairs[i % len(pairs)]), repeat))
 
 
-def time_decision_parts(models: Any, pairs: Pairs, repeat: int, width: int,
-                        height: int) -> list[Timing]:
+def time_decision_parts(
+    models: Any, pairs: Pairs, repeat: int, width: int, height: int
+) -> list[Timing]:
     """The decision split into features, model scores and policy."""
     from initsel_ros.features import extra_features, pair_features, raw_features
     from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
@@ -58,17 +59,33 @@ def time_decision_parts(models: Any, pairs: Pairs, repeat: int, width: int,
     p0, p1 = pairs[0]
     mean = float(raw_features(p0, p1)[1])
     parts = [
-        Timing('  23 features', time_calls(
-            lambda i: pair_features(*pairs[i % len(pairs)], width, height, models.scaling),
-            repeat)),
+        Timing(
+            '  23 features',
+            time_calls(
+                lambda i: pair_features(*pairs[i % len(pairs)], width, height, models.scaling),
+                repeat,
+            ),
+        ),
     ]
     if models.extra_names:  # only when a model of the file reads them
-        parts.append(Timing(f'  {len(models.extra_names)} extra features', time_calls(
-            lambda i: extra_features(*pairs[i % len(pairs)], width, height,
-                                     models.extra_names), repeat)))
+        parts.append(
+            Timing(
+                f'  {len(models.extra_names)} extra features',
+                time_calls(
+                    lambda i: extra_features(
+                        *pairs[i % len(pairs)], width, height, models.extra_names
+                    ),
+                    repeat,
+                ),
+            )
+        )
     parts.append(Timing('  four models', time_calls(lambda i: models.predict_proba(x), repeat)))
-    parts.append(Timing('  policy', time_calls(
-        lambda i: decide(probs, thresholds, len(p0), mean, config), repeat)))
+    parts.append(
+        Timing(
+            '  policy',
+            time_calls(lambda i: decide(probs, thresholds, len(p0), mean, config), repeat),
+        )
+    )
     return parts
 
 
@@ -83,8 +100,9 @@ def time_orbslam(pairs: Pairs, repeat: int, iterations: int = 200) -> Timing:
         scores = orbslam_scores(p0, p1, iterations=iterations, rng=rng)
         orbslam_choice(np.array([scores.ratio]))
 
-    return Timing(f'ORB-SLAM H/F selection ({iterations} iterations each)',
-                  time_calls(run, repeat, warmup=1))
+    return Timing(
+        f'ORB-SLAM H/F selection ({iterations} iterations each)', time_calls(run, repeat, warmup=1)
+    )
 
 
 def time_estimators(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
@@ -93,11 +111,17 @@ def time_estimators(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
 
     out = []
     for method in (Method.F, Method.E, Method.H):
-        out.append(Timing(f'estimate_pose {method.value}', time_calls(
-            lambda i, m=method: estimate_pose(m, *pairs[i % len(pairs)], K), repeat,
-            warmup=1)))
-    out.append(Timing('F + E + H outright',
-                      np.sum([t.seconds for t in out], axis=0)))
+        out.append(
+            Timing(
+                f'estimate_pose {method.value}',
+                time_calls(
+                    lambda i, m=method: estimate_pose(m, *pairs[i % len(pairs)], K),
+                    repeat,
+                    warmup=1,
+                ),
+            )
+        )
+    out.append(Timing('F + E + H outright', np.sum([t.seconds for t in out], axis=0)))
     return out
 
 
@@ -131,12 +155,15 @@ def time_fire(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
         if est is not None:
             refine_two_view(est.R, est.t, est.points, p0[est.indices], p1[est.indices], K)
 
-    parts = [Timing('  F + E + H estimates', time_calls(estimates, repeat, warmup=1)),
-             Timing('  GRIC selection (with the E refit)', time_calls(select, repeat, warmup=1)),
-             Timing('  two-view bundle adjustment of the winner',
-                    time_calls(refine, repeat, warmup=1))]
-    total = Timing('fire time: estimates + selection + bundle adjustment (once per '
-                   'initialization)', np.sum([p.seconds for p in parts], axis=0))
+    parts = [
+        Timing('  F + E + H estimates', time_calls(estimates, repeat, warmup=1)),
+        Timing('  GRIC selection (with the E refit)', time_calls(select, repeat, warmup=1)),
+        Timing('  two-view bundle adjustment of the winner', time_calls(refine, repeat, warmup=1)),
+    ]
+    total = Timing(
+        'fire time: estimates + selection + bundle adjustment (once per initialization)',
+        np.sum([p.seconds for p in parts], axis=0),
+    )
     return [total, *parts]
 
 
@@ -161,8 +188,9 @@ class MemoryResult:
     seconds: float
 
 
-def memory_growth(models: Any, intrinsics: Any, images: list[np.ndarray], frames: int,
-                  warmup: int = 100) -> MemoryResult:
+def memory_growth(
+    models: Any, intrinsics: Any, images: list[np.ndarray], frames: int, warmup: int = 100
+) -> MemoryResult:
     """Feed ``frames`` frames (the images cycled, stamps increasing) to one Selector."""
     from initsel_ros.selector import Selector, SelectorConfig
 
@@ -187,8 +215,9 @@ def memory_growth(models: Any, intrinsics: Any, images: list[np.ndarray], frames
     finally:
         tracemalloc.stop()
     rss1 = rss_bytes()
-    return MemoryResult(frames, warmup, traced1 - traced0, rss1 - rss0, rss1,
-                        time.perf_counter() - start)
+    return MemoryResult(
+        frames, warmup, traced1 - traced0, rss1 - rss0, rss1, time.perf_counter() - start
+    )
 
 
 @dataclass(frozen=True)
@@ -212,8 +241,12 @@ def dataset_speed(folder: Path, jobs: int, batch: int = 30, repeat: int = 1) -> 
 
     stats: list[Any] = []
     start = time.perf_counter()
-    table = build_table([folder] * max(1, repeat), DatasetConfig(batch=batch, jobs=jobs),
-                        progress=False, on_stats=stats.append)
+    table = build_table(
+        [folder] * max(1, repeat),
+        DatasetConfig(batch=batch, jobs=jobs),
+        progress=False,
+        on_stats=stats.append,
+    )
     seconds = stats[0].seconds if stats else time.perf_counter() - start
     return DatasetResult(jobs, len(table), seconds)
 

@@ -23,8 +23,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'dataset': ('initsel_ros.cli.dataset', 'label pairs of TUM, EuRoC, KITTI, bag sources'),
     'train': ('initsel_ros.cli.train', 'train the F/E/H/R models into a model file'),
     'eval': ('initsel_ros.cli.eval', "print the paper's tables against the baselines"),
-    'seedmap': ('initsel_ros.cli.seedmap',
-                'accuracy of the published seed map against the baselines'),
+    'seedmap': (
+        'initsel_ros.cli.seedmap',
+        'accuracy of the published seed map against the baselines',
+    ),
     'replay': ('initsel_ros.cli.replay', 'publish a TUM, EuRoC, KITTI folder or bag as a camera'),
     'bench': ('initsel_ros.cli.bench', 'measure decision, per-frame and baseline costs'),
     'demo': ('initsel_ros.cli.demo', 'render a sequence and initialize on it, end to end'),

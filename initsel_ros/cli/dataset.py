@@ -10,47 +10,96 @@ from pathlib import Path
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel dataset``."""
-    parser.add_argument('sources', nargs='+', metavar='SOURCE',
-                        help='TUM folder, EuRoC folder (holding mav0), KITTI odometry sequence '
-                             'folder (or root with --sequence), ROS 1 .bag or ROS 2 bag, with '
-                             'ground truth; without depth, labels come from E_t and the '
-                             'rotation error')
+    parser.add_argument(
+        'sources',
+        nargs='+',
+        metavar='SOURCE',
+        help='TUM folder, EuRoC folder (holding mav0), KITTI odometry sequence '
+        'folder (or root with --sequence), ROS 1 .bag or ROS 2 bag, with '
+        'ground truth; without depth, labels come from E_t and the '
+        'rotation error',
+    )
     parser.add_argument('--out', required=True, type=Path, help='output CSV (pair table)')
-    parser.add_argument('--batch', type=int, default=90,
-                        help='frames per batch; each is paired with its first (default 90; '
-                             'the paper tests with 30)')
-    parser.add_argument('--source', choices=('klt', 'orb'), default='klt',
-                        help='correspondences: KLT tracks through the batch, or ORB matches '
-                             '(sparse or distant frames) (default klt)')
+    parser.add_argument(
+        '--batch',
+        type=int,
+        default=90,
+        help='frames per batch; each is paired with its first (default 90; '
+        'the paper tests with 30)',
+    )
+    parser.add_argument(
+        '--source',
+        choices=('klt', 'orb'),
+        default='klt',
+        help='correspondences: KLT tracks through the batch, or ORB matches '
+        '(sparse or distant frames) (default klt)',
+    )
     parser.add_argument('--jobs', type=int, default=2, help='worker processes (default 2)')
-    parser.add_argument('--chunk', type=int, default=10,
-                        help='pairs per labelling task; a batch is tracked in one task and '
-                             'labelled in chunks across the workers (default 10; 0 = whole batch)')
-    parser.add_argument('--executor', choices=('processes', 'dask'), default='processes',
-                        help='processes: a local pool of --jobs; dask: a dask.distributed '
-                             'cluster (pip extra "cluster") (default processes)')
-    parser.add_argument('--scheduler', default=None, metavar='ADDRESS',
-                        help='dask scheduler address (default: a LocalCluster of --jobs '
-                             'workers on this machine); SOURCE paths must exist on the workers')
-    parser.add_argument('--stride', type=int, default=1,
-                        help='use every n-th frame (default 1: all)')
-    parser.add_argument('--max-features', type=int, default=300,
-                        help='KLT features per reference frame (default 300)')
-    parser.add_argument('--min-tracks', type=int, default=8,
-                        help='skip pairs with fewer correspondences (default 8)')
-    parser.add_argument('--scale-rule', choices=('median', 'first_two'), default='median',
-                        help='E_R scale alignment feeding the labels (both are stored; '
-                             'default median)')
-    parser.add_argument('--nearest-tolerance', type=float, default=None, metavar='S',
-                        help='TUM, EuRoC, bags: frames outside the ground truth take the '
-                             'nearest pose within S seconds')
-    parser.add_argument('--sequence', default=None, metavar='NN',
-                        help='KITTI: the sequence, when a SOURCE is the odometry root')
-    parser.add_argument('--image-topic', default=None,
-                        help='bags: the image topic (Image or CompressedImage; default '
-                             '/camera/rgb/image_color, or <it>/compressed when absent)')
-    parser.add_argument('--no-orbslam', action='store_true',
-                        help='skip the ORB-SLAM H/F scoring baseline (faster)')
+    parser.add_argument(
+        '--chunk',
+        type=int,
+        default=10,
+        help='pairs per labelling task; a batch is tracked in one task and '
+        'labelled in chunks across the workers (default 10; 0 = whole batch)',
+    )
+    parser.add_argument(
+        '--executor',
+        choices=('processes', 'dask'),
+        default='processes',
+        help='processes: a local pool of --jobs; dask: a dask.distributed '
+        'cluster (pip extra "cluster") (default processes)',
+    )
+    parser.add_argument(
+        '--scheduler',
+        default=None,
+        metavar='ADDRESS',
+        help='dask scheduler address (default: a LocalCluster of --jobs '
+        'workers on this machine); SOURCE paths must exist on the workers',
+    )
+    parser.add_argument(
+        '--stride', type=int, default=1, help='use every n-th frame (default 1: all)'
+    )
+    parser.add_argument(
+        '--max-features',
+        type=int,
+        default=300,
+        help='KLT features per reference frame (default 300)',
+    )
+    parser.add_argument(
+        '--min-tracks',
+        type=int,
+        default=8,
+        help='skip pairs with fewer correspondences (default 8)',
+    )
+    parser.add_argument(
+        '--scale-rule',
+        choices=('median', 'first_two'),
+        default='median',
+        help='E_R scale alignment feeding the labels (both are stored; default median)',
+    )
+    parser.add_argument(
+        '--nearest-tolerance',
+        type=float,
+        default=None,
+        metavar='S',
+        help='TUM, EuRoC, bags: frames outside the ground truth take the '
+        'nearest pose within S seconds',
+    )
+    parser.add_argument(
+        '--sequence',
+        default=None,
+        metavar='NN',
+        help='KITTI: the sequence, when a SOURCE is the odometry root',
+    )
+    parser.add_argument(
+        '--image-topic',
+        default=None,
+        help='bags: the image topic (Image or CompressedImage; default '
+        '/camera/rgb/image_color, or <it>/compressed when absent)',
+    )
+    parser.add_argument(
+        '--no-orbslam', action='store_true', help='skip the ORB-SLAM H/F scoring baseline (faster)'
+    )
     parser.add_argument('--quiet', action='store_true', help='no progress bar')
 
 
@@ -82,7 +131,9 @@ def run(args: argparse.Namespace) -> int:
         nearest_tolerance=args.nearest_tolerance,
         sequence=args.sequence,
         image_topic=args.image_topic,
-        chunk=max(0, args.chunk), executor=args.executor, scheduler=args.scheduler,
+        chunk=max(0, args.chunk),
+        executor=args.executor,
+        scheduler=args.scheduler,
     )
     stats: list[BuildStats] = []
     table = build_table(args.sources, config, progress=not args.quiet, on_stats=stats.append)
@@ -90,13 +141,16 @@ def run(args: argparse.Namespace) -> int:
         raise DatasetError(f'{explain_no_pairs(args.sources, config)}; {args.out} not written')
     write_table(table, args.out)
     s = stats[0]
-    positives = ', '.join(
-        f'{m} {int(table[f"{m}_label"].sum())}' for m in ('F', 'E', 'H')
-    ) + f', R {int(table["R_label"].sum())}'
+    positives = (
+        ', '.join(f'{m} {int(table[f"{m}_label"].sum())}' for m in ('F', 'E', 'H'))
+        + f', R {int(table["R_label"].sum())}'
+    )
     no_depth = int(np.sum(np.asarray(table['scale_rule']).astype(str) == NO_DEPTH))
     if no_depth:
-        positives += (f'; {no_depth} pairs labelled without depth (E_t and rotation error '
-                      f'< {config.label.rotation_error_max_deg:g} deg)')
+        positives += (
+            f'; {no_depth} pairs labelled without depth (E_t and rotation error '
+            f'< {config.label.rotation_error_max_deg:g} deg)'
+        )
     print(
         f'{args.out}: {s.pairs} pairs from {s.batches} batches of {len(s.sequences)} '
         f'sequence(s) in {s.seconds:.1f} s ({s.pairs_per_second:.0f} pairs/s); '

@@ -14,29 +14,54 @@ from initsel_ros.names import Mode
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel demo``."""
-    parser.add_argument('--work', type=Path, default=None,
-                        help='folder for the rendered sequence (default: a temporary folder, '
-                        'removed afterwards); reused when it already holds enough frames')
-    parser.add_argument('--source', type=Path, default=None,
-                        help='use this TUM folder or bag instead of rendering one')
+    parser.add_argument(
+        '--work',
+        type=Path,
+        default=None,
+        help='folder for the rendered sequence (default: a temporary folder, '
+        'removed afterwards); reused when it already holds enough frames',
+    )
+    parser.add_argument(
+        '--source',
+        type=Path,
+        default=None,
+        help='use this TUM folder or bag instead of rendering one',
+    )
     parser.add_argument('--frames', type=int, default=240, help='frames to render and play')
     parser.add_argument('--scene', default='structure_texture', help='scene to render')
     parser.add_argument('--trajectory', default='near', help='camera trajectory to render')
     parser.add_argument('--seed', type=int, default=0, help='rendering seed')
-    parser.add_argument('--mode', choices=tuple(m.value for m in Mode), default=Mode.ONCE.value,
-                        help='stop after the first initialization (default), or re-anchor '
-                        'after each and judge every one')
-    parser.add_argument('--models', type=Path, default=None,
-                        help='model file (default: the packaged config/models.json)')
-    parser.add_argument('--rate', type=float, default=1.0,
-                        help='playback speed factor for the live run (1 = 30 Hz)')
-    parser.add_argument('--offline', action='store_true',
-                        help='run the selector directly, without ROS 2')
-    parser.add_argument('--compressed', action='store_true',
-                        help='publish JPEG sensor_msgs/CompressedImage on image_raw/compressed '
-                        '(node parameter image_transport:=compressed)')
-    parser.add_argument('--jpeg-quality', type=int, default=95,
-                        help='JPEG quality with --compressed (default 95)')
+    parser.add_argument(
+        '--mode',
+        choices=tuple(m.value for m in Mode),
+        default=Mode.ONCE.value,
+        help='stop after the first initialization (default), or re-anchor '
+        'after each and judge every one',
+    )
+    parser.add_argument(
+        '--models',
+        type=Path,
+        default=None,
+        help='model file (default: the packaged config/models.json)',
+    )
+    parser.add_argument(
+        '--rate',
+        type=float,
+        default=1.0,
+        help='playback speed factor for the live run (1 = 30 Hz)',
+    )
+    parser.add_argument(
+        '--offline', action='store_true', help='run the selector directly, without ROS 2'
+    )
+    parser.add_argument(
+        '--compressed',
+        action='store_true',
+        help='publish JPEG sensor_msgs/CompressedImage on image_raw/compressed '
+        '(node parameter image_transport:=compressed)',
+    )
+    parser.add_argument(
+        '--jpeg-quality', type=int, default=95, help='JPEG quality with --compressed (default 95)'
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,13 +91,16 @@ def run(args: argparse.Namespace) -> int:
                 live = False
         print(f'model file: {model_path}')
         transport = ', compressed (JPEG)' if live and args.compressed else ''
-        print(f'running the selector {"live (ROS 2 node)" if live else "offline"} on '
-              f'{seq.name}: {frames} frames, mode {args.mode}{transport}')
+        print(
+            f'running the selector {"live (ROS 2 node)" if live else "offline"} on '
+            f'{seq.name}: {frames} frames, mode {args.mode}{transport}'
+        )
         if live:
             from initsel_ros.ros.demo_live import run_live
 
-            records, reasons = run_live(seq, args.models, args.mode, frames, args.rate,
-                                        args.compressed, args.jpeg_quality)
+            records, reasons = run_live(
+                seq, args.models, args.mode, frames, args.rate, args.compressed, args.jpeg_quality
+            )
         else:
             records, reasons = run_offline(seq, models, args.mode, frames)
         print_report(records, reasons, frames)

@@ -9,19 +9,40 @@ from pathlib import Path
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel eval``."""
-    parser.add_argument('tables', nargs='+', type=Path, metavar='PAIRS_CSV',
-                        help='test pair tables written by `initsel dataset`')
-    parser.add_argument('--models', type=Path, default=None,
-                        help='model file (default: the packaged config/models.json)')
-    parser.add_argument('--out-dir', type=Path, default=None,
-                        help='write eval.md, eval.csv and the PNG plots here')
-    parser.add_argument('--train', type=Path, nargs='+', default=None, metavar='TRAIN_CSV',
-                        help='training pairs: also fit the model families in memory and '
-                             'compare them with the model file (thresholds by grouped '
-                             'cross-validation on these pairs)')
-    parser.add_argument('--candidates', nargs='+', default=None, metavar='FAMILY',
-                        help='families to fit with --train (default: all): logistic, '
-                             'logistic+extra, trees, trees+extra, hgb+extra, mlp+extra')
+    parser.add_argument(
+        'tables',
+        nargs='+',
+        type=Path,
+        metavar='PAIRS_CSV',
+        help='test pair tables written by `initsel dataset`',
+    )
+    parser.add_argument(
+        '--models',
+        type=Path,
+        default=None,
+        help='model file (default: the packaged config/models.json)',
+    )
+    parser.add_argument(
+        '--out-dir', type=Path, default=None, help='write eval.md, eval.csv and the PNG plots here'
+    )
+    parser.add_argument(
+        '--train',
+        type=Path,
+        nargs='+',
+        default=None,
+        metavar='TRAIN_CSV',
+        help='training pairs: also fit the model families in memory and '
+        'compare them with the model file (thresholds by grouped '
+        'cross-validation on these pairs)',
+    )
+    parser.add_argument(
+        '--candidates',
+        nargs='+',
+        default=None,
+        metavar='FAMILY',
+        help='families to fit with --train (default: all): logistic, '
+        'logistic+extra, trees, trees+extra, hgb+extra, mlp+extra',
+    )
     parser.add_argument('--no-plots', action='store_true', help='skip the PNG plots')
 
 
@@ -47,8 +68,10 @@ def run(args: argparse.Namespace) -> int:
         known = [c.value for c in Candidate]
         unknown = [c for c in args.candidates if c not in known]
         if unknown:
-            raise ConfigError(f'--candidates: unknown family {", ".join(unknown)} '
-                              f'(choose from {", ".join(known)})')
+            raise ConfigError(
+                f'--candidates: unknown family {", ".join(unknown)} '
+                f'(choose from {", ".join(known)})'
+            )
         kwargs['candidates'] = tuple(Candidate(c) for c in args.candidates)
     report = evaluate(test, models, train=train, train_config=config, **kwargs)
     text = report_markdown(report)
@@ -86,8 +109,9 @@ def config_like(metadata: dict, scaling: object) -> object:
     trees = training.get('trees')
     if isinstance(trees, dict):
         with contextlib.suppress(KeyError, TypeError, ValueError, ConfigError):
-            kwargs['trees'] = TreeConfig(int(trees['n_trees']), int(trees['depth']),
-                                         float(trees['learning_rate']))
+            kwargs['trees'] = TreeConfig(
+                int(trees['n_trees']), int(trees['depth']), float(trees['learning_rate'])
+            )
     extra = training.get('extra_features')
     if isinstance(extra, list) and all(isinstance(n, str) for n in extra):
         kwargs['extra'] = tuple(extra)

@@ -14,26 +14,57 @@ from initsel_ros.names import Mode
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel pictures``."""
-    parser.add_argument('--out', type=Path, default=None,
-                        help='regenerate the README pictures into this folder '
-                        '(rotation_veto.png, initialization.png, probabilities.png; default '
-                        'docs/images under the working directory)')
-    parser.add_argument('--work', type=Path, default=None,
-                        help='folder for rendered sequences (reused; default: temporary)')
-    parser.add_argument('--source', type=Path, default=None,
-                        help='a TUM folder or bag to draw instead of the README pictures')
-    parser.add_argument('--video', type=Path, default=None,
-                        help='with --source: overlay video (.mp4) or folder for PNG frames')
-    parser.add_argument('--plot', type=Path, default=None,
-                        help='with --source: probabilities-over-time figure (.png)')
-    parser.add_argument('--models', type=Path, default=None,
-                        help='model file (default: the packaged config/models.json)')
-    parser.add_argument('--frames', type=int, default=None,
-                        help='frames to process (default: all; 240 for the README pictures)')
+    parser.add_argument(
+        '--out',
+        type=Path,
+        default=None,
+        help='regenerate the README pictures into this folder '
+        '(rotation_veto.png, initialization.png, probabilities.png; default '
+        'docs/images under the working directory)',
+    )
+    parser.add_argument(
+        '--work',
+        type=Path,
+        default=None,
+        help='folder for rendered sequences (reused; default: temporary)',
+    )
+    parser.add_argument(
+        '--source',
+        type=Path,
+        default=None,
+        help='a TUM folder or bag to draw instead of the README pictures',
+    )
+    parser.add_argument(
+        '--video',
+        type=Path,
+        default=None,
+        help='with --source: overlay video (.mp4) or folder for PNG frames',
+    )
+    parser.add_argument(
+        '--plot',
+        type=Path,
+        default=None,
+        help='with --source: probabilities-over-time figure (.png)',
+    )
+    parser.add_argument(
+        '--models',
+        type=Path,
+        default=None,
+        help='model file (default: the packaged config/models.json)',
+    )
+    parser.add_argument(
+        '--frames',
+        type=int,
+        default=None,
+        help='frames to process (default: all; 240 for the README pictures)',
+    )
     parser.add_argument('--start', type=int, default=0, help='first frame (with --source)')
-    parser.add_argument('--mode', choices=tuple(m.value for m in Mode),
-                        default=Mode.CONTINUOUS.value,
-                        help='selector mode (with --source)')
+    parser.add_argument(
+        '--mode',
+        choices=tuple(m.value for m in Mode),
+        default=Mode.CONTINUOUS.value,
+        help='selector mode (with --source)',
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -76,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
             thresholds = dict(sel.thresholds)
     if args.plot is not None:
         baselines = groundtruth_baselines(seq, results, indices)
-        print(plot_probabilities(results, baselines, args.plot, thresholds, indices,
-                                 title=seq.name))
+        print(
+            plot_probabilities(results, baselines, args.plot, thresholds, indices, title=seq.name)
+        )
     return 0

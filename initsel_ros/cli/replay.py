@@ -11,48 +11,104 @@ from pathlib import Path
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel replay``."""
-    parser.add_argument('source', type=Path,
-                        help='TUM folder (rgb.txt), EuRoC folder (holding mav0, or mav0), KITTI '
-                             'odometry sequence folder (or root with --sequence), ROS 1 .bag '
-                             'file or ROS 2 bag folder')
-    parser.add_argument('--sequence', default=None, metavar='NN',
-                        help='KITTI: the sequence, when SOURCE is the odometry root')
-    parser.add_argument('--bag-image-topic', default=None, metavar='TOPIC',
-                        help='bags: the image topic to read (Image or CompressedImage; default '
-                             '/camera/rgb/image_color, or <it>/compressed when absent)')
-    parser.add_argument('--rate', type=float, default=1.0,
-                        help='playback speed factor of the recorded timing (default 1)')
+    parser.add_argument(
+        'source',
+        type=Path,
+        help='TUM folder (rgb.txt), EuRoC folder (holding mav0, or mav0), KITTI '
+        'odometry sequence folder (or root with --sequence), ROS 1 .bag '
+        'file or ROS 2 bag folder',
+    )
+    parser.add_argument(
+        '--sequence',
+        default=None,
+        metavar='NN',
+        help='KITTI: the sequence, when SOURCE is the odometry root',
+    )
+    parser.add_argument(
+        '--bag-image-topic',
+        default=None,
+        metavar='TOPIC',
+        help='bags: the image topic to read (Image or CompressedImage; default '
+        '/camera/rgb/image_color, or <it>/compressed when absent)',
+    )
+    parser.add_argument(
+        '--rate',
+        type=float,
+        default=1.0,
+        help='playback speed factor of the recorded timing (default 1)',
+    )
     parser.add_argument('--loop', action='store_true', help='start over at the end, until ^C')
-    parser.add_argument('--start', type=float, default=0.0,
-                        help='skip this many seconds from the first frame (default 0)')
-    parser.add_argument('--duration', type=float, default=None,
-                        help='publish only this many seconds of the recording')
-    parser.add_argument('--encoding', choices=('rgb8', 'bgr8', 'mono8', 'native'),
-                        default='rgb8',
-                        help='image encoding (default rgb8); native = as stored: mono8 or '
-                             'mono16 for grey sources (EuRoC, KITTI, 16-bit PNGs), else bgr8')
-    parser.add_argument('--compressed', action='store_true',
-                        help='publish sensor_msgs/CompressedImage on <image topic>/compressed '
-                             'instead of Image (same stamps and timing; colour is encoded '
-                             'from bgr8, grey from mono8 or mono16)')
-    parser.add_argument('--compressed-format', choices=('jpeg', 'png'), default='jpeg',
-                        help='with --compressed (default jpeg; 16-bit images are always png)')
-    parser.add_argument('--jpeg-quality', type=int, default=90, metavar='0-100',
-                        help='with --compressed jpeg (default 90)')
+    parser.add_argument(
+        '--start',
+        type=float,
+        default=0.0,
+        help='skip this many seconds from the first frame (default 0)',
+    )
+    parser.add_argument(
+        '--duration',
+        type=float,
+        default=None,
+        help='publish only this many seconds of the recording',
+    )
+    parser.add_argument(
+        '--encoding',
+        choices=('rgb8', 'bgr8', 'mono8', 'native'),
+        default='rgb8',
+        help='image encoding (default rgb8); native = as stored: mono8 or '
+        'mono16 for grey sources (EuRoC, KITTI, 16-bit PNGs), else bgr8',
+    )
+    parser.add_argument(
+        '--compressed',
+        action='store_true',
+        help='publish sensor_msgs/CompressedImage on <image topic>/compressed '
+        'instead of Image (same stamps and timing; colour is encoded '
+        'from bgr8, grey from mono8 or mono16)',
+    )
+    parser.add_argument(
+        '--compressed-format',
+        choices=('jpeg', 'png'),
+        default='jpeg',
+        help='with --compressed (default jpeg; 16-bit images are always png)',
+    )
+    parser.add_argument(
+        '--jpeg-quality',
+        type=int,
+        default=90,
+        metavar='0-100',
+        help='with --compressed jpeg (default 90)',
+    )
     parser.add_argument('--image-topic', default='image_raw', help='default image_raw')
     parser.add_argument('--camera-info-topic', default='camera_info', help='default camera_info')
-    parser.add_argument('--frame-id', default='camera_optical_frame',
-                        help='frame id of images and camera_info (default camera_optical_frame)')
-    parser.add_argument('--publish-groundtruth', action='store_true',
-                        help='also publish the ground-truth camera-to-world pose (PoseStamped)')
-    parser.add_argument('--groundtruth-topic', default='groundtruth/pose',
-                        help='default groundtruth/pose')
-    parser.add_argument('--world-frame-id', default='world',
-                        help='frame id of the ground-truth poses (default world)')
-    parser.add_argument('--restamp', action='store_true',
-                        help='stamp messages with the current time instead of the recorded one')
-    parser.add_argument('--wait-for-subscriber', type=float, default=0.0, metavar='SECONDS',
-                        help='wait up to this long for a subscriber on the image topic first')
+    parser.add_argument(
+        '--frame-id',
+        default='camera_optical_frame',
+        help='frame id of images and camera_info (default camera_optical_frame)',
+    )
+    parser.add_argument(
+        '--publish-groundtruth',
+        action='store_true',
+        help='also publish the ground-truth camera-to-world pose (PoseStamped)',
+    )
+    parser.add_argument(
+        '--groundtruth-topic', default='groundtruth/pose', help='default groundtruth/pose'
+    )
+    parser.add_argument(
+        '--world-frame-id',
+        default='world',
+        help='frame id of the ground-truth poses (default world)',
+    )
+    parser.add_argument(
+        '--restamp',
+        action='store_true',
+        help='stamp messages with the current time instead of the recorded one',
+    )
+    parser.add_argument(
+        '--wait-for-subscriber',
+        type=float,
+        default=0.0,
+        metavar='SECONDS',
+        help='wait up to this long for a subscriber on the image topic first',
+    )
     parser.add_argument('--node-name', default='initsel_replay', help='default initsel_replay')
 
 

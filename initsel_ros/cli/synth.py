@@ -35,52 +35,124 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--out', required=True, help='output TUM folder')
     parser.add_argument('--scene', choices=SCENES, default='structure_texture')
     parser.add_argument('--trajectory', choices=TRAJECTORIES, default='near')
-    parser.add_argument('--frames', type=int, default=None,
-                        help='number of frames (default: all 1099 of the near trajectory)')
-    parser.add_argument('--start', type=int, default=0,
-                        help='skip the first N frames of the trajectory')
+    parser.add_argument(
+        '--frames',
+        type=int,
+        default=None,
+        help='number of frames (default: all 1099 of the near trajectory)',
+    )
+    parser.add_argument(
+        '--start', type=int, default=0, help='skip the first N frames of the trajectory'
+    )
     parser.add_argument('--seed', type=int, default=0)
-    parser.add_argument('--bag', action='append', choices=('ros1', 'ros2'), default=[],
-                        help='also write a bag (may be given twice)')
+    parser.add_argument(
+        '--bag',
+        action='append',
+        choices=('ros1', 'ros2'),
+        default=[],
+        help='also write a bag (may be given twice)',
+    )
     parser.add_argument('--width', type=int, default=None, help='image width, pixels')
     parser.add_argument('--height', type=int, default=None, help='image height, pixels')
     effects = parser.add_argument_group(
-        'camera effects (off unless given; with --realism they replace the drawn values)')
-    effects.add_argument('--realism', action='store_true',
-                         help='draw every effect and the distortion at random from --seed '
-                              '(ranges in docs/synth.md)')
-    effects.add_argument('--noise', type=float, default=None,
-                         help='Gaussian read noise sigma, grey levels (default 1.5; 0 = off)')
-    effects.add_argument('--full-well', type=float, default=None, metavar='ELECTRONS',
-                         help='electrons at grey level 255: shot noise (default 0 = off; '
-                              'a small sensor: 5000-20000)')
-    effects.add_argument('--blur', type=float, default=None,
-                         help='Gaussian defocus blur sigma, pixels')
-    effects.add_argument('--exposure-time', type=float, default=None, metavar='SECONDS',
-                         help='shutter open time: motion blur along the trajectory (e.g. 0.01)')
-    effects.add_argument('--line-delay', type=float, default=None, metavar='SECONDS',
-                         help='rolling shutter, seconds per row (e.g. 3e-5)')
-    effects.add_argument('--gain-ramp', type=_gain_ramp, default=None,
-                         metavar='FROM,TO,SECONDS[,START]',
-                         help='linear gain ramp, e.g. 0.6,1.4,2 (auto-exposure)')
-    effects.add_argument('--exposure', type=float, default=None,
-                         help='slow random exposure changes, relative amplitude (e.g. 0.15)')
-    effects.add_argument('--vignetting', type=float, default=None,
-                         help='fraction of the cos^4 falloff, 0-1')
-    effects.add_argument('--jpeg-quality', type=int, default=None, metavar='1-100',
-                         help='write the colour frames as JPEG of this quality')
-    effects.add_argument('--movers', type=int, default=None,
-                         help='independently moving textured boards in front of the scene')
-    effects.add_argument('--distortion', type=_coefficients, default=(),
-                        help='lens distortion k1,k2,p1,p2[,k3] (OpenCV model)')
-    parser.add_argument('--png-compression', type=int, default=1, choices=range(10),
-                        metavar='0-9', help='zlib level of the colour PNGs (default 1)')
+        'camera effects (off unless given; with --realism they replace the drawn values)'
+    )
+    effects.add_argument(
+        '--realism',
+        action='store_true',
+        help='draw every effect and the distortion at random from --seed '
+        '(ranges in docs/synth.md)',
+    )
+    effects.add_argument(
+        '--noise',
+        type=float,
+        default=None,
+        help='Gaussian read noise sigma, grey levels (default 1.5; 0 = off)',
+    )
+    effects.add_argument(
+        '--full-well',
+        type=float,
+        default=None,
+        metavar='ELECTRONS',
+        help='electrons at grey level 255: shot noise (default 0 = off; '
+        'a small sensor: 5000-20000)',
+    )
+    effects.add_argument(
+        '--blur', type=float, default=None, help='Gaussian defocus blur sigma, pixels'
+    )
+    effects.add_argument(
+        '--exposure-time',
+        type=float,
+        default=None,
+        metavar='SECONDS',
+        help='shutter open time: motion blur along the trajectory (e.g. 0.01)',
+    )
+    effects.add_argument(
+        '--line-delay',
+        type=float,
+        default=None,
+        metavar='SECONDS',
+        help='rolling shutter, seconds per row (e.g. 3e-5)',
+    )
+    effects.add_argument(
+        '--gain-ramp',
+        type=_gain_ramp,
+        default=None,
+        metavar='FROM,TO,SECONDS[,START]',
+        help='linear gain ramp, e.g. 0.6,1.4,2 (auto-exposure)',
+    )
+    effects.add_argument(
+        '--exposure',
+        type=float,
+        default=None,
+        help='slow random exposure changes, relative amplitude (e.g. 0.15)',
+    )
+    effects.add_argument(
+        '--vignetting', type=float, default=None, help='fraction of the cos^4 falloff, 0-1'
+    )
+    effects.add_argument(
+        '--jpeg-quality',
+        type=int,
+        default=None,
+        metavar='1-100',
+        help='write the colour frames as JPEG of this quality',
+    )
+    effects.add_argument(
+        '--movers',
+        type=int,
+        default=None,
+        help='independently moving textured boards in front of the scene',
+    )
+    effects.add_argument(
+        '--distortion',
+        type=_coefficients,
+        default=(),
+        help='lens distortion k1,k2,p1,p2[,k3] (OpenCV model)',
+    )
+    parser.add_argument(
+        '--png-compression',
+        type=int,
+        default=1,
+        choices=range(10),
+        metavar='0-9',
+        help='zlib level of the colour PNGs (default 1)',
+    )
     parser.add_argument('--workers', type=int, default=2, help='PNG writer threads')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
-_EFFECT_OPTIONS = ('noise', 'full_well', 'blur', 'exposure_time', 'line_delay', 'gain_ramp',
-                   'exposure', 'vignetting', 'jpeg_quality', 'movers')
+_EFFECT_OPTIONS = (
+    'noise',
+    'full_well',
+    'blur',
+    'exposure_time',
+    'line_delay',
+    'gain_ramp',
+    'exposure',
+    'vignetting',
+    'jpeg_quality',
+    'movers',
+)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -90,8 +162,9 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.synth.effects import Effects
     from initsel_ros.synth.write import render
 
-    given = {name: getattr(args, name) for name in _EFFECT_OPTIONS
-             if getattr(args, name) is not None}
+    given = {
+        name: getattr(args, name) for name in _EFFECT_OPTIONS if getattr(args, name) is not None
+    }
     distortion = tuple(args.distortion or ())
     if args.realism:
         from initsel_ros.synth.realism import draw_realism
@@ -102,17 +175,32 @@ def run(args: argparse.Namespace) -> int:
     else:
         effects = Effects(**given)
     result = render(
-        args.out, args.scene, args.trajectory, args.frames, args.seed,
-        width=args.width, height=args.height, distortion=distortion, effects=effects,
-        bags=tuple(args.bag), png_compression=args.png_compression, workers=args.workers,
-        progress=not args.no_progress, start=args.start, realism=args.realism,
+        args.out,
+        args.scene,
+        args.trajectory,
+        args.frames,
+        args.seed,
+        width=args.width,
+        height=args.height,
+        distortion=distortion,
+        effects=effects,
+        bags=tuple(args.bag),
+        png_compression=args.png_compression,
+        workers=args.workers,
+        progress=not args.no_progress,
+        start=args.start,
+        realism=args.realism,
     )
-    changed = {k: v for k, v in result.effects.to_dict().items()
-               if v != Effects().to_dict()[k]}
-    print('effects: ' + (', '.join(f'{k}={v}' for k, v in changed.items()) or 'none')
-          + (f', distortion={list(result.distortion)}' if result.distortion else ''))
-    print(f'{result.path}: {result.frames} frames, {result.seconds:.1f} s, '
-          f'{result.fps:.1f} frames/s (rendering + image writing)')
+    changed = {k: v for k, v in result.effects.to_dict().items() if v != Effects().to_dict()[k]}
+    print(
+        'effects: '
+        + (', '.join(f'{k}={v}' for k, v in changed.items()) or 'none')
+        + (f', distortion={list(result.distortion)}' if result.distortion else '')
+    )
+    print(
+        f'{result.path}: {result.frames} frames, {result.seconds:.1f} s, '
+        f'{result.fps:.1f} frames/s (rendering + image writing)'
+    )
     for bag in result.bags:
         print(f'bag: {bag}')
     return 0

@@ -6,52 +6,104 @@ import argparse
 from pathlib import Path
 
 FAMILIES = ('logistic', 'logistic+extra', 'trees', 'trees+extra')
-EXTRA = ('x_disp_p10', 'x_disp_p50', 'x_disp_p90', 'x_grid_occupancy', 'x_grid_entropy',
-         'x_affine_residual', 'x_homography_residual')
+EXTRA = (
+    'x_disp_p10',
+    'x_disp_p50',
+    'x_disp_p90',
+    'x_grid_occupancy',
+    'x_grid_entropy',
+    'x_affine_residual',
+    'x_homography_residual',
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel train``."""
-    parser.add_argument('tables', nargs='+', type=Path, metavar='PAIRS_CSV',
-                        help='pair tables written by `initsel dataset`')
+    parser.add_argument(
+        'tables',
+        nargs='+',
+        type=Path,
+        metavar='PAIRS_CSV',
+        help='pair tables written by `initsel dataset`',
+    )
     parser.add_argument('--out', required=True, type=Path, help='model file to write (JSON)')
-    parser.add_argument('--target-precision', type=float, default=0.8,
-                        help='choose each threshold for this validation precision '
-                             '(default 0.8)')
-    parser.add_argument('--family', action='append', default=[], metavar='[MODEL=]FAMILY',
-                        help='model family: ' + ', '.join(FAMILIES) + '; FAMILY alone sets '
-                             'every model, F=FAMILY one model; repeatable (default '
-                             'trees+extra: gradient-boosted trees on the 23 features plus the '
-                             'extra ones)')
-    parser.add_argument('--extra-features', nargs='+', default=None, metavar='NAME',
-                        choices=EXTRA, help='extra features the +extra families read '
-                        '(default all: ' + ', '.join(EXTRA) + ')')
-    parser.add_argument('--trees', type=int, default=100,
-                        help='boosting stages of the tree families (default 100)')
-    parser.add_argument('--tree-depth', type=int, default=3,
-                        help='maximum depth of each tree (default 3)')
-    parser.add_argument('--learning-rate', type=float, default=0.1,
-                        help='shrinkage of each tree (default 0.1)')
-    parser.add_argument('--C', dest='C', type=float, default=1.0,
-                        help='inverse L2 regularization of LogisticRegression (default 1)')
-    parser.add_argument('--class-weight', choices=('balanced', 'none'), default='balanced',
-                        help='class weighting (default balanced: F positives are rare)')
-    parser.add_argument('--scaling', choices=('resolution_free', 'paper'),
-                        default='resolution_free', help='feature scaling (default '
-                        'resolution_free; identical to paper at 640x480)')
-    parser.add_argument('--folds', type=int, default=5,
-                        help='grouped cross-validation folds over batches (default 5)')
+    parser.add_argument(
+        '--target-precision',
+        type=float,
+        default=0.8,
+        help='choose each threshold for this validation precision (default 0.8)',
+    )
+    parser.add_argument(
+        '--family',
+        action='append',
+        default=[],
+        metavar='[MODEL=]FAMILY',
+        help='model family: ' + ', '.join(FAMILIES) + '; FAMILY alone sets '
+        'every model, F=FAMILY one model; repeatable (default '
+        'trees+extra: gradient-boosted trees on the 23 features plus the '
+        'extra ones)',
+    )
+    parser.add_argument(
+        '--extra-features',
+        nargs='+',
+        default=None,
+        metavar='NAME',
+        choices=EXTRA,
+        help='extra features the +extra families read (default all: ' + ', '.join(EXTRA) + ')',
+    )
+    parser.add_argument(
+        '--trees', type=int, default=100, help='boosting stages of the tree families (default 100)'
+    )
+    parser.add_argument(
+        '--tree-depth', type=int, default=3, help='maximum depth of each tree (default 3)'
+    )
+    parser.add_argument(
+        '--learning-rate', type=float, default=0.1, help='shrinkage of each tree (default 0.1)'
+    )
+    parser.add_argument(
+        '--C',
+        dest='C',
+        type=float,
+        default=1.0,
+        help='inverse L2 regularization of LogisticRegression (default 1)',
+    )
+    parser.add_argument(
+        '--class-weight',
+        choices=('balanced', 'none'),
+        default='balanced',
+        help='class weighting (default balanced: F positives are rare)',
+    )
+    parser.add_argument(
+        '--scaling',
+        choices=('resolution_free', 'paper'),
+        default='resolution_free',
+        help='feature scaling (default resolution_free; identical to paper at 640x480)',
+    )
+    parser.add_argument(
+        '--folds',
+        type=int,
+        default=5,
+        help='grouped cross-validation folds over batches (default 5)',
+    )
     parser.add_argument('--seed', type=int, default=0, help='random seed (default 0)')
-    parser.add_argument('--allow-degenerate', action='store_true',
-                        help='write a model whose training labels are all one class (it '
-                             'always or never fires); by default that is an error')
+    parser.add_argument(
+        '--allow-degenerate',
+        action='store_true',
+        help='write a model whose training labels are all one class (it '
+        'always or never fires); by default that is an error',
+    )
     labels = parser.add_argument_group('relabel (default: the labels stored in the table)')
     labels.add_argument('--et-max', type=float, default=None, help='E_t threshold (0.8)')
     labels.add_argument('--er-max', type=float, default=None, help='E_R threshold, m (1.0)')
-    labels.add_argument('--rotation-baseline', type=float, default=None,
-                        help='R label: baseline at most this, m (0.05)')
-    labels.add_argument('--scale-rule', choices=('median', 'first_two'), default=None,
-                        help='E_R scale rule')
+    labels.add_argument(
+        '--rotation-baseline',
+        type=float,
+        default=None,
+        help='R label: baseline at most this, m (0.05)',
+    )
+    labels.add_argument(
+        '--scale-rule', choices=('median', 'first_two'), default=None, help='E_R scale rule'
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,15 +127,15 @@ def run(args: argparse.Namespace) -> int:
     if args.C <= 0:
         raise ConfigError(f'--C must be positive, got {args.C}')
     relabel = None
-    if any(v is not None for v in (args.et_max, args.er_max, args.rotation_baseline,
-                                   args.scale_rule)):
+    if any(
+        v is not None for v in (args.et_max, args.er_max, args.rotation_baseline, args.scale_rule)
+    ):
         d = LabelConfig()
         relabel = LabelConfig(
             et_max=d.et_max if args.et_max is None else args.et_max,
             er_max=d.er_max if args.er_max is None else args.er_max,
             rotation_baseline_m=(
-                d.rotation_baseline_m if args.rotation_baseline is None
-                else args.rotation_baseline
+                d.rotation_baseline_m if args.rotation_baseline is None else args.rotation_baseline
             ),
             scale_rule=d.scale_rule if args.scale_rule is None else ScaleRule(args.scale_rule),
         )
@@ -91,30 +143,44 @@ def run(args: argparse.Namespace) -> int:
     for spec in args.family:
         model, _, name = spec.rpartition('=')
         if name not in FAMILIES or (model and model not in ('F', 'E', 'H', 'R')):
-            raise ConfigError(f'--family {spec!r}: expected FAMILY or MODEL=FAMILY with '
-                              f'MODEL in F, E, H, R and FAMILY in {", ".join(FAMILIES)}')
+            raise ConfigError(
+                f'--family {spec!r}: expected FAMILY or MODEL=FAMILY with '
+                f'MODEL in F, E, H, R and FAMILY in {", ".join(FAMILIES)}'
+            )
         if model:
             families[model] = Family(name)
         else:
             family, families = Family(name), {}
     config = TrainConfig(
-        scaling=Scaling(args.scaling), C=args.C, class_weight=ClassWeight(args.class_weight),
-        target_precision=args.target_precision, folds=args.folds, seed=args.seed,
-        labels=relabel, allow_degenerate=args.allow_degenerate, family=family,
-        families=families, trees=TreeConfig(args.trees, args.tree_depth, args.learning_rate),
+        scaling=Scaling(args.scaling),
+        C=args.C,
+        class_weight=ClassWeight(args.class_weight),
+        target_precision=args.target_precision,
+        folds=args.folds,
+        seed=args.seed,
+        labels=relabel,
+        allow_degenerate=args.allow_degenerate,
+        family=family,
+        families=families,
+        trees=TreeConfig(args.trees, args.tree_depth, args.learning_rate),
         **({'extra': tuple(args.extra_features)} if args.extra_features else {}),
     )
     table = read_tables(args.tables)
-    report = train_models(table, config, description=describe_inputs(
-        [p.name for p in args.tables]))
+    report = train_models(
+        table, config, description=describe_inputs([p.name for p in args.tables])
+    )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     report.models.save(args.out)
     print(f'{args.out}: trained on {report.n_pairs} pairs in {report.n_batches} batches')
-    print('| model | family | positives | threshold | val. precision | val. recall | val. F1 '
-          '| target |')
+    print(
+        '| model | family | positives | threshold | val. precision | val. recall | val. F1 '
+        '| target |'
+    )
     print('|---|---|---|---|---|---|---|---|')
     for m, c in report.choices.items():
         fam = report.models.models[m].metrics.get('family', '')
-        print(f'| {m} | {fam} | {report.positives[m]} | {c.threshold:.3f} | {c.precision:.3f} '
-              f'| {c.recall:.3f} | {c.f1:.3f} | {"reached" if c.reached else "not reached"} |')
+        print(
+            f'| {m} | {fam} | {report.positives[m]} | {c.threshold:.3f} | {c.precision:.3f} '
+            f'| {c.recall:.3f} | {c.f1:.3f} | {"reached" if c.reached else "not reached"} |'
+        )
     return 0

@@ -27,8 +27,7 @@ from initsel_ros.datasets.tum import TumSequence, is_tum_folder, read_trajectory
 from initsel_ros.errors import DatasetError
 
 #: The layouts :func:`open_sequence` reads, as named in its error messages and ``--help``.
-LAYOUTS = ('TUM folder', 'EuRoC ASL folder', 'KITTI odometry sequence', 'ROS 1 bag',
-           'ROS 2 bag')
+LAYOUTS = ('TUM folder', 'EuRoC ASL folder', 'KITTI odometry sequence', 'ROS 1 bag', 'ROS 2 bag')
 
 
 def is_bag(path: Path) -> bool:

@@ -55,16 +55,29 @@ def _read_errors() -> tuple[type[BaseException], ...]:
     from rosbags.rosbag1 import ReaderError as Ros1ReaderError
     from rosbags.rosbag2 import ReaderError as Ros2ReaderError
 
-    return (AnyReaderError, Ros1ReaderError, Ros2ReaderError, OSError, ValueError, KeyError,
-            IndexError, EOFError, struct.error, AssertionError, sqlite3.Error, MemoryError,
-            OverflowError)
+    return (
+        AnyReaderError,
+        Ros1ReaderError,
+        Ros2ReaderError,
+        OSError,
+        ValueError,
+        KeyError,
+        IndexError,
+        EOFError,
+        struct.error,
+        AssertionError,
+        sqlite3.Error,
+        MemoryError,
+        OverflowError,
+    )
 
 
 def read_error_reason(exc: BaseException) -> str:
     """A readable reason for a reader exception (MemoryError and some others carry no text)."""
     if isinstance(exc, MemoryError):
-        return ('a record claims more memory than is available (a corrupt length field; '
-                'MemoryError)')
+        return (
+            'a record claims more memory than is available (a corrupt length field; MemoryError)'
+        )
     text = str(exc).strip()
     return text if text else type(exc).__name__
 
@@ -98,8 +111,10 @@ def image_from_compressed(msg: Any) -> np.ndarray:
     except cv2.error as exc:
         raise DatasetError(f'cannot decode CompressedImage (format {fmt!r}): {exc}') from exc
     if img is None or img.size == 0:
-        raise DatasetError(f'cannot decode CompressedImage of {data.size} bytes '
-                           f'(format {fmt!r}; jpeg and png are supported)')
+        raise DatasetError(
+            f'cannot decode CompressedImage of {data.size} bytes '
+            f'(format {fmt!r}; jpeg and png are supported)'
+        )
     return without_alpha(img)
 
 
@@ -113,9 +128,15 @@ def image_from_msg(msg: Any) -> np.ndarray:
     enc = str(msg.encoding).lower()
     h, w, step = int(msg.height), int(msg.width), int(msg.step)
     layouts = {
-        'rgb8': (np.uint8, 3), 'bgr8': (np.uint8, 3), 'rgba8': (np.uint8, 4),
-        'bgra8': (np.uint8, 4), 'mono8': (np.uint8, 1), '8uc1': (np.uint8, 1),
-        '8uc3': (np.uint8, 3), 'mono16': (np.uint16, 1), '16uc1': (np.uint16, 1),
+        'rgb8': (np.uint8, 3),
+        'bgr8': (np.uint8, 3),
+        'rgba8': (np.uint8, 4),
+        'bgra8': (np.uint8, 4),
+        'mono8': (np.uint8, 1),
+        '8uc1': (np.uint8, 1),
+        '8uc3': (np.uint8, 3),
+        'mono16': (np.uint16, 1),
+        '16uc1': (np.uint16, 1),
         '32fc1': (np.float32, 1),
     }
     if enc not in layouts:
@@ -125,8 +146,9 @@ def image_from_msg(msg: Any) -> np.ndarray:
     row = w * channels * dt.itemsize
     data = np.asarray(msg.data, dtype=np.uint8)
     if h == 0 or w == 0 or step < row or data.size < step * h:
-        raise DatasetError(f'image data of {data.size} bytes does not fit {w}x{h} {enc} '
-                           f'(step {step})')
+        raise DatasetError(
+            f'image data of {data.size} bytes does not fit {w}x{h} {enc} (step {step})'
+        )
     rows = data[: step * h].reshape(h, step)[:, :row]
     img = np.ascontiguousarray(rows).view(dt).reshape(h, w, channels).astype(dtype)
     if enc == '32fc1':
@@ -188,15 +210,24 @@ class BagSequence(Sequence):
         try:
             self._reader.open()
         except errors as exc:
-            raise DatasetError(f'{path}: cannot open bag (truncated or corrupt?): '
-                               f'{read_error_reason(exc)}') from exc
+            raise DatasetError(
+                f'{path}: cannot open bag (truncated or corrupt?): {read_error_reason(exc)}'
+            ) from exc
         try:
-            scan = self._scan(image_topic, depth_topic, info_topic, pose_topic, tf_topic,
-                              tf_parent.lstrip('/'), tf_child.lstrip('/'))
+            scan = self._scan(
+                image_topic,
+                depth_topic,
+                info_topic,
+                pose_topic,
+                tf_topic,
+                tf_parent.lstrip('/'),
+                tf_child.lstrip('/'),
+            )
         except errors as exc:
             self.close()
-            raise DatasetError(f'{path}: cannot read bag (truncated or corrupt?): '
-                               f'{read_error_reason(exc)}') from exc
+            raise DatasetError(
+                f'{path}: cannot read bag (truncated or corrupt?): {read_error_reason(exc)}'
+            ) from exc
         except DatasetError as exc:
             self.close()
             raise DatasetError(f'{path}: {exc}') from exc
@@ -205,8 +236,9 @@ class BagSequence(Sequence):
         if not img_stamps:
             self.close()
             topics = sorted({c.topic for c in self._reader.connections})
-            raise DatasetError(f'{path}: no messages on image topic {image_topic!r} '
-                               f'(topics: {", ".join(topics)})')
+            raise DatasetError(
+                f'{path}: no messages on image topic {image_topic!r} (topics: {", ".join(topics)})'
+            )
         order = np.argsort(np.asarray(img_ns, dtype=np.int64), kind='stable')
         stamps = np.asarray(img_stamps)[order]
         stamps_ns = [img_ns[k] for k in order]
@@ -232,31 +264,53 @@ class BagSequence(Sequence):
             poses = interpolate_pose_matrices(stamps, *gt, max_gap, nearest_tolerance)
             missing = sum(p is None for p in poses)
             if missing:
-                _LOG.warning('%s: %d of %d frames have no ground-truth pose (from %s)',
-                             path, missing, len(poses), gt_source)
+                _LOG.warning(
+                    '%s: %d of %d frames have no ground-truth pose (from %s)',
+                    path,
+                    missing,
+                    len(poses),
+                    gt_source,
+                )
         else:
             _LOG.info('%s: no ground truth found', path)
         self.groundtruth_source = gt_source if gt is not None else None
         if intrinsics is None:
             intrinsics = info if info is not None else Intrinsics.tum_fr3()
-        frames = [Frame(i, float(s), poses[i],
-                        float(depth_stamps_arr[match[i]]) if match[i] >= 0 else None,
-                        stamp_ns=stamps_ns[i])
-                  for i, s in enumerate(stamps)]
+        frames = [
+            Frame(
+                i,
+                float(s),
+                poses[i],
+                float(depth_stamps_arr[match[i]]) if match[i] >= 0 else None,
+                stamp_ns=stamps_ns[i],
+            )
+            for i, s in enumerate(stamps)
+        ]
         name = path.stem if path.is_file() else path.name
         super().__init__(name, intrinsics, frames, path)
         self._depth_topic = depth_topic
 
-    def _scan(self, image_topic: str, depth_topic: str, info_topic: str, pose_topic: str,
-              tf_topic: str, tf_parent: str, tf_child: str) -> tuple[Any, ...]:
+    def _scan(
+        self,
+        image_topic: str,
+        depth_topic: str,
+        info_topic: str,
+        pose_topic: str,
+        tf_topic: str,
+        tf_parent: str,
+        tf_child: str,
+    ) -> tuple[Any, ...]:
         reader = self._reader
         topics = {c.topic for c in reader.connections}
         if image_topic not in topics and f'{image_topic}/compressed' in topics:
             _LOG.info('%s: no %s; reading %s/compressed', self.path, image_topic, image_topic)
             image_topic = f'{image_topic}/compressed'
         self.image_topic = image_topic
-        conns = [c for c in reader.connections
-                 if c.topic in (image_topic, depth_topic, info_topic, pose_topic, tf_topic)]
+        conns = [
+            c
+            for c in reader.connections
+            if c.topic in (image_topic, depth_topic, info_topic, pose_topic, tf_topic)
+        ]
         self._img_conns = [c for c in conns if c.topic == image_topic]
         self._depth_conns = [c for c in conns if c.topic == depth_topic]
         img_times, img_stamps, depth_times, depth_stamps = [], [], [], []
@@ -279,9 +333,12 @@ class BagSequence(Sequence):
                 d = np.asarray(getattr(msg, 'd', None) if hasattr(msg, 'd') else msg.D, float)
                 if k.size == 9 and k[0] > 0:
                     try:
-                        info = Intrinsics.from_matrix(k.reshape(3, 3), int(msg.width),
-                                                      int(msg.height),
-                                                      tuple(d.tolist()) if d.any() else ())
+                        info = Intrinsics.from_matrix(
+                            k.reshape(3, 3),
+                            int(msg.width),
+                            int(msg.height),
+                            tuple(d.tolist()) if d.any() else (),
+                        )
                     except ConfigError as exc:
                         raise DatasetError(f'bad CameraInfo: {exc}') from exc
             elif topic == pose_topic:
@@ -291,8 +348,10 @@ class BagSequence(Sequence):
             elif topic == tf_topic:
                 msg = reader.deserialize(raw, conn.msgtype)
                 for tr in msg.transforms:
-                    if (tr.header.frame_id.lstrip('/') == tf_parent
-                            and tr.child_frame_id.lstrip('/') == tf_child):
+                    if (
+                        tr.header.frame_id.lstrip('/') == tf_parent
+                        and tr.child_frame_id.lstrip('/') == tf_child
+                    ):
                         p, o = tr.transform.translation, tr.transform.rotation
                         tf_rows.append([_stamp(tr.header), p.x, p.y, p.z, o.x, o.y, o.z, o.w])
         gt, source = None, None
@@ -306,12 +365,14 @@ class BagSequence(Sequence):
 
     def _message(self, conns: list[Any], t_ns: int) -> Any:
         try:
-            for conn, _, raw in self._reader.messages(connections=conns, start=int(t_ns),
-                                                      stop=int(t_ns) + 1):
+            for conn, _, raw in self._reader.messages(
+                connections=conns, start=int(t_ns), stop=int(t_ns) + 1
+            ):
                 return self._reader.deserialize(raw, conn.msgtype)
         except _read_errors() as exc:
-            raise DatasetError(f'{self.path}: cannot read message at {t_ns} ns: '
-                               f'{read_error_reason(exc)}') from exc
+            raise DatasetError(
+                f'{self.path}: cannot read message at {t_ns} ns: {read_error_reason(exc)}'
+            ) from exc
         raise DatasetError(f'{self.path}: message at {t_ns} ns disappeared')
 
     def _load_native(self, i: int) -> np.ndarray:
@@ -323,8 +384,9 @@ class BagSequence(Sequence):
         except DatasetError as exc:
             raise DatasetError(f'{self.path}: {self.image_topic} frame {i}: {exc}') from exc
         if img.dtype == np.float32:
-            raise DatasetError(f'{self.path}: {self.image_topic} is a depth image (32FC1), '
-                               'not a camera image')
+            raise DatasetError(
+                f'{self.path}: {self.image_topic} is a depth image (32FC1), not a camera image'
+            )
         return img
 
     def _load_depth(self, i: int) -> np.ndarray | None:
@@ -350,11 +412,19 @@ class BagSequence(Sequence):
             return
 
 
-def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
-              storage: str = 'sqlite3', image_topic: str = IMAGE_TOPIC,
-              depth_topic: str = DEPTH_TOPIC, info_topic: str = INFO_TOPIC,
-              pose_topic: str = POSE_TOPIC, compressed: str | None = None,
-              jpeg_quality: int = 90) -> Path:
+def write_bag(
+    sequence: Sequence,
+    path: Path | str,
+    fmt: str = 'ros2',
+    *,
+    storage: str = 'sqlite3',
+    image_topic: str = IMAGE_TOPIC,
+    depth_topic: str = DEPTH_TOPIC,
+    info_topic: str = INFO_TOPIC,
+    pose_topic: str = POSE_TOPIC,
+    compressed: str | None = None,
+    jpeg_quality: int = 90,
+) -> Path:
     """Write a sequence to a ROS 1 bag file (``fmt='ros1'``) or a ROS 2 bag folder.
 
     Header stamps are the frames' exact ``stamp_ns``.
@@ -408,8 +478,9 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
     def header(t_ns: int, frame: str, seq: int) -> Any:
         sec, nanosec = split_ns(t_ns)
         t = Time(sec=sec, nanosec=nanosec)
-        return Header(seq=seq, stamp=t, frame_id=frame) if ros1 else Header(stamp=t,
-                                                                           frame_id=frame)
+        return (
+            Header(seq=seq, stamp=t, frame_id=frame) if ros1 else Header(stamp=t, frame_id=frame)
+        )
 
     cam = sequence.intrinsics
     K = cam.K.reshape(-1)
@@ -423,8 +494,9 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
         if compressed is None:
             c_img = writer.add_connection(image_topic, Image.__msgtype__, typestore=store)
         else:
-            c_img = writer.add_connection(f'{image_topic}/compressed', Compressed.__msgtype__,
-                                          typestore=store)
+            c_img = writer.add_connection(
+                f'{image_topic}/compressed', Compressed.__msgtype__, typestore=store
+            )
         c_info = writer.add_connection(info_topic, Info.__msgtype__, typestore=store)
         c_depth = writer.add_connection(depth_topic, Image.__msgtype__, typestore=store)
         c_pose = writer.add_connection(pose_topic, PoseStamped.__msgtype__, typestore=store)
@@ -434,33 +506,62 @@ def write_bag(sequence: Sequence, path: Path | str, fmt: str = 'ros2', *,
             if compressed is None:
                 rgb = cv2.cvtColor(sequence.image(f.index), cv2.COLOR_BGR2RGB)
                 h, w = rgb.shape[:2]
-                msg = Image(header=hd, height=h, width=w, encoding='rgb8', is_bigendian=0,
-                            step=w * 3, data=rgb.reshape(-1))
+                msg = Image(
+                    header=hd,
+                    height=h,
+                    width=w,
+                    encoding='rgb8',
+                    is_bigendian=0,
+                    step=w * 3,
+                    data=rgb.reshape(-1),
+                )
                 writer.write(c_img, t_ns, serialize(msg, Image.__msgtype__))
             else:
                 native = sequence.native_image(f.index)
                 h, w = native.shape[:2]
-                cmsg = Compressed(header=hd, format=compressed_format(native, compressed),
-                                  data=encode_image(native, compressed, jpeg_quality))
+                cmsg = Compressed(
+                    header=hd,
+                    format=compressed_format(native, compressed),
+                    data=encode_image(native, compressed, jpeg_quality),
+                )
                 writer.write(c_img, t_ns, serialize(cmsg, Compressed.__msgtype__))
             roi = Roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
-            mats = {'D' if ros1 else 'd': dist, 'K' if ros1 else 'k': K,
-                    'R' if ros1 else 'r': np.eye(3).reshape(-1),
-                    'P' if ros1 else 'p': P}
-            info = Info(header=hd, height=h, width=w, distortion_model=model, binning_x=0,
-                        binning_y=0, roi=roi, **mats)
+            mats = {
+                'D' if ros1 else 'd': dist,
+                'K' if ros1 else 'k': K,
+                'R' if ros1 else 'r': np.eye(3).reshape(-1),
+                'P' if ros1 else 'p': P,
+            }
+            info = Info(
+                header=hd,
+                height=h,
+                width=w,
+                distortion_model=model,
+                binning_x=0,
+                binning_y=0,
+                roi=roi,
+                **mats,
+            )
             writer.write(c_info, t_ns, serialize(info, Info.__msgtype__))
             depth = sequence.depth(f.index)
             if depth is not None:
                 d_ns = round(f.depth_stamp * 1e9)
-                dmsg = Image(header=header(d_ns, CAMERA_FRAME, f.index), height=h,
-                             width=w, encoding='32FC1', is_bigendian=0, step=w * 4,
-                             data=np.ascontiguousarray(depth, '<f4').view(np.uint8).reshape(-1))
+                dmsg = Image(
+                    header=header(d_ns, CAMERA_FRAME, f.index),
+                    height=h,
+                    width=w,
+                    encoding='32FC1',
+                    is_bigendian=0,
+                    step=w * 4,
+                    data=np.ascontiguousarray(depth, '<f4').view(np.uint8).reshape(-1),
+                )
                 writer.write(c_depth, d_ns, serialize(dmsg, Image.__msgtype__))
             if f.pose is not None:
                 t, q = matrix_to_pose(f.pose)
-                pose = Pose(position=Point(x=t[0], y=t[1], z=t[2]),
-                            orientation=Quat(x=q[0], y=q[1], z=q[2], w=q[3]))
+                pose = Pose(
+                    position=Point(x=t[0], y=t[1], z=t[2]),
+                    orientation=Quat(x=q[0], y=q[1], z=q[2], w=q[3]),
+                )
                 pmsg = PoseStamped(header=header(t_ns, WORLD_FRAME, f.index), pose=pose)
                 writer.write(c_pose, t_ns, serialize(pmsg, PoseStamped.__msgtype__))
     finally:

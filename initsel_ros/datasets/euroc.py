@@ -42,8 +42,10 @@ _LOG = logging.getLogger(__name__)
 
 GROUNDTRUTH_DIR = 'state_groundtruth_estimate0'
 IMAGE_LISTING_FORMAT = '#timestamp [ns],filename'
-GROUNDTRUTH_FORMAT = ('#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], '
-                      'q_RS_x [], q_RS_y [], q_RS_z []')
+GROUNDTRUTH_FORMAT = (
+    '#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], '
+    'q_RS_x [], q_RS_y [], q_RS_z []'
+)
 
 
 def euroc_root(path: Path) -> Path | None:
@@ -75,8 +77,10 @@ def _csv_rows(path: Path, min_columns: int, expected: str) -> list[tuple[int, li
             continue
         fields = [f.strip() for f in stripped.split(',')]
         if len(fields) < min_columns:
-            raise DatasetError(f'{path}:{number}: expected at least {min_columns} columns '
-                               f'`{expected}`, got {len(fields)}')
+            raise DatasetError(
+                f'{path}:{number}: expected at least {min_columns} columns '
+                f'`{expected}`, got {len(fields)}'
+            )
         rows.append((number, fields))
     return rows
 
@@ -85,8 +89,9 @@ def _int_ns(path: Path, number: int, text: str) -> int:
     try:
         return int(text)
     except ValueError as exc:
-        raise DatasetError(f'{path}:{number}: {text!r} is not an integer timestamp in '
-                           'nanoseconds') from exc
+        raise DatasetError(
+            f'{path}:{number}: {text!r} is not an integer timestamp in nanoseconds'
+        ) from exc
 
 
 def read_image_listing(path: Path) -> tuple[list[int], list[str]]:
@@ -107,16 +112,16 @@ def read_groundtruth(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         try:
             row = [float(v) for v in fields[1:8]]
         except ValueError as exc:
-            raise DatasetError(f'{path}:{number}: not a number ({exc}); expected '
-                               f'`{GROUNDTRUTH_FORMAT}`') from exc
+            raise DatasetError(
+                f'{path}:{number}: not a number ({exc}); expected `{GROUNDTRUTH_FORMAT}`'
+            ) from exc
         if not all(math.isfinite(v) for v in row) or math.hypot(*row[3:7]) < 1e-9:
             raise DatasetError(f'{path}:{number}: non-finite value or zero quaternion')
         values.append(row)
     order = np.argsort(np.asarray(stamps, dtype=np.int64), kind='stable')
     data = np.asarray(values, dtype=np.float64).reshape(-1, 7)[order]
     quats_wxyz = data[:, 3:7]
-    return (np.asarray(stamps, dtype=np.int64)[order], data[:, 0:3],
-            quats_wxyz[:, [1, 2, 3, 0]])
+    return (np.asarray(stamps, dtype=np.int64)[order], data[:, 0:3], quats_wxyz[:, [1, 2, 3, 0]])
 
 
 def _matrix(node: Any, source: Path, key: str) -> np.ndarray:
@@ -158,23 +163,29 @@ def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
         raise DatasetError(f'{path}: camera_model {model!r} is not supported (pinhole only)')
     distortion_model = str(data.get('distortion_model', 'radial-tangential'))
     if distortion_model not in ('radial-tangential', 'radtan', 'plumb_bob', 'none'):
-        raise DatasetError(f'{path}: distortion_model {distortion_model!r} is not supported '
-                           '(radial-tangential only)')
+        raise DatasetError(
+            f'{path}: distortion_model {distortion_model!r} is not supported '
+            '(radial-tangential only)'
+        )
     try:
         fu, fv, cu, cv = (float(v) for v in data['intrinsics'])
         width, height = (int(v) for v in data['resolution'])
         coeffs = tuple(float(v) for v in data.get('distortion_coefficients') or ())
     except (KeyError, TypeError, ValueError) as exc:
-        raise DatasetError(f'{path}: needs intrinsics [fu, fv, cu, cv] and resolution '
-                           f'[width, height]: {exc}') from exc
+        raise DatasetError(
+            f'{path}: needs intrinsics [fu, fv, cu, cv] and resolution [width, height]: {exc}'
+        ) from exc
     if distortion_model == 'none':
         coeffs = ()
     if len(coeffs) not in (0, 4, 5):
-        raise DatasetError(f'{path}: radial-tangential distortion needs 4 coefficients '
-                           f'k1 k2 p1 p2, got {len(coeffs)}')
+        raise DatasetError(
+            f'{path}: radial-tangential distortion needs 4 coefficients '
+            f'k1 k2 p1 p2, got {len(coeffs)}'
+        )
     try:
-        intrinsics = Intrinsics(fu, fv, cu, cv, width, height,
-                                coeffs if any(c != 0.0 for c in coeffs) else ())
+        intrinsics = Intrinsics(
+            fu, fv, cu, cv, width, height, coeffs if any(c != 0.0 for c in coeffs) else ()
+        )
     except ConfigError as exc:
         raise DatasetError(f'{path}: {exc}') from exc
     if 'T_BS' in data:
@@ -206,8 +217,14 @@ class EurocSequence(Sequence):
         rate_hz: the camera rate from ``sensor.yaml`` (None when absent).
     """
 
-    def __init__(self, path: Path | str, *, camera: str = 'cam0',
-                 max_gap: float = DEFAULT_MAX_GAP, nearest_tolerance: float = 0.0) -> None:
+    def __init__(
+        self,
+        path: Path | str,
+        *,
+        camera: str = 'cam0',
+        max_gap: float = DEFAULT_MAX_GAP,
+        nearest_tolerance: float = 0.0,
+    ) -> None:
         path = Path(path)
         root = euroc_root(path)
         if root is None:
@@ -232,13 +249,21 @@ class EurocSequence(Sequence):
                     poses[i] = T_WC[k]
             missing = int(np.sum(~valid))
             if missing:
-                _LOG.warning('%s: %d of %d frames have no ground-truth pose (outside %s or in '
-                             'a gap over %.3f s)', root, missing, len(poses), GROUNDTRUTH_DIR,
-                             max_gap)
+                _LOG.warning(
+                    '%s: %d of %d frames have no ground-truth pose (outside %s or in '
+                    'a gap over %.3f s)',
+                    root,
+                    missing,
+                    len(poses),
+                    GROUNDTRUTH_DIR,
+                    max_gap,
+                )
         else:
             _LOG.info('%s: no %s/data.csv; frames have no poses', root, GROUNDTRUTH_DIR)
-        frames = [Frame(i, ns_to_seconds(ns), poses[i], None, stamp_ns=ns)
-                  for i, ns in enumerate(stamps_ns)]
+        frames = [
+            Frame(i, ns_to_seconds(ns), poses[i], None, stamp_ns=ns)
+            for i, ns in enumerate(stamps_ns)
+        ]
         name = root.parent.name if root.name == 'mav0' else root.name
         super().__init__(name or 'euroc', intrinsics, frames, root)
         self.image_files = [cam_dir / 'data' / n for n in names]
@@ -272,8 +297,14 @@ def _sensor_yaml(intrinsics: Intrinsics, T_BS: np.ndarray, rate_hz: float) -> st
     )
 
 
-def write_euroc(sequence: Sequence, out: Path | str, *, T_BS: np.ndarray | None = None,
-                groundtruth_ns: np.ndarray | None = None, rate_hz: float = 30.0) -> Path:
+def write_euroc(
+    sequence: Sequence,
+    out: Path | str,
+    *,
+    T_BS: np.ndarray | None = None,
+    groundtruth_ns: np.ndarray | None = None,
+    rate_hz: float = 30.0,
+) -> Path:
     """Write ``sequence`` in the EuRoC ASL layout (grey PNGs; for tests and conversions).
 
     Args:
@@ -310,13 +341,14 @@ def write_euroc(sequence: Sequence, out: Path | str, *, T_BS: np.ndarray | None 
         p, q = matrix_to_pose(T_WB)
         gt_ns = frame_ns if groundtruth_ns is None else np.asarray(groundtruth_ns, np.int64)
         t0 = frame_ns[0]
-        p, q = interpolate_poses((gt_ns - t0) * 1e-9, (frame_ns - t0) * 1e-9, p, q,
-                                 max_gap=np.inf)
+        p, q = interpolate_poses((gt_ns - t0) * 1e-9, (frame_ns - t0) * 1e-9, p, q, max_gap=np.inf)
         keep = ~np.isnan(p[:, 0])
-        rows = [GROUNDTRUTH_FORMAT + ', v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], '
-                'v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], '
-                'b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], '
-                'b_a_RS_S_z [m s^-2]']
+        rows = [
+            GROUNDTRUTH_FORMAT + ', v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], '
+            'v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], '
+            'b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], '
+            'b_a_RS_S_z [m s^-2]'
+        ]
         for t_ns, pos, quat in zip(gt_ns[keep], p[keep], q[keep], strict=True):
             wxyz = (quat[3], quat[0], quat[1], quat[2])
             values = [*pos, *wxyz] + [0.0] * 9

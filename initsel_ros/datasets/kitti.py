@@ -36,8 +36,12 @@ POSE_FORMAT = 'r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz'
 def is_kitti_sequence(path: Path) -> bool:
     """True for a folder with ``times.txt``, ``calib.txt`` and an ``image_N`` folder."""
     path = Path(path)
-    return (path.is_dir() and (path / 'times.txt').is_file() and (path / 'calib.txt').is_file()
-            and any((path / f'image_{n}').is_dir() for n in range(4)))
+    return (
+        path.is_dir()
+        and (path / 'times.txt').is_file()
+        and (path / 'calib.txt').is_file()
+        and any((path / f'image_{n}').is_dir() for n in range(4))
+    )
 
 
 def kitti_sequences(root: Path) -> list[str]:
@@ -66,11 +70,15 @@ def resolve_sequence_folder(path: Path, sequence: str | None) -> Path:
         return path
     available = kitti_sequences(path)
     if not available:
-        raise DatasetError(f'{path}: not a KITTI odometry sequence (times.txt, calib.txt, '
-                           'image_0/) nor a root with sequences/NN')
+        raise DatasetError(
+            f'{path}: not a KITTI odometry sequence (times.txt, calib.txt, '
+            'image_0/) nor a root with sequences/NN'
+        )
     if sequence is None:
-        raise DatasetError(f'{path}: a KITTI odometry root; choose a sequence with '
-                           f'--sequence NN (found: {", ".join(available)})')
+        raise DatasetError(
+            f'{path}: a KITTI odometry root; choose a sequence with '
+            f'--sequence NN (found: {", ".join(available)})'
+        )
     name = str(sequence)
     if name not in available and name.isdigit() and f'{int(name):02d}' in available:
         name = f'{int(name):02d}'
@@ -83,8 +91,9 @@ def _numbers(path: Path, number: int, fields: list[str], expected: str) -> np.nd
     try:
         out = np.array([float(v) for v in fields], dtype=np.float64)
     except ValueError as exc:
-        raise DatasetError(f'{path}:{number}: not a number ({exc}); expected `{expected}`') \
-            from exc
+        raise DatasetError(
+            f'{path}:{number}: not a number ({exc}); expected `{expected}`'
+        ) from exc
     if not np.all(np.isfinite(out)):
         raise DatasetError(f'{path}:{number}: non-finite value; expected `{expected}`')
     return out
@@ -108,8 +117,9 @@ def read_times(path: Path) -> list[int]:
         try:
             out.append(parse_seconds_ns(line.split()[0]))
         except DatasetError as exc:
-            raise DatasetError(f'{path}:{number}: {exc}; expected one time in seconds per '
-                               'line') from exc
+            raise DatasetError(
+                f'{path}:{number}: {exc}; expected one time in seconds per line'
+            ) from exc
     return out
 
 
@@ -134,8 +144,9 @@ def read_poses(path: Path) -> np.ndarray:
     for number, line in _lines(path):
         values = _numbers(path, number, line.split(), POSE_FORMAT)
         if values.size != 12:
-            raise DatasetError(f'{path}:{number}: expected 12 numbers `{POSE_FORMAT}`, got '
-                               f'{values.size}')
+            raise DatasetError(
+                f'{path}:{number}: expected 12 numbers `{POSE_FORMAT}`, got {values.size}'
+            )
         rows.append(values)
     out = np.tile(np.eye(4), (len(rows), 1, 1))
     if rows:
@@ -170,8 +181,14 @@ class KittiSequence(Sequence):
         P: (3, 4) projection matrix of the camera.
     """
 
-    def __init__(self, path: Path | str, *, sequence: str | None = None, camera: int = 0,
-                 poses: Path | str | None = None) -> None:
+    def __init__(
+        self,
+        path: Path | str,
+        *,
+        sequence: str | None = None,
+        camera: int = 0,
+        poses: Path | str | None = None,
+    ) -> None:
         folder = resolve_sequence_folder(Path(path), sequence)
         if camera not in (0, 1, 2, 3):
             raise ConfigError(f'KITTI camera must be 0-3, got {camera}')
@@ -181,8 +198,10 @@ class KittiSequence(Sequence):
             raise DatasetError(f'{image_dir}: no PNG images')
         stamps_ns = read_times(folder / 'times.txt')
         if len(stamps_ns) != len(files):
-            raise DatasetError(f'{folder / "times.txt"}: {len(stamps_ns)} times for '
-                               f'{len(files)} images in {image_dir.name}/')
+            raise DatasetError(
+                f'{folder / "times.txt"}: {len(stamps_ns)} times for '
+                f'{len(files)} images in {image_dir.name}/'
+            )
         self.P = read_calib(folder / 'calib.txt', camera)
         size = png_size(files[0])
         if size is None:
@@ -207,15 +226,19 @@ class KittiSequence(Sequence):
         else:
             _LOG.info('%s: no poses/%s.txt; frames have no poses', folder, folder.name)
         self.pose_file = pose_file
-        frames = [Frame(i, ns_to_seconds(ns), matrices[i], None, stamp_ns=ns)
-                  for i, ns in enumerate(stamps_ns)]
+        frames = [
+            Frame(i, ns_to_seconds(ns), matrices[i], None, stamp_ns=ns)
+            for i, ns in enumerate(stamps_ns)
+        ]
         super().__init__(f'kitti_{folder.name}', intrinsics, frames, folder)
         self.image_files = files
 
     @staticmethod
     def _find_poses(folder: Path) -> Path | None:
-        for candidate in (folder.parent.parent / 'poses' / f'{folder.name}.txt',
-                          folder / 'poses.txt'):
+        for candidate in (
+            folder.parent.parent / 'poses' / f'{folder.name}.txt',
+            folder / 'poses.txt',
+        ):
             if candidate.is_file():
                 return candidate
         return None
@@ -245,15 +268,18 @@ def write_kitti(sequence: Sequence, root: Path | str, name: str = '00') -> Path:
             raise DatasetError(f'{target}: cannot write image')
     t0 = sequence.frames[0].stamp_ns
     (folder / 'times.txt').write_text(
-        ''.join(f'{(f.stamp_ns - t0) * 1e-9:e}\n' for f in sequence.frames))
+        ''.join(f'{(f.stamp_ns - t0) * 1e-9:e}\n' for f in sequence.frames)
+    )
     cam = sequence.intrinsics
     P = np.array([[cam.fx, 0.0, cam.cx, 0.0], [0.0, cam.fy, cam.cy, 0.0], [0.0, 0.0, 1.0, 0.0]])
     calib = [f'P{n}: ' + ' '.join(f'{v:.12e}' for v in P.reshape(-1)) for n in range(4)]
     (folder / 'calib.txt').write_text('\n'.join(calib) + '\n')
     if all(f.pose is not None for f in sequence.frames):
         first_inv = np.linalg.inv(sequence.frames[0].pose)
-        rows = [' '.join(f'{v:.12e}' for v in (first_inv @ f.pose)[:3].reshape(-1))
-                for f in sequence.frames]
+        rows = [
+            ' '.join(f'{v:.12e}' for v in (first_inv @ f.pose)[:3].reshape(-1))
+            for f in sequence.frames
+        ]
         (root / 'poses').mkdir(exist_ok=True)
         (root / 'poses' / f'{name}.txt').write_text('\n'.join(rows) + '\n')
     return folder

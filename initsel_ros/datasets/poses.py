@@ -38,9 +38,15 @@ def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
     x, y, z, w = np.moveaxis(q, -1, 0)
     R = np.stack(
         [
-            1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
-            2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
-            2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y),
+            1 - 2 * (y * y + z * z),
+            2 * (x * y - z * w),
+            2 * (x * z + y * w),
+            2 * (x * y + z * w),
+            1 - 2 * (x * x + z * z),
+            2 * (y * z - x * w),
+            2 * (x * z - y * w),
+            2 * (y * z + x * w),
+            1 - 2 * (x * x + y * y),
         ],
         axis=-1,
     )
@@ -65,21 +71,52 @@ def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
     # Four candidate formulas; pick per matrix the one with the largest pivot (stable).
     cand = np.stack(
         [
-            np.stack([m[:, 2, 1] - m[:, 1, 2], m[:, 0, 2] - m[:, 2, 0],
-                      m[:, 1, 0] - m[:, 0, 1], 1 + trace], axis=-1),
-            np.stack([1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2], m[:, 0, 1] + m[:, 1, 0],
-                      m[:, 0, 2] + m[:, 2, 0], m[:, 2, 1] - m[:, 1, 2]], axis=-1),
-            np.stack([m[:, 0, 1] + m[:, 1, 0], 1 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2],
-                      m[:, 1, 2] + m[:, 2, 1], m[:, 0, 2] - m[:, 2, 0]], axis=-1),
-            np.stack([m[:, 0, 2] + m[:, 2, 0], m[:, 1, 2] + m[:, 2, 1],
-                      1 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1], m[:, 1, 0] - m[:, 0, 1]],
-                     axis=-1),
+            np.stack(
+                [
+                    m[:, 2, 1] - m[:, 1, 2],
+                    m[:, 0, 2] - m[:, 2, 0],
+                    m[:, 1, 0] - m[:, 0, 1],
+                    1 + trace,
+                ],
+                axis=-1,
+            ),
+            np.stack(
+                [
+                    1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2],
+                    m[:, 0, 1] + m[:, 1, 0],
+                    m[:, 0, 2] + m[:, 2, 0],
+                    m[:, 2, 1] - m[:, 1, 2],
+                ],
+                axis=-1,
+            ),
+            np.stack(
+                [
+                    m[:, 0, 1] + m[:, 1, 0],
+                    1 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2],
+                    m[:, 1, 2] + m[:, 2, 1],
+                    m[:, 0, 2] - m[:, 2, 0],
+                ],
+                axis=-1,
+            ),
+            np.stack(
+                [
+                    m[:, 0, 2] + m[:, 2, 0],
+                    m[:, 1, 2] + m[:, 2, 1],
+                    1 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1],
+                    m[:, 1, 0] - m[:, 0, 1],
+                ],
+                axis=-1,
+            ),
         ],
         axis=1,
     )  # (N, 4 candidates, 4)
     pivots = np.stack(
-        [1 + trace, 1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2],
-         1 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2], 1 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1]],
+        [
+            1 + trace,
+            1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2],
+            1 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2],
+            1 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1],
+        ],
         axis=-1,
     )
     best = np.argmax(pivots, axis=-1)

@@ -54,8 +54,9 @@ class Sequence:
     (BGR uint8), and :meth:`_load_depth` (metres).
     """
 
-    def __init__(self, name: str, intrinsics: Intrinsics, frames: list[Frame],
-                 path: Path | None = None) -> None:
+    def __init__(
+        self, name: str, intrinsics: Intrinsics, frames: list[Frame], path: Path | None = None
+    ) -> None:
         self.name = name
         self.intrinsics = intrinsics
         self.frames = frames
@@ -68,8 +69,10 @@ class Sequence:
         return iter(self.frames)
 
     def __repr__(self) -> str:
-        return (f'{type(self).__name__}({self.name!r}, {len(self)} frames, '
-                f'{self.intrinsics.width}x{self.intrinsics.height})')
+        return (
+            f'{type(self).__name__}({self.name!r}, {len(self)} frames, '
+            f'{self.intrinsics.width}x{self.intrinsics.height})'
+        )
 
     @property
     def stamps(self) -> np.ndarray:

@@ -123,19 +123,29 @@ def write_listing(path: Path, stamps: Seq[float], names: Seq[str], title: str) -
     Path(path).write_text('\n'.join(lines) + '\n')
 
 
-def write_trajectory(path: Path, stamps: np.ndarray, positions: np.ndarray,
-                     quaternions: np.ndarray, title: str = 'ground truth trajectory') -> None:
+def write_trajectory(
+    path: Path,
+    stamps: np.ndarray,
+    positions: np.ndarray,
+    quaternions: np.ndarray,
+    title: str = 'ground truth trajectory',
+) -> None:
     """Write a TUM trajectory file; positions (N, 3) metres, quaternions (N, 4) xyzw."""
-    data = np.column_stack([np.asarray(stamps, dtype=np.float64).reshape(-1, 1),
-                            np.asarray(positions).reshape(-1, 3),
-                            np.asarray(quaternions).reshape(-1, 4)])
+    data = np.column_stack(
+        [
+            np.asarray(stamps, dtype=np.float64).reshape(-1, 1),
+            np.asarray(positions).reshape(-1, 3),
+            np.asarray(quaternions).reshape(-1, 4),
+        ]
+    )
     lines = [f'# {title}', f'# {TRAJECTORY_FORMAT}']
     lines += [f'{r[0]:.6f} ' + ' '.join(f'{v:.9f}' for v in r[1:]) for r in data]
     Path(path).write_text('\n'.join(lines) + '\n')
 
 
-def associate(first: np.ndarray, second: np.ndarray,
-              max_difference: float = MAX_ASSOCIATION_DIFF) -> np.ndarray:
+def associate(
+    first: np.ndarray, second: np.ndarray, max_difference: float = MAX_ASSOCIATION_DIFF
+) -> np.ndarray:
     """Match two timestamp lists one-to-one, closest pairs first, at most ``max_difference`` apart.
 
     Args:
@@ -218,8 +228,13 @@ class TumSequence(Sequence):
             depth_match = associate(rgb_stamps, depth_stamps, max_association_diff)
             n_missing = int(np.sum(depth_match < 0))
             if n_missing:
-                _LOG.warning('%s: %d of %d colour frames have no depth within %.3f s',
-                             path, n_missing, len(rgb_stamps), max_association_diff)
+                _LOG.warning(
+                    '%s: %d of %d colour frames have no depth within %.3f s',
+                    path,
+                    n_missing,
+                    len(rgb_stamps),
+                    max_association_diff,
+                )
 
         gt_path = Path(groundtruth) if groundtruth is not None else path / 'groundtruth.txt'
         poses: list[np.ndarray | None] = [None] * len(rgb_stamps)
@@ -233,15 +248,23 @@ class TumSequence(Sequence):
                 _LOG.warning(
                     '%s: %d of %d frames have no ground-truth pose (outside the trajectory or '
                     'in a gap over %.3f s; nearest tolerance %.3f s)',
-                    path, n_missing, len(poses), max_gap, nearest_tolerance,
+                    path,
+                    n_missing,
+                    len(poses),
+                    max_gap,
+                    nearest_tolerance,
                 )
         else:
             _LOG.info('%s: no groundtruth.txt; frames have no poses', path)
 
         frames = [
-            Frame(i, float(s), poses[i],
-                  float(depth_stamps[depth_match[i]]) if depth_match[i] >= 0 else None,
-                  stamp_ns=rgb_ns[i])
+            Frame(
+                i,
+                float(s),
+                poses[i],
+                float(depth_stamps[depth_match[i]]) if depth_match[i] >= 0 else None,
+                stamp_ns=rgb_ns[i],
+            )
             for i, s in enumerate(rgb_stamps)
         ]
         super().__init__(path.resolve().name, intrinsics, frames, path)

@@ -137,7 +137,11 @@ def vins_relative_pose(
         ll = normalized_points(p0, K)
         rr = normalized_points(p1, K)
         E, mask = cv2.findFundamentalMat(
-            ll.reshape(-1, 1, 2), rr.reshape(-1, 1, 2), cv2.FM_RANSAC, 0.3 / VINS_FOCAL, 0.99,
+            ll.reshape(-1, 1, 2),
+            rr.reshape(-1, 1, 2),
+            cv2.FM_RANSAC,
+            0.3 / VINS_FOCAL,
+            0.99,
             1000,
         )
         if E is not None and E.shape == (3, 3):
@@ -194,8 +198,9 @@ def _normalize(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     mean = points.mean(axis=0)
     dev = np.abs(points - mean).mean(axis=0)
     dev = np.where(dev > 0, dev, 1.0)
-    T = np.array([[1 / dev[0], 0, -mean[0] / dev[0]], [0, 1 / dev[1], -mean[1] / dev[1]],
-                  [0, 0, 1.0]])
+    T = np.array(
+        [[1 / dev[0], 0, -mean[0] / dev[0]], [0, 1 / dev[1], -mean[1] / dev[1]], [0, 0, 1.0]]
+    )
     return (points - mean) / dev, T
 
 
@@ -235,9 +240,7 @@ def _fundamentals(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
     """Rank-2 8-point fundamental matrices for B sets: (B, 8, 2) -> (B, 3, 3), x2^T F x1 = 0."""
     u1, v1 = x1[..., 0], x1[..., 1]
     u2, v2 = x2[..., 0], x2[..., 1]
-    A = np.stack(
-        [u2 * u1, u2 * v1, u2, v2 * u1, v2 * v1, v2, u1, v1, np.ones_like(u1)], axis=-1
-    )
+    A = np.stack([u2 * u1, u2 * v1, u2, v2 * u1, v2 * v1, v2, u1, v1, np.ones_like(u1)], axis=-1)
     F = _null_vectors(A)
     u, s, vt = np.linalg.svd(F)
     s[:, 2] = 0.0
@@ -332,9 +335,7 @@ def orbslam_scores(
     return OrbSlamScores(s_h, s_f, ratio, H[bh], F[bf], in_h[bh], in_f[bf])
 
 
-def orbslam_choice(
-    ratio: np.ndarray, version: OrbSlamVersion = OrbSlamVersion.ORB2
-) -> np.ndarray:
+def orbslam_choice(ratio: np.ndarray, version: OrbSlamVersion = OrbSlamVersion.ORB2) -> np.ndarray:
     """Vectorized model choice: (N,) array of 'H' / 'F' ('' where the ratio is NaN)."""
     ratio = np.asarray(ratio, dtype=float)
     out = np.where(ratio > version.ratio_threshold, 'H', 'F').astype(object)

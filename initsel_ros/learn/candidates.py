@@ -61,8 +61,9 @@ class Candidate(str, Enum):
 
 def candidate_columns(candidate: Candidate, config: TrainConfig) -> tuple[str, ...]:
     """Table columns a candidate reads."""
-    features = config.features_of(Family.LOGISTIC_EXTRA if candidate.uses_extra
-                                  else Family.LOGISTIC)
+    features = config.features_of(
+        Family.LOGISTIC_EXTRA if candidate.uses_extra else Family.LOGISTIC
+    )
     return input_columns(features, config.scaling)
 
 
@@ -89,8 +90,11 @@ def _reference_fitter(candidate: Candidate, config: TrainConfig) -> Callable[...
             from sklearn.ensemble import HistGradientBoostingClassifier
 
             clf = HistGradientBoostingClassifier(
-                max_iter=200, learning_rate=0.1, max_leaf_nodes=15,
-                class_weight=config.class_weight.sklearn, random_state=seed,
+                max_iter=200,
+                learning_rate=0.1,
+                max_leaf_nodes=15,
+                class_weight=config.class_weight.sklearn,
+                random_state=seed,
             ).fit(X, y)
 
             def batch(Z: np.ndarray) -> np.ndarray:
@@ -116,7 +120,10 @@ def _reference_fitter(candidate: Candidate, config: TrainConfig) -> Callable[...
         with warnings.catch_warnings():  # a comparison model: a few unconverged runs are fine
             warnings.simplefilter('ignore', ConvergenceWarning)
             clf = MLPClassifier(
-                hidden_layer_sizes=(32, 16), alpha=1e-3, max_iter=500, random_state=seed,
+                hidden_layer_sizes=(32, 16),
+                alpha=1e-3,
+                max_iter=500,
+                random_state=seed,
             ).fit(scaler.transform(X[idx]), y[idx])
         W = [np.asarray(c) for c in clf.coefs_]
         B = [np.asarray(c) for c in clf.intercepts_]
@@ -134,8 +141,9 @@ def _reference_fitter(candidate: Candidate, config: TrainConfig) -> Callable[...
     return fit
 
 
-def _family_fitter(family: Family, features: tuple[str, ...], config: TrainConfig
-                   ) -> Callable[..., Any]:
+def _family_fitter(
+    family: Family, features: tuple[str, ...], config: TrainConfig
+) -> Callable[..., Any]:
     def fit(X: np.ndarray, y: np.ndarray) -> tuple[Any, ...]:
         model = fit_model(family, 'candidate', features, X, y, config)
 

@@ -158,8 +158,9 @@ def _orb_accepts(test: PairTable, method: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pose_ok(test: PairTable, method: np.ndarray,
-             config: PolicyConfig | None = None) -> np.ndarray:
+def _pose_ok(
+    test: PairTable, method: np.ndarray, config: PolicyConfig | None = None
+) -> np.ndarray:
     """The selector's pose check (``policy.check_pose_batch``) on the chosen method's estimate."""
     config = config or PolicyConfig()
     out = np.zeros(len(test), dtype=bool)
@@ -167,9 +168,12 @@ def _pose_ok(test: PairTable, method: np.ndarray,
         sel = np.asarray(method) == m
         if not sel.any():
             continue
-        reasons = check_pose_batch(np.asarray(test[f'{m}_ok']) == 1,
-                                   np.asarray(test[f'{m}_n_points']),
-                                   np.asarray(test[f'{m}_parallax_deg'], dtype=float), config)
+        reasons = check_pose_batch(
+            np.asarray(test[f'{m}_ok']) == 1,
+            np.asarray(test[f'{m}_n_points']),
+            np.asarray(test[f'{m}_parallax_deg'], dtype=float),
+            config,
+        )
         out |= sel & np.array([r is None for r in reasons])
     return out
 
@@ -195,8 +199,11 @@ def baseline_rules(test: PairTable) -> dict[str, Rule]:
 
 
 def model_rule(
-    name: str, probs: Mapping[str, np.ndarray], thresholds: Mapping[str, float],
-    veto: Sequence[str] = ('F', 'E'), n_tracks: np.ndarray | None = None,
+    name: str,
+    probs: Mapping[str, np.ndarray],
+    thresholds: Mapping[str, float],
+    veto: Sequence[str] = ('F', 'E'),
+    n_tracks: np.ndarray | None = None,
 ) -> Rule:
     """The live policy (``policy.decide_batch``) on table rows: fire, R veto, most confident.
 
@@ -240,7 +247,9 @@ def system_level(test: PairTable, rule: Rule) -> SystemLevel:
             sel = seqs == s
             named[str(s)] = float(np.mean(rule.yes[sel]))
     return SystemLevel(
-        rule.name, len(unique), len(firsts),
+        rule.name,
+        len(unique),
+        len(firsts),
         float(np.median(firsts)) if firsts else math.nan,
         float(np.mean(firsts)) if firsts else math.nan,
         float(np.mean(quality)) if quality else math.nan,
@@ -327,42 +336,67 @@ def evaluate(
     rows: list[EvalRow] = []
     for m in METHODS:
         name = f'Model {m}'
-        rows.append(EvalRow(name, 'model', m, binary_scores(y[m], fired[m]),
-                            PAPER_RESULTS.get(name)))
+        rows.append(
+            EvalRow(name, 'model', m, binary_scores(y[m], fired[m]), PAPER_RESULTS.get(name))
+        )
     for m in ('F', 'E', 'H'):
         name = f'Model {m} after R veto'
-        rows.append(EvalRow(name, 'veto', m, binary_scores(y[m], fired[m] & ~fired['R']),
-                            PAPER_RESULTS.get(name)))
+        rows.append(
+            EvalRow(
+                name,
+                'veto',
+                m,
+                binary_scores(y[m], fired[m] & ~fired['R']),
+                PAPER_RESULTS.get(name),
+            )
+        )
     for stat in ('mean', 'median'):
         h, f = baselines.butt_rule(test[f'disp_{stat}_px'], test['disp_std_px'])
         for m, pred in (('F', f), ('H', h)):
             name = f'Butt 2020 {m} ({stat})'
-            rows.append(EvalRow(name, 'baseline', m, binary_scores(y[m], pred),
-                                PAPER_RESULTS.get(name)))
+            rows.append(
+                EvalRow(name, 'baseline', m, binary_scores(y[m], pred), PAPER_RESULTS.get(name))
+            )
     vins = baselines.vins_rule(test['n_tracks'], test['vins_parallax_px'])
     vins_full = vins & (np.asarray(test['vins_inliers']) > 12)
     for m in ('E', 'F'):
         rows.append(EvalRow(f'VINS-Mono rule -> {m}', 'baseline', m, binary_scores(y[m], vins)))
-    rows.append(EvalRow('VINS-Mono rule+RANSAC -> E', 'baseline', 'E',
-                        binary_scores(y['E'], vins_full), note='> 12 recoverPose inliers'))
+    rows.append(
+        EvalRow(
+            'VINS-Mono rule+RANSAC -> E',
+            'baseline',
+            'E',
+            binary_scores(y['E'], vins_full),
+            note='> 12 recoverPose inliers',
+        )
+    )
     for version in baselines.OrbSlamVersion:
         choice = baselines.orbslam_choice(test['orb_ratio'], version)
         accepted = _orb_accepts(test, choice)
         for m in ('H', 'F'):
-            rows.append(EvalRow(
-                f'ORB-SLAM{version.value} {m}', 'baseline', m,
-                binary_scores(y[m], accepted & (choice == m)),
-                note=f'S_H/(S_H+S_F) {">" if m == "H" else "<="} '
-                     f'{version.ratio_threshold:.2f}, >= {ORB_MIN_POINTS} points, '
-                     f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg',
-            ))
+            rows.append(
+                EvalRow(
+                    f'ORB-SLAM{version.value} {m}',
+                    'baseline',
+                    m,
+                    binary_scores(y[m], accepted & (choice == m)),
+                    note=f'S_H/(S_H+S_F) {">" if m == "H" else "<="} '
+                    f'{version.ratio_threshold:.2f}, >= {ORB_MIN_POINTS} points, '
+                    f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg',
+                )
+            )
     # sequence level
     tracks = np.asarray(test['n_tracks'])
-    rules = [model_rule('Models (R veto on F, E)', probs, thr, n_tracks=tracks),
-             model_rule('Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'),
-                        n_tracks=tracks)]
-    for rule, name in ((rules[0], 'Models + pose check'),
-                       (rules[1], 'Models (R veto on F, E, H) + pose check')):
+    rules = [
+        model_rule('Models (R veto on F, E)', probs, thr, n_tracks=tracks),
+        model_rule(
+            'Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'), n_tracks=tracks
+        ),
+    ]
+    for rule, name in (
+        (rules[0], 'Models + pose check'),
+        (rules[1], 'Models (R veto on F, E, H) + pose check'),
+    ):
         rules.append(Rule(name, rule.yes & _pose_ok(test, rule.method), rule.method))
     rules += list(baseline_rules(test).values())
     systems = [system_level(test, r) for r in rules]
@@ -371,25 +405,38 @@ def evaluate(
     if train is not None:
         cfg = train_config or TrainConfig(scaling=models.scaling)
         cand_reports = [
-            CandidateReport(f'model file ({description})', m, s := binary_scores(y[m], fired[m]),
-                            s.precision, s.precision, s.recall, decision_us,
-                            None if m == 'R' else binary_scores(y[m], fired[m] & ~fired['R']))
+            CandidateReport(
+                f'model file ({description})',
+                m,
+                s := binary_scores(y[m], fired[m]),
+                s.precision,
+                s.precision,
+                s.recall,
+                decision_us,
+                None if m == 'R' else binary_scores(y[m], fired[m] & ~fired['R']),
+            )
             for m in METHODS
         ]
         for cand in candidates:
             cand_reports += _compare_family(cand, train, test, cfg, y, fired)
     seqs = {
         str(s): int(c)
-        for s, c in zip(*np.unique(np.asarray(test['sequence']).astype(str),
-                                   return_counts=True), strict=True)
+        for s, c in zip(
+            *np.unique(np.asarray(test['sequence']).astype(str), return_counts=True), strict=True
+        )
     }
-    return EvalReport(rows, systems, cand_reports, probs, len(test), seqs, inference_ms,
-                      decision_us, description)
+    return EvalReport(
+        rows, systems, cand_reports, probs, len(test), seqs, inference_ms, decision_us, description
+    )
 
 
 def _compare_family(
-    cand: Candidate, train: PairTable, test: PairTable, cfg: TrainConfig,
-    y: Mapping[str, np.ndarray], fired_file: Mapping[str, np.ndarray],
+    cand: Candidate,
+    train: PairTable,
+    test: PairTable,
+    cfg: TrainConfig,
+    y: Mapping[str, np.ndarray],
+    fired_file: Mapping[str, np.ndarray],
 ) -> list[CandidateReport]:
     """Fit the four models of one family; score each alone, after its own R veto, and at the
     model file's recall; time one decision of the four."""
@@ -402,8 +449,9 @@ def _compare_family(
         return []
     Z = test.matrix(next(iter(fitted.values())).columns)
     scores = {m: f.score(Z) for m, f in fitted.items()}
-    fired = {m: scores[m] >= (f.threshold.threshold if f.threshold else 0.5)
-             for m, f in fitted.items()}
+    fired = {
+        m: scores[m] >= (f.threshold.threshold if f.threshold else 0.5) for m, f in fitted.items()
+    }
     z0 = np.where(np.isfinite(Z[0]), Z[0], 0.0) if len(Z) else np.zeros(Z.shape[1])
     models = {m: f.model_obj for m, f in fitted.items()}
     if len(models) == len(METHODS) and all(v is not None for v in models.values()):
@@ -412,8 +460,10 @@ def _compare_family(
         decision = time_call(lambda: family_set.predict_proba(x0))
     else:  # scikit-learn references: four single-row calls
         slow = cand is Candidate.HGB_EXTRA
-        decision = sum(time_call(lambda f=f: f.score_one(z0), repeat=50 if slow else 500)
-                       for f in fitted.values())
+        decision = sum(
+            time_call(lambda f=f: f.score_one(z0), repeat=50 if slow else 500)
+            for f in fitted.values()
+        )
     out = []
     for m in fitted:
         own = binary_scores(y[m], fired[m])
@@ -421,16 +471,22 @@ def _compare_family(
         veto = None
         if m != 'R' and 'R' in fired:
             veto = binary_scores(y[m], fired[m] & ~fired['R'])
-        out.append(CandidateReport(
-            cand.value, m, own,
-            precision_at_recall(y[m], scores[m], base.recall) if base.recall > 0 else math.nan,
-            base.precision, base.recall, decision, veto,
-        ))
+        out.append(
+            CandidateReport(
+                cand.value,
+                m,
+                own,
+                precision_at_recall(y[m], scores[m], base.recall) if base.recall > 0 else math.nan,
+                base.precision,
+                base.recall,
+                decision,
+                veto,
+            )
+        )
     return out
 
 
-def _reorder(z: np.ndarray, fitted: Mapping[str, FittedCandidate], models: ModelSet
-             ) -> np.ndarray:
+def _reorder(z: np.ndarray, fitted: Mapping[str, FittedCandidate], models: ModelSet) -> np.ndarray:
     """A candidate row (its table columns) as the input vector of ``models``."""
     columns = next(iter(fitted.values())).columns
     wanted = input_columns(models.input_names, models.scaling)
@@ -456,7 +512,8 @@ def results_markdown(report: EvalReport) -> str:
         lines.append(
             f'| {r.name} | {r.label} | {_f(s.accuracy)} | {_f(s.precision)} | {_f(s.recall)} '
             f'| {_f(s.f1)} | {s.predicted} | {s.positives} | '
-            + ' | '.join(_f(v) for v in p) + ' |'
+            + ' | '.join(_f(v) for v in p)
+            + ' |'
         )
     return '\n'.join(lines)
 
@@ -512,24 +569,37 @@ def verdict(report: EvalReport, budget_us: float = 50.0) -> str:
     fams = list(dict.fromkeys(c.candidate for c in report.candidates))
     for fam in fams:
         rows = [c for c in report.candidates if c.candidate == fam]
-        wins = [c.model for c in rows
-                if np.isfinite(c.precision_at_file_recall)
-                and c.precision_at_file_recall > c.file_precision + 1e-9]
-        met = [c.model for c in rows if c.veto is not None and c.model in TARGETS
-               and c.veto.precision >= TARGETS[c.model][0]
-               and c.veto.recall >= TARGETS[c.model][1]]
+        wins = [
+            c.model
+            for c in rows
+            if np.isfinite(c.precision_at_file_recall)
+            and c.precision_at_file_recall > c.file_precision + 1e-9
+        ]
+        met = [
+            c.model
+            for c in rows
+            if c.veto is not None
+            and c.model in TARGETS
+            and c.veto.precision >= TARGETS[c.model][0]
+            and c.veto.recall >= TARGETS[c.model][1]
+        ]
         us = max(c.decision_us for c in rows)
         within = us <= budget_us
         line = f'{fam}: after-veto targets met for {", ".join(met) or "none"} of F, E, H; '
         if fam == report.model_description:
             line += "the model file's family; "
         elif not fam.startswith('model file'):
-            line += (f"higher precision at the model file's recall for "
-                     f'{", ".join(wins) or "no model"} of {len(rows)}; ')
-        out.append(line + f'{us:.0f} us per decision '
-                          f'({"within" if within else "over"} the {budget_us:.0f} us budget)')
-    targets = ', '.join(f'{m} precision >= {p:g} with recall >= {r:g}'
-                        for m, (p, r) in TARGETS.items())
+            line += (
+                f"higher precision at the model file's recall for "
+                f'{", ".join(wins) or "no model"} of {len(rows)}; '
+            )
+        out.append(
+            line + f'{us:.0f} us per decision '
+            f'({"within" if within else "over"} the {budget_us:.0f} us budget)'
+        )
+    targets = ', '.join(
+        f'{m} precision >= {p:g} with recall >= {r:g}' for m, (p, r) in TARGETS.items()
+    )
     return '\n'.join(f'- {line}' for line in out) + f'\n\nTargets (after the R veto): {targets}.'
 
 
@@ -552,9 +622,15 @@ def report_markdown(report: EvalReport) -> str:
         systems_markdown(report),
     ]
     if report.candidates:
-        parts += ['', '## Model families (fitted in memory on the training pairs; thresholds '
-                  'by grouped cross-validation on them)', '',
-                  candidates_markdown(report), '', verdict(report)]
+        parts += [
+            '',
+            '## Model families (fitted in memory on the training pairs; thresholds '
+            'by grouped cross-validation on them)',
+            '',
+            candidates_markdown(report),
+            '',
+            verdict(report),
+        ]
     return '\n'.join(parts) + '\n'
 
 
@@ -564,37 +640,74 @@ def results_csv_rows(report: EvalReport) -> list[dict[str, Any]]:
     for r in report.rows:
         s = r.scores
         p = r.paper or (math.nan,) * 4
-        out.append({
-            'classifier': r.name, 'group': r.group, 'label': r.label,
-            'accuracy': s.accuracy, 'precision': s.precision, 'recall': s.recall, 'f1': s.f1,
-            'predicted_yes': s.predicted, 'positives': s.positives, 'pairs': s.n,
-            'paper_accuracy': p[0], 'paper_precision': p[1], 'paper_recall': p[2],
-            'paper_f1': p[3], 'note': r.note,
-        })
+        out.append(
+            {
+                'classifier': r.name,
+                'group': r.group,
+                'label': r.label,
+                'accuracy': s.accuracy,
+                'precision': s.precision,
+                'recall': s.recall,
+                'f1': s.f1,
+                'predicted_yes': s.predicted,
+                'positives': s.positives,
+                'pairs': s.n,
+                'paper_accuracy': p[0],
+                'paper_precision': p[1],
+                'paper_recall': p[2],
+                'paper_f1': p[3],
+                'note': r.note,
+            }
+        )
     for c in report.candidates:
         s = c.scores
-        out.append({
-            'classifier': f'{c.candidate} {c.model}', 'group': 'candidate', 'label': c.model,
-            'accuracy': s.accuracy, 'precision': s.precision, 'recall': s.recall, 'f1': s.f1,
-            'predicted_yes': s.predicted, 'positives': s.positives, 'pairs': s.n,
-            'paper_accuracy': math.nan, 'paper_precision': math.nan, 'paper_recall': math.nan,
-            'paper_f1': math.nan,
-            'note': f'precision at model-file recall {c.precision_at_file_recall:.4f}; '
-                    + (f'after R veto precision {c.veto.precision:.4f} recall '
-                       f'{c.veto.recall:.4f}; ' if c.veto else '')
-                    + f'{c.decision_us:.1f} us per decision',
-        })
+        out.append(
+            {
+                'classifier': f'{c.candidate} {c.model}',
+                'group': 'candidate',
+                'label': c.model,
+                'accuracy': s.accuracy,
+                'precision': s.precision,
+                'recall': s.recall,
+                'f1': s.f1,
+                'predicted_yes': s.predicted,
+                'positives': s.positives,
+                'pairs': s.n,
+                'paper_accuracy': math.nan,
+                'paper_precision': math.nan,
+                'paper_recall': math.nan,
+                'paper_f1': math.nan,
+                'note': f'precision at model-file recall {c.precision_at_file_recall:.4f}; '
+                + (
+                    f'after R veto precision {c.veto.precision:.4f} recall {c.veto.recall:.4f}; '
+                    if c.veto
+                    else ''
+                )
+                + f'{c.decision_us:.1f} us per decision',
+            }
+        )
     for sl in report.systems:
-        out.append({
-            'classifier': f'sequence level: {sl.name}', 'group': 'system', 'label': '',
-            'accuracy': math.nan, 'precision': sl.first_yes_good, 'recall': math.nan,
-            'f1': math.nan, 'predicted_yes': sl.batches_with_yes, 'positives': math.nan,
-            'pairs': sl.batches, 'paper_accuracy': math.nan, 'paper_precision': math.nan,
-            'paper_recall': math.nan, 'paper_f1': math.nan,
-            'note': f'median frames to first yes {sl.median_frames_to_first_yes}; '
-                    f'false yes on rotation pairs {sl.false_yes_rotation:.4f}; '
-                    f'precision column = first yes good',
-        })
+        out.append(
+            {
+                'classifier': f'sequence level: {sl.name}',
+                'group': 'system',
+                'label': '',
+                'accuracy': math.nan,
+                'precision': sl.first_yes_good,
+                'recall': math.nan,
+                'f1': math.nan,
+                'predicted_yes': sl.batches_with_yes,
+                'positives': math.nan,
+                'pairs': sl.batches,
+                'paper_accuracy': math.nan,
+                'paper_precision': math.nan,
+                'paper_recall': math.nan,
+                'paper_f1': math.nan,
+                'note': f'median frames to first yes {sl.median_frames_to_first_yes}; '
+                f'false yes on rotation pairs {sl.false_yes_rotation:.4f}; '
+                f'precision column = first yes good',
+            }
+        )
     return out
 
 

@@ -106,8 +106,11 @@ class MethodOutcome:
 
     def label_without_depth(self, config: LabelConfig) -> int:
         """1 when E_t and the rotation error are below their thresholds (no E_R)."""
-        return int(self.ok and self.et < config.et_max
-                   and self.rotation_error_deg < config.rotation_error_max_deg)
+        return int(
+            self.ok
+            and self.et < config.et_max
+            and self.rotation_error_deg < config.rotation_error_max_deg
+        )
 
 
 @dataclass(frozen=True)
@@ -208,9 +211,7 @@ def method_outcome(
         return MethodOutcome(False, est.reason or 'failed')
     n_points = len(est.points)
     t_norm = float(np.linalg.norm(t_gt))
-    et = (
-        float(geometry.translation_chordal_error(t_gt, est.t)) if t_norm > 1e-9 else math.nan
-    )
+    et = float(geometry.translation_chordal_error(t_gt, est.t)) if t_norm > 1e-9 else math.nan
     idx = np.asarray(est.indices, dtype=np.int64)
     keep = gt_valid[idx]
     n_gt = int(keep.sum())
@@ -218,11 +219,20 @@ def method_outcome(
         er_first, er_median = _reconstruction_errors(gt_points[idx[keep]], est.points[keep])
     else:
         er_first = er_median = math.nan
-    rot_err = (geometry.rotation_angle_deg(np.asarray(R_gt).T @ est.R) if R_gt is not None
-               else math.nan)
+    rot_err = (
+        geometry.rotation_angle_deg(np.asarray(R_gt).T @ est.R) if R_gt is not None else math.nan
+    )
     return MethodOutcome(
-        True, est.reason or 'ok', et, er_first, er_median, n_points, n_gt,
-        float(est.parallax_deg), np.asarray(est.t, dtype=float).reshape(3), float(rot_err),
+        True,
+        est.reason or 'ok',
+        et,
+        er_first,
+        er_median,
+        n_points,
+        n_gt,
+        float(est.parallax_deg),
+        np.asarray(est.t, dtype=float).reshape(3),
+        float(rot_err),
     )
 
 
@@ -255,8 +265,9 @@ def ground_truth_points(
     lookup = p0 if depth_pixels is None else depth_pixels
     gt_points, gt_valid = backproject(lookup, depth_ref, K)
     if depth_pixels is not None:  # the ray through the undistorted pixel, at that depth
-        rays = np.column_stack(((np.asarray(p0, float) - K[:2, 2]) / np.diag(K)[:2],
-                                np.ones(len(p0))))
+        rays = np.column_stack(
+            ((np.asarray(p0, float) - K[:2, 2]) / np.diag(K)[:2], np.ones(len(p0)))
+        )
         gt_points = rays * gt_points[:, 2:3]
     return gt_points, gt_valid
 
@@ -286,8 +297,9 @@ def label_pair_points(
         m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
         for m in POSE_METHODS
     }
-    return PairLabels(baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config,
-                      has_depth=has_depth)
+    return PairLabels(
+        baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config, has_depth=has_depth
+    )
 
 
 def label_pair(
@@ -317,8 +329,9 @@ def label_pair(
             pixel grid than ``p0`` (the distorted image, when ``p0`` is undistorted); default p0.
     """
     gt_points, gt_valid = ground_truth_points(p0, K, depth_ref, depth_pixels)
-    return label_pair_points(p0, p1, K, gt_points, gt_valid, T_w_ref, T_w_cur, config,
-                             has_depth=depth_ref is not None)
+    return label_pair_points(
+        p0, p1, K, gt_points, gt_valid, T_w_ref, T_w_cur, config, has_depth=depth_ref is not None
+    )
 
 
 def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np.ndarray]:
@@ -333,8 +346,9 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     out = dict(columns)
     rule = ScaleRule(config.scale_rule)
     baseline = np.asarray(columns['gt_baseline_m'], dtype=float)
-    stored_rule = np.asarray(columns.get('scale_rule', np.full(len(baseline), rule.value)),
-                             dtype=object).astype(str)
+    stored_rule = np.asarray(
+        columns.get('scale_rule', np.full(len(baseline), rule.value)), dtype=object
+    ).astype(str)
     no_depth = stored_rule == NO_DEPTH
     warned = False
     for m in POSE_METHODS:
@@ -350,9 +364,12 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
                 else:
                     rotation_ok = np.asarray(columns[f'{m}_label']).astype(bool)
                     if not warned:
-                        LOG.warning('relabel: %d rows labelled without depth and no '
-                                    'rotation-error column; their stored labels stand as the '
-                                    'rotation verdict', int(no_depth.sum()))
+                        LOG.warning(
+                            'relabel: %d rows labelled without depth and no '
+                            'rotation-error column; their stored labels stand as the '
+                            'rotation verdict',
+                            int(no_depth.sum()),
+                        )
                         warned = True
                 label = np.where(no_depth, ok & (et < config.et_max) & rotation_ok, label)
         out[f'{m}_er'] = er

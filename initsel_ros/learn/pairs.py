@@ -298,7 +298,8 @@ def pair_row(
         norm = float(np.linalg.norm(t_gt))
         row.update(vins_parallax_px=vins.parallax_px, vins_inliers=vins.inliers)
         row['vins_et'] = (
-            float(np.linalg.norm(t_gt / norm - vins.t)) if vins.inliers > 0 and norm > 1e-9
+            float(np.linalg.norm(t_gt / norm - vins.t))
+            if vins.inliers > 0 and norm > 1e-9
             else math.nan
         )
     else:
@@ -306,19 +307,21 @@ def pair_row(
         row['vins_et'] = math.nan
     for m in POSE_METHODS:
         o = labels.outcomes[m]
-        row.update({
-            f'{m}_ok': int(o.ok),
-            f'{m}_reason': o.reason.replace(',', ';').replace('\n', ' '),
-            f'{m}_et': o.et,
-            f'{m}_er': o.er(labels.config.scale_rule),
-            f'{m}_er_first_two': o.er_first_two,
-            f'{m}_er_median': o.er_median,
-            f'{m}_n_points': o.n_points,
-            f'{m}_n_gt_points': o.n_gt_points,
-            f'{m}_parallax_deg': o.parallax_deg,
-            f'{m}_rot_err_deg': o.rotation_error_deg,  # stored once table.py has the column
-            f'{m}_label': labels.label(m),
-        })
+        row.update(
+            {
+                f'{m}_ok': int(o.ok),
+                f'{m}_reason': o.reason.replace(',', ';').replace('\n', ' '),
+                f'{m}_et': o.et,
+                f'{m}_er': o.er(labels.config.scale_rule),
+                f'{m}_er_first_two': o.er_first_two,
+                f'{m}_er_median': o.er_median,
+                f'{m}_n_points': o.n_points,
+                f'{m}_n_gt_points': o.n_gt_points,
+                f'{m}_parallax_deg': o.parallax_deg,
+                f'{m}_rot_err_deg': o.rotation_error_deg,  # stored once table.py has the column
+                f'{m}_label': labels.label(m),
+            }
+        )
     return row
 
 
@@ -326,8 +329,12 @@ def pair_row(
 _SEQUENCES: dict[str, Any] = {}
 
 
-def _open(path: str, nearest_tolerance: float | None = None,
-          sequence: str | None = None, image_topic: str | None = None) -> Any:
+def _open(
+    path: str,
+    nearest_tolerance: float | None = None,
+    sequence: str | None = None,
+    image_topic: str | None = None,
+) -> Any:
     """open_sequence with a per-process cache (bags are slow to open)."""
     key = f'{path}\0{nearest_tolerance}\0{sequence}\0{image_topic}'
     if key not in _SEQUENCES:
@@ -349,8 +356,12 @@ def undistort_pixels(pixels: np.ndarray, intrinsics: Any) -> np.ndarray:
     if not intrinsics.has_distortion or len(pixels) == 0:
         return np.asarray(pixels, dtype=np.float32)
     K = intrinsics.K
-    out = cv2.undistortPoints(np.asarray(pixels, np.float32).reshape(-1, 1, 2), K,
-                              np.asarray(intrinsics.distortion, dtype=np.float64), P=K)
+    out = cv2.undistortPoints(
+        np.asarray(pixels, np.float32).reshape(-1, 1, 2),
+        K,
+        np.asarray(intrinsics.distortion, dtype=np.float64),
+        P=K,
+    )
     return out.reshape(-1, 2).astype(np.float32)
 
 
@@ -406,8 +417,9 @@ class TrackedBatch:
     config: DatasetConfig
 
 
-def track_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
-                         config: DatasetConfig) -> TrackedBatch:
+def track_sequence_batch(
+    sequence: Any, batch: int, frames: Sequence[int], config: DatasetConfig
+) -> TrackedBatch:
     """The sequential part of one batch: correspondences and ground-truth points per pair."""
     frames = list(frames)
     ref = frames[0]
@@ -432,31 +444,56 @@ def track_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
         depth_pixels = None
         if intr.has_distortion:
             depth_pixels = pair.p0
-            pair = Pair(pair.ref_index, pair.cur_index, undistort_pixels(pair.p0, intr),
-                        undistort_pixels(pair.p1, intr))
+            pair = Pair(
+                pair.ref_index,
+                pair.cur_index,
+                undistort_pixels(pair.p0, intr),
+                undistort_pixels(pair.p1, intr),
+            )
         gt_points, gt_valid = ground_truth_points(pair.p0, K, depth, depth_pixels)
         stamps = (ref_stamp, float(sequence.frames[pair.cur_index].stamp))
         inputs.append(PairInput(pair, gt_points, gt_valid, T_ref, T_cur, stamps))
     return TrackedBatch(sequence.name, batch, size, K, depth is not None, tuple(inputs), config)
 
 
-def label_inputs(tracked: TrackedBatch, start: int = 0,
-                 stop: int | None = None) -> list[dict[str, Any]]:
+def label_inputs(
+    tracked: TrackedBatch, start: int = 0, stop: int | None = None
+) -> list[dict[str, Any]]:
     """Rows of the pairs ``tracked.inputs[start:stop]`` (independent of the other pairs)."""
     config = tracked.config
     rows = []
     for item in tracked.inputs[start:stop]:
         pair = item.pair
-        labels = label_pair_points(pair.p0, pair.p1, tracked.K, item.gt_points, item.gt_valid,
-                                   item.T_ref, item.T_cur, config.label,
-                                   has_depth=tracked.has_depth)
-        rows.append(pair_row(tracked.sequence_name, tracked.batch, pair, item.stamps,
-                             tracked.size, tracked.K, labels, config.source, config))
+        labels = label_pair_points(
+            pair.p0,
+            pair.p1,
+            tracked.K,
+            item.gt_points,
+            item.gt_valid,
+            item.T_ref,
+            item.T_cur,
+            config.label,
+            has_depth=tracked.has_depth,
+        )
+        rows.append(
+            pair_row(
+                tracked.sequence_name,
+                tracked.batch,
+                pair,
+                item.stamps,
+                tracked.size,
+                tracked.K,
+                labels,
+                config.source,
+                config,
+            )
+        )
     return rows
 
 
-def label_sequence_batch(sequence: Any, batch: int, frames: Sequence[int],
-                         config: DatasetConfig) -> list[dict[str, Any]]:
+def label_sequence_batch(
+    sequence: Any, batch: int, frames: Sequence[int], config: DatasetConfig
+) -> list[dict[str, Any]]:
     """Rows of one batch of an open sequence (pairs without ground truth are skipped)."""
     return label_inputs(track_sequence_batch(sequence, batch, frames, config))
 
@@ -564,13 +601,15 @@ def _run_in_process(plans: list[_Plan], on_done: Callable[[_Plan], None]) -> Non
         cv2.setNumThreads(threads)
 
 
-def _run_in_pool(plans: list[_Plan], config: DatasetConfig,
-                 on_done: Callable[[_Plan], None]) -> None:
+def _run_in_pool(
+    plans: list[_Plan], config: DatasetConfig, on_done: Callable[[_Plan], None]
+) -> None:
     """Tracking tasks (at most ``jobs`` at a time) and the label chunks of tracked batches."""
     ctx = multiprocessing.get_context('spawn')
     waiting = list(reversed(plans))
     running: dict[Future, tuple[_Plan, int]] = {}  # chunk -1 = tracking
     with ProcessPoolExecutor(config.jobs, mp_context=ctx, initializer=_init_worker) as pool:
+
         def top_up() -> None:
             tracking = sum(1 for _, k in running.values() if k < 0)
             while waiting and tracking < config.jobs:
@@ -601,24 +640,32 @@ def _dask_client(config: DatasetConfig) -> Any:
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
-        raise DatasetError('--executor dask needs dask.distributed: pip install '
-                           '"initsel_ros[cluster]" (or dask[distributed])') from exc
+        raise DatasetError(
+            '--executor dask needs dask.distributed: pip install '
+            '"initsel_ros[cluster]" (or dask[distributed])'
+        ) from exc
     if config.scheduler:
         try:
             return Client(config.scheduler, timeout=30)
         except (OSError, TimeoutError) as exc:
-            raise DatasetError(f'cannot reach the dask scheduler {config.scheduler}: '
-                               f'{exc}') from exc
-    cluster = LocalCluster(n_workers=max(1, config.jobs), threads_per_worker=1,
-                           processes=True, dashboard_address=None,
-                           silence_logs=logging.WARNING)
+            raise DatasetError(
+                f'cannot reach the dask scheduler {config.scheduler}: {exc}'
+            ) from exc
+    cluster = LocalCluster(
+        n_workers=max(1, config.jobs),
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=logging.WARNING,
+    )
     client = Client(cluster)
     client.cluster_owned = cluster  # closed with the client below
     return client
 
 
-def _run_on_dask(plans: list[_Plan], config: DatasetConfig,
-                 on_done: Callable[[_Plan], None]) -> None:
+def _run_on_dask(
+    plans: list[_Plan], config: DatasetConfig, on_done: Callable[[_Plan], None]
+) -> None:
     """The same per-batch and per-chunk functions as the pool, as dask tasks.
 
     Each batch is one tracking task; its label chunks are planned from the batch length
@@ -635,8 +682,9 @@ def _run_on_dask(plans: list[_Plan], config: DatasetConfig,
             bounds = chunk_bounds(len(plan.task.frames) - 1, config.chunk)
             plan.n_chunks = len(bounds)
             for j, (start, stop) in enumerate(bounds):
-                future = client.submit(_single_threaded, label_inputs, tracked, start, stop,
-                                       pure=False)
+                future = client.submit(
+                    _single_threaded, label_inputs, tracked, start, stop, pure=False
+                )
                 futures[future] = (plan, j)
             if not bounds:
                 on_done(plan)
@@ -688,11 +736,16 @@ def build_table(
             raise
         except Exception as exc:  # readers may raise anything on foreign files
             reason = str(exc).strip() or 'no message'
-            raise DatasetError(f'{path}: cannot open sequence: {type(exc).__name__}: '
-                               f'{reason}') from exc
+            raise DatasetError(
+                f'{path}: cannot open sequence: {type(exc).__name__}: {reason}'
+            ) from exc
         if not sequence.has_depth:
-            LOG.info('%s: no depth; pairs are labelled from E_t and the rotation error '
-                     '(scale_rule %s, E_R NaN)', sequence.name, NO_DEPTH)
+            LOG.info(
+                '%s: no depth; pairs are labelled from E_t and the rotation error '
+                '(scale_rule %s, E_R NaN)',
+                sequence.name,
+                NO_DEPTH,
+            )
         names.append(sequence.name)
         for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
             tasks.append(BatchTask(path, b, tuple(frames), config))
@@ -708,8 +761,9 @@ def build_table(
     try:
         executor = Executor(config.executor)
     except ValueError:
-        raise DatasetError(f'unknown executor {config.executor!r}: '
-                           f'{", ".join(e.value for e in Executor)}') from None
+        raise DatasetError(
+            f'unknown executor {config.executor!r}: {", ".join(e.value for e in Executor)}'
+        ) from None
     if config.scheduler and executor is not Executor.DASK:
         raise DatasetError('a dask scheduler address needs the dask executor (--executor dask)')
     potential_pairs = sum(len(task.frames) - 1 for task in tasks)
@@ -724,7 +778,11 @@ def build_table(
     stats = BuildStats(tuple(names), len(tasks), len(ordered), time.perf_counter() - start)
     LOG.info(
         '%d pairs from %d batches of %d sequence(s) in %.1f s (%.0f pairs/s)',
-        stats.pairs, stats.batches, len(names), stats.seconds, stats.pairs_per_second,
+        stats.pairs,
+        stats.batches,
+        len(names),
+        stats.seconds,
+        stats.pairs_per_second,
     )
     if on_stats is not None:
         on_stats(stats)
@@ -741,14 +799,20 @@ def explain_no_pairs(sources: Sequence[str | Path], config: DatasetConfig) -> st
         if n_posed == 0:
             reasons.append(f'{seq.name}: none of its {len(seq)} frames has a ground-truth pose')
         elif not batches:
-            reasons.append(f'{seq.name}: {len(seq)} frames make no batch of 2 or more '
-                           f'(batch {config.batch}, stride {config.stride})')
+            reasons.append(
+                f'{seq.name}: {len(seq)} frames make no batch of 2 or more '
+                f'(batch {config.batch}, stride {config.stride})'
+            )
         elif not any(seq.frames[b[0]].pose is not None for b in batches):
-            reasons.append(f'{seq.name}: no batch starts on a frame with a pose '
-                           f'({n_posed} of {len(seq)} frames have one)')
+            reasons.append(
+                f'{seq.name}: no batch starts on a frame with a pose '
+                f'({n_posed} of {len(seq)} frames have one)'
+            )
         else:
-            reasons.append(f'{seq.name}: every pair had fewer than {config.min_tracks} '
-                           'correspondences or no pose')
+            reasons.append(
+                f'{seq.name}: every pair had fewer than {config.min_tracks} '
+                'correspondences or no pose'
+            )
     return 'no pair could be labelled: ' + '; '.join(reasons)
 
 

@@ -51,7 +51,8 @@ def _baseline_points(test: PairTable, model: str) -> dict[str, np.ndarray]:
         for version in baselines.OrbSlamVersion:
             choice = baselines.orbslam_choice(test['orb_ratio'], version)
             ok = (
-                (choice == model) & (np.asarray(test[f'{model}_ok']) == 1)
+                (choice == model)
+                & (np.asarray(test[f'{model}_ok']) == 1)
                 & (np.asarray(test[f'{model}_n_points']) >= 50)
                 & (np.asarray(test[f'{model}_parallax_deg']) >= 1.0)
             )

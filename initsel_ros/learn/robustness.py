@@ -78,13 +78,18 @@ MIN_BASELINE_M = 0.05
 def _undistort(pts: np.ndarray, camera: Intrinsics) -> np.ndarray:
     if not camera.has_distortion or len(pts) == 0:
         return np.asarray(pts, np.float64).reshape(-1, 2)
-    out = cv2.undistortPoints(np.asarray(pts, np.float64).reshape(-1, 1, 2), camera.K,
-                              np.array(camera.distortion), P=camera.K)
+    out = cv2.undistortPoints(
+        np.asarray(pts, np.float64).reshape(-1, 1, 2),
+        camera.K,
+        np.array(camera.distortion),
+        P=camera.K,
+    )
     return out.reshape(-1, 2)
 
 
-def true_positions(p0: np.ndarray, depth: np.ndarray, camera: Intrinsics, T_ref: np.ndarray,
-                   T_cur: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def true_positions(
+    p0: np.ndarray, depth: np.ndarray, camera: Intrinsics, T_ref: np.ndarray, T_cur: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where reference pixels truly are in the current frame (with the camera's distortion).
 
     Returns:
@@ -95,8 +100,9 @@ def true_positions(p0: np.ndarray, depth: np.ndarray, camera: Intrinsics, T_ref:
     xy = np.rint(p0).astype(np.int64)
     z = depth[np.clip(xy[:, 1], 0, h - 1), np.clip(xy[:, 0], 0, w - 1)].astype(np.float64)
     und = _undistort(p0, camera)
-    rays = np.column_stack([(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy],
-                            np.ones(len(und))])
+    rays = np.column_stack(
+        [(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy], np.ones(len(und))]
+    )
     X = rays * z[:, None]
     R, t = geometry.relative_pose(T_ref, T_cur)
     Xc = X @ R.T + t
@@ -120,9 +126,15 @@ class PairResult:
     points: int
 
 
-def _seed_map(p0: np.ndarray, p1: np.ndarray, X_gt: np.ndarray, valid: np.ndarray,
-              camera: Intrinsics, T_ref: np.ndarray, T_cur: np.ndarray,
-              ) -> tuple[float, float, float, int]:
+def _seed_map(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    X_gt: np.ndarray,
+    valid: np.ndarray,
+    camera: Intrinsics,
+    T_ref: np.ndarray,
+    T_cur: np.ndarray,
+) -> tuple[float, float, float, int]:
     """E 5-point pose of a pair against the truth: (E_t, rotation error deg, depth error,
     points); NaN when the estimate fails."""
     u0, u1 = _undistort(p0, camera), _undistort(p1, camera)
@@ -136,14 +148,19 @@ def _seed_map(p0: np.ndarray, p1: np.ndarray, X_gt: np.ndarray, valid: np.ndarra
     if len(idx) < 2:
         return et, rot, math.nan, est.n_points
     z_gt, z_est = X_gt[idx, 2], est.points[valid[est.indices], 2]
-    scale = float(np.median(np.linalg.norm(X_gt[idx], axis=1)
-                            / np.linalg.norm(est.points[valid[est.indices]], axis=1)))
+    scale = float(
+        np.median(
+            np.linalg.norm(X_gt[idx], axis=1)
+            / np.linalg.norm(est.points[valid[est.indices]], axis=1)
+        )
+    )
     depth_err = float(np.median(np.abs(scale * z_est - z_gt) / z_gt))
     return et, rot, depth_err, est.n_points
 
 
-def track_sequence(sequence: Any, config: TrackerConfig, batch: int = 30,
-                   min_frames: int = 1) -> tuple[list[PairResult], int]:
+def track_sequence(
+    sequence: Any, config: TrackerConfig, batch: int = 30, min_frames: int = 1
+) -> tuple[list[PairResult], int]:
     """Track every 30-frame batch and measure every pair against the ground truth.
 
     Returns:
@@ -168,8 +185,16 @@ def track_sequence(sequence: Any, config: TrackerConfig, batch: int = 30,
             seed = (math.nan, math.nan, math.nan, 0)
             if baseline >= MIN_BASELINE_M:
                 seed = _seed_map(tracks.ref, tracks.cur, X_gt, valid, camera, T_ref, T_cur)
-            out.append(PairResult(j - b0, len(tracks), float(np.median(err)),
-                                  float(np.mean(err > 2.0)), baseline, *seed))
+            out.append(
+                PairResult(
+                    j - b0,
+                    len(tracks),
+                    float(np.median(err)),
+                    float(np.mean(err > 2.0)),
+                    baseline,
+                    *seed,
+                )
+            )
         remaps += tracker.photometric_remaps
     return out, remaps
 
@@ -196,11 +221,13 @@ def _summary(results: Sequence[PairResult]) -> dict[str, float]:
     }
 
 
-def compare_trackers(out_dir: Path, frames: int = 120,
-                     modes: Iterable[Photometric] = tuple(Photometric),
-                     sequences: dict[str, dict[str, Any]] | None = None,
-                     ramps: dict[str, tuple[float, ...]] | None = None,
-                     ) -> list[dict[str, Any]]:
+def compare_trackers(
+    out_dir: Path,
+    frames: int = 120,
+    modes: Iterable[Photometric] = tuple(Photometric),
+    sequences: dict[str, dict[str, Any]] | None = None,
+    ramps: dict[str, tuple[float, ...]] | None = None,
+) -> list[dict[str, Any]]:
     """Render the sequences under each brightness condition and compare the tracker modes.
 
     Returns:
@@ -224,8 +251,13 @@ def compare_trackers(out_dir: Path, frames: int = 120,
                 effects, distortion = Effects(gain_ramp=ramp), ()
                 if cond in EXTRA_CONDITIONS:
                     effects, distortion = EXTRA_CONDITIONS[cond]()
-                render(path, frames=frames, effects=effects, distortion=distortion,
-                       **{**kwargs, 'seed': kwargs.get('seed', 0) + NOISE_SEEDS.get(cond, 0)})
+                render(
+                    path,
+                    frames=frames,
+                    effects=effects,
+                    distortion=distortion,
+                    **{**kwargs, 'seed': kwargs.get('seed', 0) + NOISE_SEEDS.get(cond, 0)},
+                )
             seq = _Cached(open_sequence(path))
             for i in range(len(seq)):  # decode before timing
                 seq.gray(i)
@@ -233,15 +265,22 @@ def compare_trackers(out_dir: Path, frames: int = 120,
             n_frames += len(seq)
             for mode in modes:
                 start = time.perf_counter()
-                results, n_remaps = track_sequence(seq, dataclasses.replace(
-                    TrackerConfig(), photometric=mode))
+                results, n_remaps = track_sequence(
+                    seq, dataclasses.replace(TrackerConfig(), photometric=mode)
+                )
                 seconds[mode] += time.perf_counter() - start
                 pooled[mode] += results
                 remaps[mode] += n_remaps
         for mode in modes:
-            rows.append({'condition': cond, 'mode': mode.value, **_summary(pooled[mode]),
-                         'seconds_per_frame': seconds[mode] / max(n_frames, 1),
-                         'remaps': remaps[mode] / max(n_frames, 1)})
+            rows.append(
+                {
+                    'condition': cond,
+                    'mode': mode.value,
+                    **_summary(pooled[mode]),
+                    'seconds_per_frame': seconds[mode] / max(n_frames, 1),
+                    'remaps': remaps[mode] / max(n_frames, 1),
+                }
+            )
             LOG.info('%s %s: %s', cond, mode.value, rows[-1])
     return rows
 
@@ -280,20 +319,23 @@ class _Cached:
 
 def tracker_markdown(rows: Sequence[dict[str, Any]]) -> str:
     """The tracker comparison as a Markdown table."""
-    head = ('| condition | photometric | tracks at frame 29 | track error px (median) | '
-            'tracks > 2 px | pairs with median error > 2 px | E_t median | E_t p90 | '
-            'rotation median deg | rotation p90 deg | '
-            'depth error median | bad seeds (E_t >= 0.2 or rot >= 1 deg) | tracking ms/frame | '
-            'frames remapped |')
+    head = (
+        '| condition | photometric | tracks at frame 29 | track error px (median) | '
+        'tracks > 2 px | pairs with median error > 2 px | E_t median | E_t p90 | '
+        'rotation median deg | rotation p90 deg | '
+        'depth error median | bad seeds (E_t >= 0.2 or rot >= 1 deg) | tracking ms/frame | '
+        'frames remapped |'
+    )
     lines = [head, '|' + '---|' * 14]
     for r in rows:
         lines.append(
-            f"| {r['condition']} | {r['mode']} | {r['tracks_end']:.0f} | "
-            f"{r['track_err_px']:.2f} | {100 * r['far_share']:.1f} % | "
-            f"{100 * r['lost_pairs']:.1f} % | {r['et_median']:.3f} | "
-            f"{r['et_p90']:.3f} | {r['rot_median']:.2f} | {r['rot_p90']:.2f} | "
-            f"{100 * r['depth_err_median']:.1f} % | {100 * r['bad_share']:.1f} % | "
-            f"{1e3 * r['seconds_per_frame']:.1f} | {100 * r['remaps']:.0f} % |")
+            f'| {r["condition"]} | {r["mode"]} | {r["tracks_end"]:.0f} | '
+            f'{r["track_err_px"]:.2f} | {100 * r["far_share"]:.1f} % | '
+            f'{100 * r["lost_pairs"]:.1f} % | {r["et_median"]:.3f} | '
+            f'{r["et_p90"]:.3f} | {r["rot_median"]:.2f} | {r["rot_p90"]:.2f} | '
+            f'{100 * r["depth_err_median"]:.1f} % | {100 * r["bad_share"]:.1f} % | '
+            f'{1e3 * r["seconds_per_frame"]:.1f} | {100 * r["remaps"]:.0f} % |'
+        )
     return '\n'.join(lines) + '\n'
 
 
@@ -317,9 +359,9 @@ class _Rectified:
         self.frames, self.name = sequence.frames, sequence.name
         self._maps = None
         if cam.has_distortion:
-            self._maps = cv2.initUndistortRectifyMap(cam.K, np.array(cam.distortion), None,
-                                                     cam.K, (cam.width, cam.height),
-                                                     cv2.CV_32FC1)
+            self._maps = cv2.initUndistortRectifyMap(
+                cam.K, np.array(cam.distortion), None, cam.K, (cam.width, cam.height), cv2.CV_32FC1
+            )
 
     def __len__(self) -> int:
         return len(self._seq)
@@ -363,13 +405,20 @@ def label_sequence(sequence: Any, config: Any = None) -> list[dict[str, Any]]:
         for pair in klt_pairs(view, frames, config.tracker):
             if len(pair.p0) < config.min_tracks:
                 continue
-            und = Pair(pair.ref_index, pair.cur_index, view.undistort(pair.p0),
-                       view.undistort(pair.p1))
-            labels = label_pair(und.p0, und.p1, K, depth, view.frames[ref].pose,
-                                view.frames[pair.cur_index].pose, config.label)
+            und = Pair(
+                pair.ref_index, pair.cur_index, view.undistort(pair.p0), view.undistort(pair.p1)
+            )
+            labels = label_pair(
+                und.p0,
+                und.p1,
+                K,
+                depth,
+                view.frames[ref].pose,
+                view.frames[pair.cur_index].pose,
+                config.label,
+            )
             stamps = (float(view.frames[ref].stamp), float(view.frames[pair.cur_index].stamp))
-            rows.append(pair_row(view.name, b, und, stamps, size, K, labels, Source.KLT,
-                                 config))
+            rows.append(pair_row(view.name, b, und, stamps, size, K, labels, Source.KLT, config))
     return rows
 
 
@@ -386,9 +435,12 @@ def _render_case(out_dir: Path, effect: str, level: str, kind: str) -> Path:
     return path
 
 
-def model_robustness(out_dir: Path, models_path: Path | None = None,
-                     effects: Sequence[str] | None = None, levels: Sequence[str] = LEVELS,
-                     ) -> list[dict[str, Any]]:
+def model_robustness(
+    out_dir: Path,
+    models_path: Path | None = None,
+    effects: Sequence[str] | None = None,
+    levels: Sequence[str] = LEVELS,
+) -> list[dict[str, Any]]:
     """Precision and recall after the R veto, first-yes quality and false 'yes' on rotation,
     per effect and strength.
 
@@ -411,7 +463,8 @@ def model_robustness(out_dir: Path, models_path: Path | None = None,
         known = EFFECT_LEVELS.get(effect, {'default': {}, 'strong': {}})
         for level in levels:
             if (level == 'strong' and 'strong' not in known) or (
-                    level == 'clean' and any(r['level'] == 'clean' for r in out)):
+                level == 'clean' and any(r['level'] == 'clean' for r in out)
+            ):
                 continue  # the clean sequences are the same for every effect: one row
             rows = []
             for kind in ('near', 'rotation'):
@@ -437,31 +490,41 @@ def model_robustness(out_dir: Path, models_path: Path | None = None,
     return out
 
 
-def models_markdown(rows: Sequence[dict[str, Any]], models_name: str = 'config/models.json',
-                    ) -> str:
+def models_markdown(
+    rows: Sequence[dict[str, Any]],
+    models_name: str = 'config/models.json',
+) -> str:
     """The model robustness table as Markdown."""
-    head = ('| effect | strength | pairs | F P / R | E P / R | H P / R | R P / R | '
-            'first yes good | false yes, baseline <= 5 cm | false yes, pure pan |')
-    lines = [f'Models: `{models_name}`; precision / recall of F, E, H after the R veto.', '',
-             head, '|' + '---|' * 10]
+    head = (
+        '| effect | strength | pairs | F P / R | E P / R | H P / R | R P / R | '
+        'first yes good | false yes, baseline <= 5 cm | false yes, pure pan |'
+    )
+    lines = [
+        f'Models: `{models_name}`; precision / recall of F, E, H after the R veto.',
+        '',
+        head,
+        '|' + '---|' * 10,
+    ]
 
     def pr(r: dict[str, Any], m: str) -> str:
-        return f"{r[f'{m}_precision']:.2f} / {r[f'{m}_recall']:.2f}"
+        return f'{r[f"{m}_precision"]:.2f} / {r[f"{m}_recall"]:.2f}'
 
     for r in rows:
         lines.append(
-            f"| {r['effect'] if r['level'] != 'clean' else 'none'} | {r['level']} | "
-            f"{r['pairs']} | {pr(r, 'F')} | {pr(r, 'E')} | {pr(r, 'H')} | {pr(r, 'R')} | "
-            f"{r['first_yes_good']:.2f} | {r['false_yes_rotation']:.2f} | "
-            f"{r['false_yes_pan']:.2f} |")
+            f'| {r["effect"] if r["level"] != "clean" else "none"} | {r["level"]} | '
+            f'{r["pairs"]} | {pr(r, "F")} | {pr(r, "E")} | {pr(r, "H")} | {pr(r, "R")} | '
+            f'{r["first_yes_good"]:.2f} | {r["false_yes_rotation"]:.2f} | '
+            f'{r["false_yes_pan"]:.2f} |'
+        )
     return '\n'.join(lines) + '\n'
 
 
 # ----------------------------------------------------------------------------- CLI
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m initsel_ros.learn.robustness tracker|models --out DIR``."""
-    parser = argparse.ArgumentParser(prog='python -m initsel_ros.learn.robustness',
-                                     description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(
+        prog='python -m initsel_ros.learn.robustness', description=__doc__.split('\n\n')[0]
+    )
     sub = parser.add_subparsers(dest='what', required=True)
     trk = sub.add_parser('tracker', help='compare the photometric modes of the tracker')
     trk.add_argument('--out', type=Path, required=True, help='folder for the rendered sequences')
@@ -469,10 +532,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     trk.add_argument('--markdown', type=Path, default=None, help='also write the table here')
     mod = sub.add_parser('models', help='precision and recall of a model file per effect')
     mod.add_argument('--out', type=Path, required=True, help='folder for the rendered sequences')
-    mod.add_argument('--models', type=Path, default=None,
-                     help='model file (default: the packaged config/models.json)')
-    mod.add_argument('--effects', nargs='+', default=None,
-                     help='effects (default: every one of EFFECT_LEVELS, then all together)')
+    mod.add_argument(
+        '--models',
+        type=Path,
+        default=None,
+        help='model file (default: the packaged config/models.json)',
+    )
+    mod.add_argument(
+        '--effects',
+        nargs='+',
+        default=None,
+        help='effects (default: every one of EFFECT_LEVELS, then all together)',
+    )
     mod.add_argument('--markdown', type=Path, default=None, help='also write the table here')
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)

@@ -128,11 +128,18 @@ def depth_error(points: np.ndarray, pixels_ref: np.ndarray, depth: np.ndarray | 
     return float(np.median(np.abs(s * z[ok] - z_gt[ok]) / z_gt[ok]))
 
 
-def _pose_errors(T_ref: np.ndarray, T_cur: np.ndarray, R: np.ndarray, t: np.ndarray,
-                 ) -> tuple[float, float, float]:
+def _pose_errors(
+    T_ref: np.ndarray,
+    T_cur: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+) -> tuple[float, float, float]:
     R_gt, t_gt = relative_pose(T_ref, T_cur)
-    return (translation_chordal_error(t_gt, t), rotation_angle_deg(np.asarray(R).T @ R_gt),
-            float(np.linalg.norm(t_gt)))
+    return (
+        translation_chordal_error(t_gt, t),
+        rotation_angle_deg(np.asarray(R).T @ R_gt),
+        float(np.linalg.norm(t_gt)),
+    )
 
 
 def _refined_pose(method: str, p0: np.ndarray, p1: np.ndarray, K: np.ndarray, refine: bool):
@@ -167,23 +174,47 @@ class _Batch:
         intr = self.intrinsics
         if not intr.has_distortion or len(pts) == 0:
             return np.asarray(pts, np.float64)
-        out = cv2.undistortPoints(pts.reshape(-1, 1, 2).astype(np.float32), intr.K,
-                                  np.asarray(intr.distortion, np.float64), P=intr.K)
+        out = cv2.undistortPoints(
+            pts.reshape(-1, 1, 2).astype(np.float32),
+            intr.K,
+            np.asarray(intr.distortion, np.float64),
+            P=intr.K,
+        )
         return out.reshape(-1, 2).astype(np.float64)
 
-    def outcome(self, system: str, index: int, method: str, R, t, points, pixels_ref,
-                published: int | None = None) -> BatchOutcome:
+    def outcome(
+        self,
+        system: str,
+        index: int,
+        method: str,
+        R,
+        t,
+        points,
+        pixels_ref,
+        published: int | None = None,
+    ) -> BatchOutcome:
         ref = self.start
         e_t, rot, baseline = _pose_errors(self.poses[ref], self.poses[index], R, t)
         return BatchOutcome(
-            self.name, self.planar, system, self.start, True, method, float(index - ref),
-            float((index if published is None else published) - ref), baseline, e_t, rot,
-            depth_error(points, pixels_ref, self.sequence.depth(ref)), len(points),
+            self.name,
+            self.planar,
+            system,
+            self.start,
+            True,
+            method,
+            float(index - ref),
+            float((index if published is None else published) - ref),
+            baseline,
+            e_t,
+            rot,
+            depth_error(points, pixels_ref, self.sequence.depth(ref)),
+            len(points),
         )
 
 
-def _run_selector(batch: _Batch, models: ModelSet, config: SelectorConfig,
-                  tolerance: float) -> BatchOutcome:
+def _run_selector(
+    batch: _Batch, models: ModelSet, config: SelectorConfig, tolerance: float
+) -> BatchOutcome:
     selector = Selector(models, batch.intrinsics, replace(config, mode='once'))
     for k in range(len(batch.images)):
         i = batch.start + k
@@ -197,11 +228,22 @@ def _run_selector(batch: _Batch, models: ModelSet, config: SelectorConfig,
             batch_for_pair = _Batch(batch.sequence, ref, cur - ref + 1)
         else:
             batch_for_pair = batch
-        out = batch_for_pair.outcome('initsel', cur, init.method.value, init.R, init.t,
-                                     init.points, init.pixels_ref, published=i)
-        out = replace(out, start=batch.start,
-                      frames_to_init=float(cur - batch.start),
-                      frames_to_publish=float(i - batch.start))
+        out = batch_for_pair.outcome(
+            'initsel',
+            cur,
+            init.method.value,
+            init.R,
+            init.t,
+            init.points,
+            init.pixels_ref,
+            published=i,
+        )
+        out = replace(
+            out,
+            start=batch.start,
+            frames_to_init=float(cur - batch.start),
+            frames_to_publish=float(i - batch.start),
+        )
         return _compare_methods(batch_for_pair, ref, cur, out, config, tolerance)
     return BatchOutcome(batch.name, batch.planar, 'initsel', batch.start, False)
 
@@ -215,21 +257,31 @@ def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
     return batch.undistort(tracks.ref), batch.undistort(tracks.cur)
 
 
-def _compare_methods(batch: _Batch, ref: int, cur: int, out: BatchOutcome,
-                     config: SelectorConfig, tolerance: float) -> BatchOutcome:
+def _compare_methods(
+    batch: _Batch, ref: int, cur: int, out: BatchOutcome, config: SelectorConfig, tolerance: float
+) -> BatchOutcome:
     """E_t of each method (estimated and refined as the selector would) on the same pair."""
     p0, p1 = _tracks_until(batch, config, ref, cur)
     K = batch.intrinsics.K
     errors = {}
     for m in POSE_METHODS:
         pose = _refined_pose(m, p0, p1, K, config.refine)
-        errors[m] = math.nan if pose is None else _pose_errors(
-            batch.poses[ref], batch.poses[cur], pose[0], pose[1])[0]
+        errors[m] = (
+            math.nan
+            if pose is None
+            else _pose_errors(batch.poses[ref], batch.poses[cur], pose[0], pose[1])[0]
+        )
     finite = {m: e for m, e in errors.items() if math.isfinite(e)}
     best = min(finite, key=finite.get) if finite else ''
     chosen_ok = bool(finite) and out.e_t <= min(finite.values()) + tolerance
-    return replace(out, best_method=best, chosen_ok=chosen_ok, e_t_f=errors['F'],
-                   e_t_e=errors['E'], e_t_h=errors['H'])
+    return replace(
+        out,
+        best_method=best,
+        chosen_ok=chosen_ok,
+        e_t_f=errors['F'],
+        e_t_e=errors['E'],
+        e_t_h=errors['H'],
+    )
 
 
 def _orb_attempt(p0, p1, K, version: OrbSlamVersion):
@@ -289,13 +341,21 @@ def _run_baselines(batch: _Batch, config: SelectorConfig) -> list[BatchOutcome]:
                 found[name] = batch.outcome(name, batch.start + k, method, R, t, points, pixels)
         if len(found) == len(attempts):
             break
-    return [found.get(name, BatchOutcome(batch.name, batch.planar, name, batch.start, False))
-            for name in attempts]
+    return [
+        found.get(name, BatchOutcome(batch.name, batch.planar, name, batch.start, False))
+        for name in attempts
+    ]
 
 
-def evaluate_batch(path: str, start: int, length: int, model_path: str,
-                   config: SelectorConfig, tolerance: float = 0.05,
-                   baselines: bool = True) -> list[BatchOutcome]:
+def evaluate_batch(
+    path: str,
+    start: int,
+    length: int,
+    model_path: str,
+    config: SelectorConfig,
+    tolerance: float = 0.05,
+    baselines: bool = True,
+) -> list[BatchOutcome]:
     """Every system's outcome on one batch (a process-pool task: arguments are picklable)."""
     from initsel_ros.datasets import open_sequence
 
@@ -310,9 +370,16 @@ def evaluate_batch(path: str, start: int, length: int, model_path: str,
 
 
 def evaluate_sequences(
-    paths: Sequence[Path | str], model_path: Path | str, config: SelectorConfig | None = None,
-    *, length: int = 60, step: int = 30, jobs: int = 2, tolerance: float = 0.05,
-    baselines: bool = True, progress: Callable[[int, int], None] | None = None,
+    paths: Sequence[Path | str],
+    model_path: Path | str,
+    config: SelectorConfig | None = None,
+    *,
+    length: int = 60,
+    step: int = 30,
+    jobs: int = 2,
+    tolerance: float = 0.05,
+    baselines: bool = True,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[BatchOutcome]:
     """Run :func:`evaluate_batch` over every batch of every sequence (in a process pool)."""
     from initsel_ros.datasets import open_sequence
@@ -366,6 +433,7 @@ class SystemSummary:
 
 def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
     """Per group (planar, non-planar, no baseline) and system, the table's figures."""
+
     def group_of(o: BatchOutcome) -> str:
         if any(m in o.sequence.lower() for m in NO_BASELINE_MARKERS):
             return 'rotation/static'
@@ -381,17 +449,24 @@ def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
             counts: dict[str, int] = {}
             for o in done:
                 counts[o.method] = counts.get(o.method, 0) + 1
-            rows.append(SystemSummary(
-                group, system, len(sel), len(done),
-                _median([o.e_t for o in done]), _median([o.rotation_deg for o in done]),
-                _median([o.depth_error for o in done]),
-                float(np.mean([o.e_t < 0.1 for o in done])) if done else math.nan,
-                float(np.mean([o.chosen_ok for o in done]))
-                if done and system == 'initsel' else math.nan,
-                _median([o.frames_to_init for o in done]),
-                _median([o.frames_to_publish for o in done]),
-                ' '.join(f'{m}:{c}' for m, c in sorted(counts.items())),
-            ))
+            rows.append(
+                SystemSummary(
+                    group,
+                    system,
+                    len(sel),
+                    len(done),
+                    _median([o.e_t for o in done]),
+                    _median([o.rotation_deg for o in done]),
+                    _median([o.depth_error for o in done]),
+                    float(np.mean([o.e_t < 0.1 for o in done])) if done else math.nan,
+                    float(np.mean([o.chosen_ok for o in done]))
+                    if done and system == 'initsel'
+                    else math.nan,
+                    _median([o.frames_to_init for o in done]),
+                    _median([o.frames_to_publish for o in done]),
+                    ' '.join(f'{m}:{c}' for m, c in sorted(counts.items())),
+                )
+            )
     return rows
 
 
@@ -413,7 +488,8 @@ def summary_markdown(rows: Sequence[SystemSummary]) -> str:
             f'{_f(r.median_rotation_deg, 2)} | {_f(r.median_depth_error)} | '
             f'{_f(r.share_e_t_below_0_1, 2)} | {_f(r.chosen_ok_share, 2)} | '
             f'{_f(r.median_frames_to_init, 1)} | {_f(r.median_frames_to_publish, 1)} | '
-            f'{r.methods} |')
+            f'{r.methods} |'
+        )
     return '\n'.join(lines)
 
 
@@ -423,12 +499,22 @@ def outcomes_csv(outcomes: Sequence[BatchOutcome], path: Path) -> None:
 
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, 'w', newline='') as f:
-        writer = csv.DictWriter(f, fieldnames=list(asdict(outcomes[0]).keys()) if outcomes
-                                else ['sequence'])
+        writer = csv.DictWriter(
+            f, fieldnames=list(asdict(outcomes[0]).keys()) if outcomes else ['sequence']
+        )
         writer.writeheader()
         for o in outcomes:
             writer.writerow(asdict(o))
 
 
-__all__ = ['SYSTEMS', 'BatchOutcome', 'SystemSummary', 'depth_error', 'evaluate_batch',
-           'evaluate_sequences', 'outcomes_csv', 'summarize', 'summary_markdown']
+__all__ = [
+    'SYSTEMS',
+    'BatchOutcome',
+    'SystemSummary',
+    'depth_error',
+    'evaluate_batch',
+    'evaluate_sequences',
+    'outcomes_csv',
+    'summarize',
+    'summary_markdown',
+]

@@ -255,9 +255,7 @@ def read_table(path: Path) -> PairTable:
             else:
                 out[name] = np.array([int(v) for v in values], dtype=np.int64)
         except (IndexError, ValueError) as exc:
-            bad = next(
-                (k + 2 for k, row in enumerate(raw) if len(row) != len(header)), 'unknown'
-            )
+            bad = next((k + 2 for k, row in enumerate(raw) if len(row) != len(header)), 'unknown')
             raise DatasetError(
                 f'{path}: column {name!r} is malformed (first bad line: {bad}): {exc}'
             ) from exc

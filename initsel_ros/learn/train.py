@@ -146,8 +146,9 @@ class TrainConfig:
     def __post_init__(self) -> None:
         unknown = [n for n in self.extra if n not in EXTRA_FEATURE_NAMES]
         if unknown:
-            raise ConfigError(f'unknown extra features {unknown}; known: '
-                              f'{", ".join(EXTRA_FEATURE_NAMES)}')
+            raise ConfigError(
+                f'unknown extra features {unknown}; known: {", ".join(EXTRA_FEATURE_NAMES)}'
+            )
         bad = [m for m in self.families if m not in METHODS]
         if bad:
             raise ConfigError(f'unknown models {bad} (models: {", ".join(METHODS)})')
@@ -192,9 +193,7 @@ def grouped_folds(groups: np.ndarray, folds: int, seed: int) -> list[np.ndarray]
     unique = np.unique(groups)
     k = int(min(folds, len(unique)))
     if k < 2:
-        raise DatasetError(
-            f'need at least 2 batches for grouped validation, got {len(unique)}'
-        )
+        raise DatasetError(f'need at least 2 batches for grouped validation, got {len(unique)}')
     order = np.random.default_rng(seed).permutation(unique)
     fold_of = {g: i % k for i, g in enumerate(order)}
     assignment = np.array([fold_of[g] for g in groups])
@@ -241,9 +240,14 @@ class ThresholdChoice:
     def to_dict(self) -> dict[str, Any]:
         """Plain data for the model file."""
         return {
-            'threshold': self.threshold, 'precision': self.precision, 'recall': self.recall,
-            'f1': self.f1, 'accuracy': self.accuracy, 'predicted_positive': self.predicted,
-            'target_reached': self.reached, 'rule': self.rule,
+            'threshold': self.threshold,
+            'precision': self.precision,
+            'recall': self.recall,
+            'f1': self.f1,
+            'accuracy': self.accuracy,
+            'predicted_positive': self.predicted,
+            'target_reached': self.reached,
+            'rule': self.rule,
         }
 
 
@@ -321,8 +325,10 @@ def fit_logistic(
     )
     clf.fit(scaler.transform(X), y)
     return (
-        np.asarray(scaler.mean_, dtype=float), np.asarray(scaler.scale_, dtype=float),
-        np.asarray(clf.coef_[0], dtype=float), float(clf.intercept_[0]),
+        np.asarray(scaler.mean_, dtype=float),
+        np.asarray(scaler.scale_, dtype=float),
+        np.asarray(clf.coef_[0], dtype=float),
+        float(clf.intercept_[0]),
     )
 
 
@@ -342,23 +348,26 @@ def fit_trees(
     from sklearn.utils.class_weight import compute_sample_weight
 
     X = impute(X)
-    weight = (compute_sample_weight('balanced', y)
-              if class_weight is ClassWeight.BALANCED else None)
+    weight = compute_sample_weight('balanced', y) if class_weight is ClassWeight.BALANCED else None
     clf = GradientBoostingClassifier(
-        n_estimators=config.n_trees, max_depth=config.depth,
-        learning_rate=config.learning_rate, random_state=seed,
+        n_estimators=config.n_trees,
+        max_depth=config.depth,
+        learning_rate=config.learning_rate,
+        random_state=seed,
     ).fit(X, y, sample_weight=weight)
     trees = []
     for estimator in clf.estimators_[:, 0]:
         t = estimator.tree_
         leaf = t.children_left < 0
-        trees.append(Tree(
-            feature=np.where(leaf, -1, t.feature).astype(np.int64),
-            split=np.where(leaf, 0.0, t.threshold),
-            left=np.where(leaf, -1, t.children_left).astype(np.int64),
-            right=np.where(leaf, -1, t.children_right).astype(np.int64),
-            value=np.where(leaf, config.learning_rate * t.value[:, 0, 0], 0.0),
-        ))
+        trees.append(
+            Tree(
+                feature=np.where(leaf, -1, t.feature).astype(np.int64),
+                split=np.where(leaf, 0.0, t.threshold),
+                left=np.where(leaf, -1, t.children_left).astype(np.int64),
+                right=np.where(leaf, -1, t.children_right).astype(np.int64),
+                value=np.where(leaf, config.learning_rate * t.value[:, 0, 0], 0.0),
+            )
+        )
     reference = clf.decision_function(X)
     probe = TreeEnsembleModel('probe', tuple(map(str, range(X.shape[1]))), tuple(trees), 0.0)
     sums = probe.decision_function(X)
@@ -370,7 +379,11 @@ def fit_trees(
 
 
 def fit_model(
-    family: Family, name: str, features: tuple[str, ...], X: np.ndarray, y: np.ndarray,
+    family: Family,
+    name: str,
+    features: tuple[str, ...],
+    X: np.ndarray,
+    y: np.ndarray,
     config: TrainConfig,
 ) -> Model:
     """One model of ``family`` fitted on ``X`` (columns = ``features``), threshold 0.5."""
@@ -379,13 +392,12 @@ def fit_model(
         trees, bias = fit_trees(X, y, config.trees, config.class_weight, config.seed)
         return TreeEnsembleModel(name, features, tuple(trees), bias)
     mean, scale, w, b = fit_logistic(X, y, config.C, config.class_weight, config.seed)
-    return LogisticModel(name, w, b, 0.5, mean, np.where(scale > 0, scale, 1.0),
-                         features=features)
+    return LogisticModel(name, w, b, 0.5, mean, np.where(scale > 0, scale, 1.0), features=features)
 
 
-def _scorer(family: Family, features: tuple[str, ...], config: TrainConfig
-            ) -> Callable[..., Any]:
+def _scorer(family: Family, features: tuple[str, ...], config: TrainConfig) -> Callable[..., Any]:
     """fit(X, y) -> scoring function, for out-of-fold scores (the exported model scores)."""
+
     def fit(X: np.ndarray, y: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         model = fit_model(family, 'fold', features, X, y, config)
         return lambda Z: model.predict_proba(impute(Z))
@@ -458,22 +470,34 @@ def train_models(
         y = np.asarray(table[label_column(name)]).astype(int)
         positives[name] = int(y.sum())
         if name in degenerate:
-            LOG.warning('model %s: all %d training labels are %d; it will %s fire '
-                        '(--allow-degenerate)', name, len(y), int(y[0]),
-                        'always' if y[0] else 'never')
+            LOG.warning(
+                'model %s: all %d training labels are %d; it will %s fire (--allow-degenerate)',
+                name,
+                len(y),
+                int(y[0]),
+                'always' if y[0] else 'never',
+            )
             always = positives[name] == len(y)
             model: Model = LogisticModel(
-                name, np.zeros(len(features)), CONSTANT_LOGIT if always else -CONSTANT_LOGIT,
-                0.5, X.mean(axis=0), np.ones(len(features)), features=features)
+                name,
+                np.zeros(len(features)),
+                CONSTANT_LOGIT if always else -CONSTANT_LOGIT,
+                0.5,
+                X.mean(axis=0),
+                np.ones(len(features)),
+                features=features,
+            )
             choice = choose_threshold(y, np.full(len(y), float(always)), 0.5)
         else:
-            scores = out_of_fold_scores(X, y, groups, _scorer(family, features, config),
-                                        config.folds, config.seed)
+            scores = out_of_fold_scores(
+                X, y, groups, _scorer(family, features, config), config.folds, config.seed
+            )
             choice = choose_threshold(y, scores, config.target_precision, config.min_predicted)
             model = fit_model(family, name, features, X, y, config)
         choices[name] = choice
         models[name] = replace(
-            model, threshold=choice.threshold,
+            model,
+            threshold=choice.threshold,
             metrics={
                 'family': family.value if name not in degenerate else 'constant',
                 'validation': choice.to_dict(),
@@ -483,20 +507,26 @@ def train_models(
         )
         LOG.info(
             'model %s (%s): %d/%d positive; threshold %.3f, validation precision %.3f '
-            'recall %.3f%s', name, family.value, positives[name], len(y), choice.threshold,
-            choice.precision, choice.recall,
+            'recall %.3f%s',
+            name,
+            family.value,
+            positives[name],
+            len(y),
+            choice.threshold,
+            choice.precision,
+            choice.recall,
             '' if choice.reached else ' (target precision not reached)',
         )
     sequences = {
-        str(s): int(n) for s, n in zip(*np.unique(table['sequence'].astype(str),
-                                                  return_counts=True), strict=True)
+        str(s): int(n)
+        for s, n in zip(*np.unique(table['sequence'].astype(str), return_counts=True), strict=True)
     }
     labels = config.labels or LabelConfig()
     rules = sorted(set(np.asarray(table['scale_rule']).astype(str)))
     metadata = {
         'description': 'Troutman & Tuceryan 2021 models F, E, H, R; per model: '
-                       'scikit-learn LogisticRegression on standardized features, or '
-                       'GradientBoostingClassifier exported as trees (see "families")',
+        'scikit-learn LogisticRegression on standardized features, or '
+        'GradientBoostingClassifier exported as trees (see "families")',
         'date': _dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds'),
         'sklearn_version': sklearn.__version__,
         'numpy_version': np.__version__,
@@ -522,19 +552,23 @@ def train_models(
             'target_precision': config.target_precision,
             'min_predicted': config.min_predicted,
             'validation': f'grouped {config.folds}-fold cross-validation over batches, '
-                          'out-of-fold probabilities; final fit on all pairs',
+            'out-of-fold probabilities; final fit on all pairs',
             'seed': config.seed,
             'degenerate_models': degenerate,
             'families': {m: config.family_of(m).value for m in METHODS},
             'extra_features': [n for n in EXTRA_FEATURE_NAMES if n in config.extra],
-            'trees': {'n_trees': config.trees.n_trees, 'depth': config.trees.depth,
-                      'learning_rate': config.trees.learning_rate,
-                      'estimator': 'sklearn GradientBoostingClassifier (log-loss), '
-                                   'exported to JSON trees'},
+            'trees': {
+                'n_trees': config.trees.n_trees,
+                'depth': config.trees.depth,
+                'learning_rate': config.trees.learning_rate,
+                'estimator': 'sklearn GradientBoostingClassifier (log-loss), '
+                'exported to JSON trees',
+            },
         },
     }
-    model_set = ModelSet(models, scaling=config.scaling, feature_names=FEATURE_NAMES,
-                         metadata=metadata)
+    model_set = ModelSet(
+        models, scaling=config.scaling, feature_names=FEATURE_NAMES, metadata=metadata
+    )
     return TrainReport(model_set, choices, positives, len(table), n_batches)
 
 

@@ -38,8 +38,9 @@ def image_messages(seq: Any, n: int, encoding: str = 'rgb8') -> FrameMessages:
         image = seq.image(i)
         if encoding == 'rgb8':
             image = cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
-        msgs.append(conv.numpy_to_image(image, encoding,
-                                        stamp=conv.seconds_to_stamp(float(stamps[i]))))
+        msgs.append(
+            conv.numpy_to_image(image, encoding, stamp=conv.seconds_to_stamp(float(stamps[i])))
+        )
     return FrameMessages(msgs, np.asarray(stamps, dtype=np.float64))
 
 
@@ -63,16 +64,21 @@ class FramePathResult:
     reasons: dict[str, int]
 
 
-def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
-                    passes: int = 2) -> FramePathResult:
+def time_frame_path(
+    models: Any, intrinsics: Any, frames: FrameMessages, passes: int = 2
+) -> FramePathResult:
     """Image message -> numpy -> Selector.process (tracking, features, decision, pose when it
     fires), in continuous mode, over ``passes`` passes of the frames.
 
     The parts are timed on the same frames: conversion, conversion to grey, tracking, and the
     debug overlay (timed apart, after each decision: it is not in the per-frame figures).
     """
-    pose_reasons = {Reason.INITIALIZED, Reason.POSE_FAILED, Reason.TOO_FEW_POINTS,
-                    Reason.LOW_PARALLAX}
+    pose_reasons = {
+        Reason.INITIALIZED,
+        Reason.POSE_FAILED,
+        Reason.TOO_FEW_POINTS,
+        Reason.LOW_PARALLAX,
+    }
     posed = []
 
     selector = Selector(models, intrinsics, SelectorConfig(mode=Mode.CONTINUOUS))
@@ -109,21 +115,29 @@ def time_frame_path(models: Any, intrinsics: Any, frames: FrameMessages,
             tracker.track(grays[i % n])
 
     parts = [
-        Timing('  Image -> numpy (image_to_cv)',
-               time_calls(lambda i: conv.image_to_cv(frames.messages[i % n]), n)),
+        Timing(
+            '  Image -> numpy (image_to_cv)',
+            time_calls(lambda i: conv.image_to_cv(frames.messages[i % n]), n),
+        ),
         Timing('  BGR -> grey', time_calls(lambda i: to_gray(images[i % n]), n)),
-        Timing('  KLT tracking (incl. re-detection every 30 frames)',
-               time_calls(track, n, warmup=0)),
-        Timing('  debug overlay, drawn after the decision while ~/debug_image is subscribed',
-               np.array(overlay_samples)),
+        Timing(
+            '  KLT tracking (incl. re-detection every 30 frames)', time_calls(track, n, warmup=0)
+        ),
+        Timing(
+            '  debug overlay, drawn after the decision while ~/debug_image is subscribed',
+            np.array(overlay_samples),
+        ),
     ]
     times, with_pose = np.array(samples), np.array(posed, dtype=bool)
     return FramePathResult(
         Timing('per-frame path', times),
         Timing('per-frame path, no pose estimated', times[~with_pose]),
-        Timing('per-frame path, pose estimated (a model fired)',
-               times[with_pose] if with_pose.any() else np.full(1, np.nan)),
-        parts, reasons,
+        Timing(
+            'per-frame path, pose estimated (a model fired)',
+            times[with_pose] if with_pose.any() else np.full(1, np.nan),
+        ),
+        parts,
+        reasons,
     )
 
 

@@ -42,13 +42,22 @@ DISCOVERY_S = 10.0
 
 def _node_under_test(model_path: Path, mode: str = 'continuous') -> NodeHarness:
     """The node (and the harness's listener) spinning in the background."""
-    harness = NodeHarness({'model_file': str(model_path), 'mode': mode},
-                          client_name='initsel_bench_listener', timeout=DISCOVERY_S)
+    harness = NodeHarness(
+        {'model_file': str(model_path), 'mode': mode},
+        client_name='initsel_bench_listener',
+        timeout=DISCOVERY_S,
+    )
     return harness.start()
 
 
-def replay(images: list[np.ndarray], intrinsics: Any, model_path: Path, rate_hz: float,
-           frames: int, timeout: float = 30.0) -> NodeRun:
+def replay(
+    images: list[np.ndarray],
+    intrinsics: Any,
+    model_path: Path,
+    rate_hz: float,
+    frames: int,
+    timeout: float = 30.0,
+) -> NodeRun:
     """Publish ``frames`` frames (``images`` played forth and back, bgr8) at ``rate_hz``.
 
     Latency is publish time -> arrival of the frame's status on ``~/status``.
@@ -79,7 +88,8 @@ def replay(images: list[np.ndarray], intrinsics: Any, model_path: Path, rate_hz:
         run.publish_rate_hz = (len(order) - 1) / run.seconds if run.seconds > 0 else 0.0
         last = round(1.0 + (len(order) - 1) * period, 6)
         run.newest_processed = h.wait_for(
-            lambda: any(round(s.stamp, 6) == last for s in h.statuses[-5:]), timeout)
+            lambda: any(round(s.stamp, 6) == last for s in h.statuses[-5:]), timeout
+        )
         time.sleep(0.2)
         run.rss_end_mb = rss_bytes() / 2**20
         latencies = []
@@ -95,8 +105,14 @@ def replay(images: list[np.ndarray], intrinsics: Any, model_path: Path, rate_hz:
 
 
 # -------------------------------------------------------------------------------- the flood
-def flood_publisher(rate_hz: float, seconds: float, width: int, height: int,
-                    encoding: str = 'bgr8', wait_s: float = 10.0) -> dict[str, Any]:
+def flood_publisher(
+    rate_hz: float,
+    seconds: float,
+    width: int,
+    height: int,
+    encoding: str = 'bgr8',
+    wait_s: float = 10.0,
+) -> dict[str, Any]:
     """Publish textured frames on ``image_raw`` as fast as ``rate_hz`` allows.
 
     Header stamps are wall-clock times (``time.time()``), so a listener on the same machine
@@ -114,7 +130,8 @@ def flood_publisher(rate_hz: float, seconds: float, width: int, height: int,
     node = rclpy.create_node('initsel_flood_publisher', context=context)
     try:
         pub = node.create_publisher(
-            Image, 'image_raw', QoSProfile(depth=2, reliability=ReliabilityPolicy.BEST_EFFORT))
+            Image, 'image_raw', QoSProfile(depth=2, reliability=ReliabilityPolicy.BEST_EFFORT)
+        )
         deadline = time.monotonic() + wait_s
         while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.02)
@@ -139,27 +156,52 @@ def flood_publisher(rate_hz: float, seconds: float, width: int, height: int,
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
-    return {'published': k, 'seconds': elapsed, 'rate_hz': k / elapsed if elapsed else 0.0,
-            'last_stamp': stamp, 'subscribed': True}
+    return {
+        'published': k,
+        'seconds': elapsed,
+        'rate_hz': k / elapsed if elapsed else 0.0,
+        'last_stamp': stamp,
+        'subscribed': True,
+    }
 
 
-def flood(model_path: Path, seconds: float = 30.0, rate_hz: float = 200.0,
-          width: int = 1920, height: int = 1080, encoding: str = 'bgr8',
-          timeout: float | None = None) -> NodeRun:
+def flood(
+    model_path: Path,
+    seconds: float = 30.0,
+    rate_hz: float = 200.0,
+    width: int = 1920,
+    height: int = 1080,
+    encoding: str = 'bgr8',
+    timeout: float | None = None,
+) -> NodeRun:
     """Run the node here and a flood publisher in a child process; sample memory meanwhile."""
     configure_ros_environment()
     run = NodeRun(f'node, flood {width}x{height} {encoding} at {rate_hz:g} Hz for {seconds:g} s')
     timeout = timeout if timeout is not None else seconds + 60.0
     env = dict(os.environ)
     env['PYTHONUNBUFFERED'] = '1'
-    cmd = [sys.executable, '-m', 'initsel_ros.ros.bench_live', 'publish',
-           '--rate', str(rate_hz), '--seconds', str(seconds), '--width', str(width),
-           '--height', str(height), '--encoding', encoding]
+    cmd = [
+        sys.executable,
+        '-m',
+        'initsel_ros.ros.bench_live',
+        'publish',
+        '--rate',
+        str(rate_hz),
+        '--seconds',
+        str(seconds),
+        '--width',
+        str(width),
+        '--height',
+        str(height),
+        '--encoding',
+        encoding,
+    ]
     with _node_under_test(model_path) as h:
         run.rss_start_mb = rss_bytes() / 2**20
         samples: list[tuple[float, int]] = []
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
-                                text=True)
+        proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True
+        )
         start = time.monotonic()
         try:
             while proc.poll() is None and time.monotonic() - start < timeout:
@@ -175,7 +217,8 @@ def flood(model_path: Path, seconds: float = 30.0, rate_hz: float = 200.0,
         run.publish_rate_hz = float(summary['rate_hz'])
         last = float(summary['last_stamp'])
         run.newest_processed = h.wait_for(
-            lambda: bool(h.statuses) and abs(h.statuses[-1].stamp - last) < 1e-6, 10.0)
+            lambda: bool(h.statuses) and abs(h.statuses[-1].stamp - last) < 1e-6, 10.0
+        )
         time.sleep(0.2)
         run.rss_end_mb = rss_bytes() / 2**20
         if samples:
@@ -183,8 +226,9 @@ def flood(model_path: Path, seconds: float = 30.0, rate_hz: float = 200.0,
             run.rss_max_mb = float(rss.max())
             run.rss_mid_mb = float(rss[len(rss) // 2])
         with h.lock:
-            latencies = [wall - s.stamp for s, (_, wall) in
-                         zip(h.statuses, h.status_arrivals, strict=True)]
+            latencies = [
+                wall - s.stamp for s, (_, wall) in zip(h.statuses, h.status_arrivals, strict=True)
+            ]
             statuses = list(h.statuses)
         run.latency = percentiles(latencies)
         summarize(run, statuses)

@@ -212,9 +212,15 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
             unsupported distortion model with non-zero coefficients.
     """
     K = np.asarray(msg.k, dtype=float).reshape(3, 3)
-    if (not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0
-            or not math.isclose(K[2, 2], 1.0) or np.any(K[2, :2] != 0)
-            or K[0, 1] != 0 or K[1, 0] != 0):
+    if (
+        not np.all(np.isfinite(K))
+        or K[0, 0] <= 0
+        or K[1, 1] <= 0
+        or not math.isclose(K[2, 2], 1.0)
+        or np.any(K[2, :2] != 0)
+        or K[0, 1] != 0
+        or K[1, 0] != 0
+    ):
         raise ConfigError(f'camera_info has an invalid K {K.ravel().tolist()}')
     distortion = tuple(float(d) for d in msg.d)
     if not all(math.isfinite(d) for d in distortion):
@@ -296,9 +302,14 @@ def make_point_cloud(
 
 
 _POINTFIELD_DTYPES = {
-    PointField.INT8: 'i1', PointField.UINT8: 'u1', PointField.INT16: 'i2',
-    PointField.UINT16: 'u2', PointField.INT32: 'i4', PointField.UINT32: 'u4',
-    PointField.FLOAT32: 'f4', PointField.FLOAT64: 'f8',
+    PointField.INT8: 'i1',
+    PointField.UINT8: 'u1',
+    PointField.INT16: 'i2',
+    PointField.UINT16: 'u2',
+    PointField.INT32: 'i4',
+    PointField.UINT32: 'u4',
+    PointField.FLOAT32: 'f4',
+    PointField.FLOAT64: 'f8',
 }
 
 
@@ -323,8 +334,9 @@ def point_cloud_to_array(msg: PointCloud2) -> np.ndarray:
     n = msg.height * msg.width
     data = np.frombuffer(msg.data, dtype=np.uint8)
     if data.size < msg.point_step * n or msg.row_step * msg.height > data.size:
-        raise ValueError(f'point cloud data has {data.size} bytes, expected {msg.row_step} x '
-                         f'{msg.height}')
+        raise ValueError(
+            f'point cloud data has {data.size} bytes, expected {msg.row_step} x {msg.height}'
+        )
     rows = data[: msg.row_step * msg.height].reshape(msg.height, msg.row_step)
     packed = np.ascontiguousarray(rows[:, : msg.point_step * msg.width])
     return packed.view(dtype).reshape(n)

@@ -25,9 +25,15 @@ FRAME_ID = 'camera_rgb_optical_frame'
 WAIT_S = 10.0
 
 
-def run_live(seq: Any, model_path: Path | None, mode: str, frames: int, rate: float,
-             compressed: bool = False, jpeg_quality: int = 95,
-             ) -> tuple[list[InitRecord], dict[str, int]]:
+def run_live(
+    seq: Any,
+    model_path: Path | None,
+    mode: str,
+    frames: int,
+    rate: float,
+    compressed: bool = False,
+    jpeg_quality: int = 95,
+) -> tuple[list[InitRecord], dict[str, int]]:
     """Play the sequence to the in-process ``selector`` node and listen to what it says.
 
     Args:
@@ -63,8 +69,13 @@ def run_live(seq: Any, model_path: Path | None, mode: str, frames: int, rate: fl
             time.sleep(max(0.0, due - time.monotonic()))
             header_stamp = conv.ns_to_stamp(stamps_ns[i])
             if compressed:
-                msg = conv.numpy_to_compressed(seq.image(i), 'jpeg', quality=jpeg_quality,
-                                               stamp=header_stamp, frame_id=FRAME_ID)
+                msg = conv.numpy_to_compressed(
+                    seq.image(i),
+                    'jpeg',
+                    quality=jpeg_quality,
+                    stamp=header_stamp,
+                    frame_id=FRAME_ID,
+                )
             else:
                 image = seq.image(i)[:, :, ::-1]  # BGR -> RGB
                 msg = conv.numpy_to_image(image, 'rgb8', stamp=header_stamp, frame_id=FRAME_ID)
@@ -99,8 +110,11 @@ def run_live(seq: Any, model_path: Path | None, mode: str, frames: int, rate: fl
         q = pose.pose.orientation
         R_ref_cur = conv.quaternion_to_rotation([q.x, q.y, q.z, q.w])
         t_est = -R_ref_cur.T @ position  # back to OpenCV's x_cur = R x_ref + t
-        probabilities = ({} if status is None else
-                         {k: v for k, v in status.probabilities.items() if v is not None})
+        probabilities = (
+            {}
+            if status is None
+            else {k: v for k, v in status.probabilities.items() if v is not None}
+        )
         n_points = int(cloud.width) * int(cloud.height)
         records.append(judge(seq, i, ref, method, t_est, probabilities, n_points))
     return records, reasons

@@ -63,8 +63,11 @@ class ImageCase:
         msg.encoding = self.encoding
         msg.height, msg.width, msg.step = self.height, self.width, self.step
         msg.is_bigendian = int(self.is_bigendian)
-        msg.data = np.random.default_rng(self.seed).integers(
-            0, 256, self.n_bytes, dtype=np.uint8).tobytes()
+        msg.data = (
+            np.random.default_rng(self.seed)
+            .integers(0, 256, self.n_bytes, dtype=np.uint8)
+            .tobytes()
+        )
         return msg
 
 
@@ -77,26 +80,49 @@ def image_cases() -> Any:
     """hypothesis strategy of :class:`ImageCase` (mostly plausible, sometimes absurd)."""
     from hypothesis import strategies as st
 
-    side = st.one_of(st.integers(0, 2), st.integers(0, MAX_SIDE),
-                     st.sampled_from([0, 1, 2**16, 2**31, UINT32_MAX]))
+    side = st.one_of(
+        st.integers(0, 2),
+        st.integers(0, MAX_SIDE),
+        st.sampled_from([0, 1, 2**16, 2**31, UINT32_MAX]),
+    )
 
     @st.composite
     def anything(draw: Callable[[Any], Any]) -> ImageCase:
-        encoding = draw(st.one_of(st.sampled_from(sorted(ENCODINGS)),
-                                  st.sampled_from(FOREIGN_ENCODINGS), st.text(max_size=8)))
+        encoding = draw(
+            st.one_of(
+                st.sampled_from(sorted(ENCODINGS)),
+                st.sampled_from(FOREIGN_ENCODINGS),
+                st.text(max_size=8),
+            )
+        )
         height, width = draw(side), draw(side)
         row = width * _bytes_per_pixel(encoding)
-        step = draw(st.one_of(
-            st.just(row), st.integers(row, row + 9), st.integers(0, max(row, 1) * 2),
-            st.sampled_from([0, 1, UINT32_MAX]),
-        ).filter(lambda s: 0 <= s <= UINT32_MAX))
+        step = draw(
+            st.one_of(
+                st.just(row),
+                st.integers(row, row + 9),
+                st.integers(0, max(row, 1) * 2),
+                st.sampled_from([0, 1, UINT32_MAX]),
+            ).filter(lambda s: 0 <= s <= UINT32_MAX)
+        )
         full = min(step * height, 4 * MAX_SIDE * MAX_SIDE * 4)
-        n_bytes = draw(st.one_of(
-            st.just(full), st.integers(0, full + 16), st.integers(max(0, full - 8), full),
-            st.integers(0, 64),
-        ))
-        return ImageCase(encoding, height, width, step, n_bytes, draw(st.booleans()),
-                         draw(st.integers(0, 2**32 - 1)))
+        n_bytes = draw(
+            st.one_of(
+                st.just(full),
+                st.integers(0, full + 16),
+                st.integers(max(0, full - 8), full),
+                st.integers(0, 64),
+            )
+        )
+        return ImageCase(
+            encoding,
+            height,
+            width,
+            step,
+            n_bytes,
+            draw(st.booleans()),
+            draw(st.integers(0, 2**32 - 1)),
+        )
 
     @st.composite
     def plausible(draw: Callable[[Any], Any]) -> ImageCase:
@@ -105,8 +131,15 @@ def image_cases() -> Any:
         height, width = draw(st.integers(1, MAX_SIDE)), draw(st.integers(1, MAX_SIDE))
         step = width * _bytes_per_pixel(encoding) + draw(st.sampled_from([0, 0, 1, 3, 8]))
         n_bytes = step * height + draw(st.sampled_from([0, 0, 0, 1, 100]))
-        return ImageCase(encoding, height, width, step, n_bytes, draw(st.booleans()),
-                         draw(st.integers(0, 2**32 - 1)))
+        return ImageCase(
+            encoding,
+            height,
+            width,
+            step,
+            n_bytes,
+            draw(st.booleans()),
+            draw(st.integers(0, 2**32 - 1)),
+        )
 
     return st.one_of(plausible(), anything())
 
@@ -153,10 +186,10 @@ def info_cases(extreme: bool = False) -> Any:
     """
     from hypothesis import strategies as st
 
-    plain = st.sampled_from([float('nan'), float('inf'), float('-inf'), 0.0, -0.0, -1.0,
-                             1.0, 320.0, 240.0, 525.0])
-    number = st.one_of(plain, st.floats(allow_nan=True, allow_infinity=True)) if extreme \
-        else plain
+    plain = st.sampled_from(
+        [float('nan'), float('inf'), float('-inf'), 0.0, -0.0, -1.0, 1.0, 320.0, 240.0, 525.0]
+    )
+    number = st.one_of(plain, st.floats(allow_nan=True, allow_infinity=True)) if extreme else plain
     case = st.builds(
         InfoCase,
         k=st.tuples(*[number] * 9),
@@ -181,11 +214,14 @@ class NodeProbe:
         configure_ros_environment()
         self.harness = NodeHarness(
             {'model_file': model_path, 'mode': Mode.CONTINUOUS.value},
-            namespace='/initsel_fuzz', client_name='initsel_fuzz_client')
+            namespace='/initsel_fuzz',
+            client_name='initsel_fuzz_client',
+        )
         # Every example resets and sends a camera_info: keep the node's log to its warnings.
         self.harness.node.get_logger().set_level(LoggingSeverity.WARN)
-        self._good = [conv.numpy_to_image(f, 'bgr8')
-                      for f in textured_frames(good_size[0], good_size[1], 4)]
+        self._good = [
+            conv.numpy_to_image(f, 'bgr8') for f in textured_frames(good_size[0], good_size[1], 4)
+        ]
         self._default_info = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
         self._stamp = 1.0
 
@@ -240,11 +276,13 @@ def check_node_callbacks(probe: NodeProbe, image: ImageCase, info: InfoCase | No
     """One fuzzed camera_info + image, then a good frame; asserts the node's contract."""
     status = probe.feed(image.message(), info)
     assert status.reason is not Reason.INTERNAL_ERROR, (
-        f'internal error on {image} / {info}: {status.detail}')
+        f'internal error on {image} / {info}: {status.detail}'
+    )
     good = probe.feed_good()
     assert good.reason not in (Reason.INTERNAL_ERROR, Reason.SKIPPED_IMAGE), (
         f'the good frame after {image} / {info} was not processed: {good.reason.value}: '
-        f'{good.detail}')
+        f'{good.detail}'
+    )
     return 'skipped' if status.reason is Reason.SKIPPED_IMAGE else 'processed'
 
 
@@ -254,8 +292,13 @@ def run_conversion_fuzz(max_examples: int, seed: int | None = None) -> dict[str,
 
     counts: dict[str, int] = {}
 
-    @settings(max_examples=max_examples, deadline=None, database=None,
-              suppress_health_check=list(HealthCheck), derandomize=seed is not None)
+    @settings(
+        max_examples=max_examples,
+        deadline=None,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+        derandomize=seed is not None,
+    )
     @given(image_cases())
     def prop(case: ImageCase) -> None:
         outcome = check_conversion(case)
@@ -265,16 +308,23 @@ def run_conversion_fuzz(max_examples: int, seed: int | None = None) -> dict[str,
     return counts
 
 
-def run_node_fuzz(model_path: str, max_examples: int, seed: int | None = None,
-                  extreme: bool = False) -> dict[str, int]:
+def run_node_fuzz(
+    model_path: str, max_examples: int, seed: int | None = None, extreme: bool = False
+) -> dict[str, int]:
     """Run :func:`check_node_callbacks` on ``max_examples`` cases; counts of outcomes."""
     from hypothesis import HealthCheck, given, settings
 
     counts: dict[str, int] = {}
     probe = NodeProbe(model_path)
     try:
-        @settings(max_examples=max_examples, deadline=None, database=None,
-                  suppress_health_check=list(HealthCheck), derandomize=seed is not None)
+
+        @settings(
+            max_examples=max_examples,
+            deadline=None,
+            database=None,
+            suppress_health_check=list(HealthCheck),
+            derandomize=seed is not None,
+        )
         @given(image_cases(), info_cases(extreme))
         def prop(case: ImageCase, info: InfoCase | None) -> None:
             outcome = check_node_callbacks(probe, case, info)

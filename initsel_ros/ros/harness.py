@@ -54,8 +54,9 @@ PUBLISH_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 #: ~/status and /diagnostics: reliable, deep enough for a flood of statuses.
 LISTEN_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 #: init/*: transient local like the node's publishers, deep enough for continuous mode.
-LATCHED_LISTEN_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
-                                durability=DurabilityPolicy.TRANSIENT_LOCAL)
+LATCHED_LISTEN_QOS = QoSProfile(
+    depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
 #: Frame id of the images the harness builds.
 FRAME_ID = 'camera_optical_frame'
 
@@ -120,34 +121,47 @@ class NodeHarness:
 
     def _build(self, parameters: dict[str, Any], client_name: str) -> None:
         overrides = [Parameter(name, value=value) for name, value in parameters.items()]
-        self.node = SelectorNode(context=self.context, namespace=self.namespace,
-                                 parameter_overrides=overrides)
-        self.client = c = rclpy.create_node(client_name, namespace=self.namespace,
-                                            context=self.context)
+        self.node = SelectorNode(
+            context=self.context, namespace=self.namespace, parameter_overrides=overrides
+        )
+        self.client = c = rclpy.create_node(
+            client_name, namespace=self.namespace, context=self.context
+        )
         self.compressed = parameters.get('image_transport') == ImageTransport.COMPRESSED.value
-        self.image_pub = (c.create_publisher(CompressedImage, 'image_raw/compressed', PUBLISH_QOS)
-                          if self.compressed
-                          else c.create_publisher(Image, 'image_raw', PUBLISH_QOS))
+        self.image_pub = (
+            c.create_publisher(CompressedImage, 'image_raw/compressed', PUBLISH_QOS)
+            if self.compressed
+            else c.create_publisher(Image, 'image_raw', PUBLISH_QOS)
+        )
         self.info_pub = c.create_publisher(CameraInfo, 'camera_info', PUBLISH_QOS)
         c.create_subscription(String, f'{NODE_NAME}/status', self._on_status, LISTEN_QOS)
         c.create_subscription(DiagnosticArray, '/diagnostics', self._on_diagnostics, LISTEN_QOS)
-        c.create_subscription(String, 'init/method', self._recorder(self.methods, 'data'),
-                              LATCHED_LISTEN_QOS)
-        c.create_subscription(PoseStamped, 'init/pose', self._recorder(self.poses),
-                              LATCHED_LISTEN_QOS)
-        c.create_subscription(PointCloud2, 'init/points', self._recorder(self.clouds),
-                              LATCHED_LISTEN_QOS)
+        c.create_subscription(
+            String, 'init/method', self._recorder(self.methods, 'data'), LATCHED_LISTEN_QOS
+        )
+        c.create_subscription(
+            PoseStamped, 'init/pose', self._recorder(self.poses), LATCHED_LISTEN_QOS
+        )
+        c.create_subscription(
+            PointCloud2, 'init/points', self._recorder(self.clouds), LATCHED_LISTEN_QOS
+        )
         self.reset_client = c.create_client(Trigger, f'{NODE_NAME}/reset')
         self.set_client = c.create_client(SetParameters, f'{NODE_NAME}/set_parameters')
         self.get_client = c.create_client(GetParameters, f'{NODE_NAME}/get_parameters')
-        self.describe_client = c.create_client(DescribeParameters,
-                                               f'{NODE_NAME}/describe_parameters')
+        self.describe_client = c.create_client(
+            DescribeParameters, f'{NODE_NAME}/describe_parameters'
+        )
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.executor.add_node(c)
         status_topic = f'{self.namespace.rstrip("/")}/{NODE_NAME}/status'
-        self.wait_until(lambda: self.image_pub.get_subscription_count() > 0
-                        and c.count_publishers(status_topic) > 0, what='discovery')
+        self.wait_until(
+            lambda: (
+                self.image_pub.get_subscription_count() > 0
+                and c.count_publishers(status_topic) > 0
+            ),
+            what='discovery',
+        )
 
     # ----------------------------------------------------------------------------- listening
     def _on_status(self, msg: String) -> None:
@@ -158,8 +172,11 @@ class NodeHarness:
             self.status_arrivals.append(arrival)
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        mine = [s for s in msg.status if s.name == DIAGNOSTIC_NAME
-                and s.hardware_id == self.node.get_fully_qualified_name()]
+        mine = [
+            s
+            for s in msg.status
+            if s.name == DIAGNOSTIC_NAME and s.hardware_id == self.node.get_fully_qualified_name()
+        ]
         if mine:
             with self.lock:
                 self.diagnostics.extend(mine)
@@ -169,14 +186,16 @@ class NodeHarness:
         def record(msg: Any) -> None:
             with self.lock:
                 into.append(msg if attribute is None else getattr(msg, attribute))
+
         return record
 
     # ------------------------------------------------------------------------------- spinning
     def start(self) -> NodeHarness:
         """Spin the executor in a background thread from now on (until :meth:`close`)."""
         if self._thread is None:
-            self._thread = threading.Thread(target=self.executor.spin, daemon=True,
-                                            name='initsel-harness-executor')
+            self._thread = threading.Thread(
+                target=self.executor.spin, daemon=True, name='initsel-harness-executor'
+            )
             self._thread.start()
         return self
 
@@ -202,8 +221,9 @@ class NodeHarness:
             else:
                 self.executor.spin_once(timeout_sec=0.05)
 
-    def wait_until(self, predicate: Callable[[], Any], timeout: float | None = None,
-                   what: str = 'a condition') -> None:
+    def wait_until(
+        self, predicate: Callable[[], Any], timeout: float | None = None, what: str = 'a condition'
+    ) -> None:
         """:meth:`wait_for`, raising on timeout.
 
         Raises:
@@ -222,8 +242,14 @@ class NodeHarness:
                 self.executor.spin_once(timeout_sec=0.02)
 
     # ----------------------------------------------------------------------------- publishing
-    def image_message(self, image: np.ndarray, stamp: Time | float, encoding: str = 'bgr8',
-                      frame_id: str = FRAME_ID, jpeg_quality: int = 95) -> Image | CompressedImage:
+    def image_message(
+        self,
+        image: np.ndarray,
+        stamp: Time | float,
+        encoding: str = 'bgr8',
+        frame_id: str = FRAME_ID,
+        jpeg_quality: int = 95,
+    ) -> Image | CompressedImage:
         """The message a camera would send: JPEG when the node takes compressed images.
 
         Args:
@@ -233,8 +259,9 @@ class NodeHarness:
         """
         stamp = stamp if isinstance(stamp, Time) else conv.seconds_to_stamp(stamp)
         if self.compressed:
-            return conv.numpy_to_compressed(image, 'jpeg', quality=jpeg_quality, stamp=stamp,
-                                            frame_id=frame_id)
+            return conv.numpy_to_compressed(
+                image, 'jpeg', quality=jpeg_quality, stamp=stamp, frame_id=frame_id
+            )
         if image.ndim == 2 and encoding == 'bgr8':
             encoding = 'mono16' if image.dtype == np.uint16 else 'mono8'
         return conv.numpy_to_image(image, encoding, stamp=stamp, frame_id=frame_id)
@@ -243,11 +270,15 @@ class NodeHarness:
         """Publish one image message (no waiting)."""
         self.image_pub.publish(msg)
 
-    def publish_camera_info(self, info: Intrinsics | CameraInfo, stamp: Time | None = None,
-                            frame_id: str = '') -> None:
+    def publish_camera_info(
+        self, info: Intrinsics | CameraInfo, stamp: Time | None = None, frame_id: str = ''
+    ) -> None:
         """Publish a camera_info (built from ``info`` when it is Intrinsics; no waiting)."""
-        msg = info if isinstance(info, CameraInfo) else conv.intrinsics_to_camera_info(
-            info, stamp=stamp, frame_id=frame_id)
+        msg = (
+            info
+            if isinstance(info, CameraInfo)
+            else conv.intrinsics_to_camera_info(info, stamp=stamp, frame_id=frame_id)
+        )
         self.info_pub.publish(msg)
 
     def send(self, msg: Image | CompressedImage, timeout: float | None = None) -> FrameStatus:
@@ -263,8 +294,9 @@ class NodeHarness:
         with self.lock:
             return self.statuses[count]
 
-    def send_array(self, image: np.ndarray, stamp: Time | float,
-                   encoding: str = 'bgr8') -> FrameStatus:
+    def send_array(
+        self, image: np.ndarray, stamp: Time | float, encoding: str = 'bgr8'
+    ) -> FrameStatus:
         """:meth:`send` of :meth:`image_message`."""
         return self.send(self.image_message(image, stamp, encoding))
 
@@ -292,14 +324,18 @@ class NodeHarness:
 
     def set_parameters(self, values: Mapping[str, Any]) -> list[SetParametersResult]:
         """``~/set_parameters`` as ``ros2 param set`` calls it; one result per value."""
-        request = SetParameters.Request(parameters=[
-            Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        request = SetParameters.Request(
+            parameters=[
+                Parameter(name, value=value).to_parameter_msg() for name, value in values.items()
+            ]
+        )
         return list(self.call(self.set_client, request, 'set_parameters').results)
 
     def get_parameter(self, name: str) -> Any:
         """The value ``~/get_parameters`` reports for ``name``."""
-        response = self.call(self.get_client, GetParameters.Request(names=[name]),
-                             'get_parameters')
+        response = self.call(
+            self.get_client, GetParameters.Request(names=[name]), 'get_parameters'
+        )
         return parameter_value_to_python(response.values[0])
 
     # -------------------------------------------------------------------------------- closing
@@ -324,5 +360,12 @@ class NodeHarness:
         self.close()
 
 
-__all__ = ['FRAME_ID', 'LATCHED_LISTEN_QOS', 'LISTEN_QOS', 'PUBLISH_QOS', 'TIMEOUT_S',
-           'HarnessTimeoutError', 'NodeHarness']
+__all__ = [
+    'FRAME_ID',
+    'LATCHED_LISTEN_QOS',
+    'LISTEN_QOS',
+    'PUBLISH_QOS',
+    'TIMEOUT_S',
+    'HarnessTimeoutError',
+    'NodeHarness',
+]

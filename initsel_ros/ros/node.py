@@ -73,25 +73,35 @@ COMPRESSED_SUFFIX = '/compressed'
 
 #: Images: best effort (accepts best-effort and reliable publishers), newest two only.
 IMAGE_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=2, reliability=ReliabilityPolicy.BEST_EFFORT,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=2,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
 #: Debug image: newest only, for viewers.
 DEBUG_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
 #: init/*: late subscribers still get the last initialization.
 LATCHED_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
 STATUS_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
 TF_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
 WARN_THROTTLE_S = 5.0
@@ -117,8 +127,9 @@ class SelectorNode(Node):
         self._settings = NodeSettings.from_values(self._declare_parameters())
         model_path = self._settings.model_path()
         models = ModelSet.load(model_path)
-        self._selector = Selector(models, self._settings.intrinsics,
-                                  self._settings.selector_config())
+        self._selector = Selector(
+            models, self._settings.intrinsics, self._settings.selector_config()
+        )
         # The parameters' current values (the parameter callbacks' own copy; the worker uses
         # self._settings, replaced between frames).
         self._values = dict(self._settings.values)
@@ -169,17 +180,21 @@ class SelectorNode(Node):
             self._image_topic = self.resolve_topic_name('image_raw')
             image_type = Image
         self.create_subscription(
-            image_type, self._image_topic, self._on_image, IMAGE_QOS,
+            image_type,
+            self._image_topic,
+            self._on_image,
+            IMAGE_QOS,
             callback_group=self._input_group,
         )
         if self._settings.use_camera_info:
             self.create_subscription(
-                CameraInfo, 'camera_info', self._on_camera_info, IMAGE_QOS,
+                CameraInfo,
+                'camera_info',
+                self._on_camera_info,
+                IMAGE_QOS,
                 callback_group=self._input_group,
             )
-        self.create_service(
-            Trigger, '~/reset', self._on_reset, callback_group=self._input_group
-        )
+        self.create_service(Trigger, '~/reset', self._on_reset, callback_group=self._input_group)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         thresholds = self._selector.thresholds
@@ -190,8 +205,11 @@ class SelectorNode(Node):
             + f', R veto {sorted(self._settings.r_veto)}, mode {self._settings.mode.value}, '
             f'intrinsics from {"camera_info, else " if self._settings.use_camera_info else ""}'
             f'parameters ({self._settings.intrinsics.width}x{self._settings.intrinsics.height})'
-            + ('' if self._tf_pub or not self._settings.publish_tf
-               else '; tf2_msgs not installed: no /tf')
+            + (
+                ''
+                if self._tf_pub or not self._settings.publish_tf
+                else '; tf2_msgs not installed: no /tf'
+            )
         )
         self._worker.start()
 
@@ -208,7 +226,8 @@ class SelectorNode(Node):
         for spec in PARAMETERS:
             descriptor = ParameterDescriptor(
                 description=spec.description + ('' if spec.live else ' (read-only: restart)'),
-                additional_constraints=spec.constraints, read_only=not spec.live,
+                additional_constraints=spec.constraints,
+                read_only=not spec.live,
             )
             try:
                 self.declare_parameter(spec.name, spec.default, descriptor)
@@ -261,8 +280,9 @@ class SelectorNode(Node):
         """Worker: use validated live settings from this frame on."""
         previous, self._settings = self._settings, settings
         self._selector.update_config(settings.selector_config())
-        if (self._intrinsics_source == 'parameters'
-                and not settings.intrinsics.same_camera(previous.intrinsics)):
+        if self._intrinsics_source == 'parameters' and not settings.intrinsics.same_camera(
+            previous.intrinsics
+        ):
             self.get_logger().info(
                 f'camera.* changed the intrinsics to {settings.intrinsics}: new reference'
             )
@@ -400,12 +420,14 @@ class SelectorNode(Node):
                 self._selector.reset()
                 self.get_logger().error(
                     f'publishing the initialization failed: {type(exc).__name__}: {exc}; '
-                    'starting over', throttle_duration_sec=WARN_THROTTLE_S,
+                    'starting over',
+                    throttle_duration_sec=WARN_THROTTLE_S,
                 )
                 reason = Reason.INTERNAL_ERROR
                 detail = f'publishing the initialization failed: {exc!r}'
-                result = FrameResult(result.frame_index, result.stamp_ns,
-                                     result.reference_stamp_ns, result.decision)
+                result = FrameResult(
+                    result.frame_index, result.stamp_ns, result.reference_stamp_ns, result.decision
+                )
         self._publish_status(stamp, result, dropped, reason, detail)
         if self._debug_pub.get_subscription_count() > 0:
             self._publish_debug_image(image, result, msg)
@@ -439,8 +461,7 @@ class SelectorNode(Node):
         """Log each kind of unusual stamp once; time going backwards starts a new reference."""
         check = self._stamps.check(stamp_ns)
         for issue in check.new:
-            detail = (f' by {check.back_ns / 1e9:.9f} s' if issue is StampIssue.BACKWARDS
-                      else '')
+            detail = f' by {check.back_ns / 1e9:.9f} s' if issue is StampIssue.BACKWARDS else ''
             self.get_logger().warning(
                 f'{issue.value} image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){detail}: '
                 f'{CONSEQUENCES[issue]} (logged once; counted in ~/status stamp_issues)'
@@ -467,9 +488,7 @@ class SelectorNode(Node):
                 )
                 if not self._guess_logged:
                     self._guess_logged = True
-                    self.get_logger().warning(
-                        f'GUESSED INTRINSICS: {self._intrinsics_warning}'
-                    )
+                    self.get_logger().warning(f'GUESSED INTRINSICS: {self._intrinsics_warning}')
             else:
                 self.get_logger().warning(
                     f'images are {width}x{height} but the {self._intrinsics_source} intrinsics '
@@ -485,14 +504,17 @@ class SelectorNode(Node):
         if not wanted.same_camera(self._selector.intrinsics):
             self._selector.set_intrinsics(wanted)
 
-    def _publish_debug_image(self, image: np.ndarray, result: FrameResult,
-                             msg: Image | CompressedImage) -> None:
+    def _publish_debug_image(
+        self, image: np.ndarray, result: FrameResult, msg: Image | CompressedImage
+    ) -> None:
         """Tracks, probabilities and the reason drawn on the frame (see overlay.py)."""
         try:
             debug = draw_frame_overlay(image, result)
-            self._debug_pub.publish(conv.numpy_to_image(
-                debug, 'bgr8', stamp=msg.header.stamp, frame_id=msg.header.frame_id
-            ))
+            self._debug_pub.publish(
+                conv.numpy_to_image(
+                    debug, 'bgr8', stamp=msg.header.stamp, frame_id=msg.header.frame_id
+                )
+            )
         except Exception as exc:  # a drawing problem must never stop the selector
             self.get_logger().error(
                 f'debug image failed: {type(exc).__name__}: {exc}',
@@ -516,15 +538,21 @@ class SelectorNode(Node):
             stamp_issues=self._stamps.counts,
         )
         status = FrameStatus.from_result(
-            result, stamp_sec=stamp.sec, stamp_nanosec=stamp.nanosec, counters=counters,
-            reason=reason, detail=detail,
+            result,
+            stamp_sec=stamp.sec,
+            stamp_nanosec=stamp.nanosec,
+            counters=counters,
+            reason=reason,
+            detail=detail,
         )
         self._status_pub.publish(String(data=status.to_json()))
 
         diag = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if status.diagnostic_level == 'WARN'
+            level=DiagnosticStatus.WARN
+            if status.diagnostic_level == 'WARN'
             else DiagnosticStatus.OK,
-            name=DIAGNOSTIC_NAME, message=status.reason.value,
+            name=DIAGNOSTIC_NAME,
+            message=status.reason.value,
             hardware_id=self.get_fully_qualified_name(),
         )
         diag.values = [KeyValue(key=k, value=v) for k, v in status.diagnostic_values().items()]
@@ -532,12 +560,14 @@ class SelectorNode(Node):
         array.header.stamp = stamp
         self._diag_pub.publish(array)
 
-    def _publish_initialization(self, init: Initialization, stamp: Time,
-                                image_frame_id: str) -> None:
+    def _publish_initialization(
+        self, init: Initialization, stamp: Time, image_frame_id: str
+    ) -> None:
         """init/method, init/pose (current frame's stamp), init/points (reference's), /tf."""
         frame_id = self._settings.reference_frame_id
-        current_stamp = (stamp if conv.stamp_to_ns(stamp) == init.stamp_ns
-                         else conv.ns_to_stamp(init.stamp_ns))
+        current_stamp = (
+            stamp if conv.stamp_to_ns(stamp) == init.stamp_ns else conv.ns_to_stamp(init.stamp_ns)
+        )
         current = Header(stamp=current_stamp, frame_id=frame_id)
         reference = Header(stamp=conv.ns_to_stamp(init.reference_stamp_ns), frame_id=frame_id)
         pose = conv.make_pose_stamped(init.R, init.t, current)
@@ -562,12 +592,23 @@ class SelectorNode(Node):
             f'({direction[0]:+.2f}, {direction[1]:+.2f}, {direction[2]:+.2f}) in {frame_id}, '
             f'{len(init.points)} points, parallax {init.parallax_deg:.1f} deg, '
             f'{init.frames_since_reference} frames since the reference'
-            + (f'; chosen because {init.selection.why} [{init.selection.summary()}]'
-               if init.selection is not None else '')
-            + (f'; refined: RMS {init.refinement.rms_before_px:.2f} -> '
-               f'{init.refinement.rms_after_px:.2f} px' if init.refinement is not None else '')
-            + (f'; verified on {len(init.verification)} frames (last RMS '
-               f'{init.verification[-1].rms_px:.2f} px)' if init.verification else '')
+            + (
+                f'; chosen because {init.selection.why} [{init.selection.summary()}]'
+                if init.selection is not None
+                else ''
+            )
+            + (
+                f'; refined: RMS {init.refinement.rms_before_px:.2f} -> '
+                f'{init.refinement.rms_after_px:.2f} px'
+                if init.refinement is not None
+                else ''
+            )
+            + (
+                f'; verified on {len(init.verification)} frames (last RMS '
+                f'{init.verification[-1].rms_px:.2f} px)'
+                if init.verification
+                else ''
+            )
         )
 
 
@@ -588,8 +629,10 @@ def _plain(value: Any) -> Any:
 
 def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     """Non-ROS command-line flags (only --help); ROS arguments are removed first."""
-    lines = [f'  {s.name} (default {s.default!r}{"" if s.live else ", read-only"}): '
-             f'{s.description}' for s in PARAMETERS]
+    lines = [
+        f'  {s.name} (default {s.default!r}{"" if s.live else ", read-only"}): {s.description}'
+        for s in PARAMETERS
+    ]
     parser = argparse.ArgumentParser(
         prog='selector',
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -689,8 +732,15 @@ def main(args: Sequence[str] | None = None) -> int:
     return status
 
 
-__all__ = ['DIAGNOSTIC_NAME', 'IMAGE_QOS', 'LATCHED_QOS', 'STATUS_QOS', 'SelectorNode', 'main',
-           'params_files']
+__all__ = [
+    'DIAGNOSTIC_NAME',
+    'IMAGE_QOS',
+    'LATCHED_QOS',
+    'STATUS_QOS',
+    'SelectorNode',
+    'main',
+    'params_files',
+]
 
 if __name__ == '__main__':
     sys.exit(main())

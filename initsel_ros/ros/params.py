@@ -64,8 +64,11 @@ class Number:
         if isinstance(value, bool) or not numeric:
             raise ConfigError(f'{name} must be {self}, got {_kind(value)}')
         number = int(value) if self.integer else float(value)
-        if (not math.isfinite(number) or (self.low is not None and number < self.low)
-                or (self.high is not None and number > self.high)):
+        if (
+            not math.isfinite(number)
+            or (self.low is not None and number < self.low)
+            or (self.high is not None and number > self.high)
+        ):
             raise ConfigError(f'{name} must be {self}, got {value!r}')
         return number
 
@@ -138,8 +141,9 @@ class Subset:
             raise ConfigError(f'{name} must be {self}, got {_kind(value)}')
         names = [v if isinstance(v, str) else repr(v) for v in value]
         if not set(names) <= set(self.allowed):
-            raise ConfigError(f'{name} must name models among {", ".join(self.allowed)}, '
-                              f'got {sorted(names)}')
+            raise ConfigError(
+                f'{name} must name models among {", ".join(self.allowed)}, got {sorted(names)}'
+            )
         return frozenset(names)
 
     def __str__(self) -> str:
@@ -173,8 +177,10 @@ class BitDepth:
     """0 (automatic) or 8 to 16."""
 
     def __call__(self, name: str, value: Any) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or not (
-            value == 0 or 8 <= value <= 16
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int)
+            or not (value == 0 or 8 <= value <= 16)
         ):
             raise ConfigError(f'{name} must be {self}, got {value!r}')
         return int(value)
@@ -219,103 +225,150 @@ _TRACKER: TrackerConfig = _SELECTOR.tracker
 _VERIFY: VerifyConfig = _SELECTOR.verify
 
 PARAMETERS: tuple[ParameterSpec, ...] = (
-    ParameterSpec('model_file', '', "model file (JSON); '' = the packaged config/models.json",
-                  Text(), live=False),
+    ParameterSpec(
+        'model_file',
+        '',
+        "model file (JSON); '' = the packaged config/models.json",
+        Text(),
+        live=False,
+    ),
     *(
         ParameterSpec(
-            f'thresholds.{m}', -1.0,
+            f'thresholds.{m}',
+            -1.0,
             f"probability threshold of model {m} in [0, 1]; negative = the model file's",
             _THRESHOLD,
         )
         for m in MODEL_NAMES
     ),
     ParameterSpec(
-        'r_veto', [m for m in POSE_METHODS if m in _POLICY.r_veto],
+        'r_veto',
+        [m for m in POSE_METHODS if m in _POLICY.r_veto],
         'models silenced when model R (pure rotation) fires; subset of F, E, H',
         Subset(POSE_METHODS),
     ),
-    ParameterSpec('max_features', _TRACKER.max_features,
-                  'Shi-Tomasi corners detected in a reference frame', _COUNT, live=False),
     ParameterSpec(
-        'min_tracks', _POLICY.min_tracks,
-        'fewer tracked points than this: no decision, pick a new reference', _COUNT,
+        'max_features',
+        _TRACKER.max_features,
+        'Shi-Tomasi corners detected in a reference frame',
+        _COUNT,
+        live=False,
     ),
-    ParameterSpec('min_points', _POLICY.min_points,
-                  'a pose needs at least this many triangulated points', _COUNT),
-    ParameterSpec('min_parallax_deg', _POLICY.min_parallax_deg,
-                  'a pose needs this median parallax, degrees', Number(0.0, 90.0)),
-    ParameterSpec('min_rotation_residual_px', _POLICY.min_rotation_residual_px,
-                  'flow left after the best pure rotation must reach this median, pixels '
-                  '(less: a rotation alone explains it)', Number(0.0, 100.0)),
     ParameterSpec(
-        'max_frames_since_reference', _SELECTOR.max_frames_since_reference,
+        'min_tracks',
+        _POLICY.min_tracks,
+        'fewer tracked points than this: no decision, pick a new reference',
+        _COUNT,
+    ),
+    ParameterSpec(
+        'min_points',
+        _POLICY.min_points,
+        'a pose needs at least this many triangulated points',
+        _COUNT,
+    ),
+    ParameterSpec(
+        'min_parallax_deg',
+        _POLICY.min_parallax_deg,
+        'a pose needs this median parallax, degrees',
+        Number(0.0, 90.0),
+    ),
+    ParameterSpec(
+        'min_rotation_residual_px',
+        _POLICY.min_rotation_residual_px,
+        'flow left after the best pure rotation must reach this median, pixels '
+        '(less: a rotation alone explains it)',
+        Number(0.0, 100.0),
+    ),
+    ParameterSpec(
+        'max_frames_since_reference',
+        _SELECTOR.max_frames_since_reference,
         "frames after which a new reference frame is taken (the paper's batch length)",
         Number(1, 1_000_000, integer=True),
     ),
     ParameterSpec(
-        'mode', _SELECTOR.mode.value,
+        'mode',
+        _SELECTOR.mode.value,
         "'once': initialize once until ~/reset; 'continuous': start over after each",
         Choice(tuple(m.value for m in Mode)),
     ),
     ParameterSpec(
-        'refine', _SELECTOR.refine,
+        'refine',
+        _SELECTOR.refine,
         'bundle-adjust the chosen pose and points before publishing (docs/initialization.md)',
         Flag(),
     ),
     ParameterSpec(
-        'verify_frames', _VERIFY.frames,
+        'verify_frames',
+        _VERIFY.frames,
         'frames that must confirm a candidate by PnP before it is published; 0 = off',
         Number(0, 100, integer=True),
     ),
     ParameterSpec(
-        'verify_min_fraction', _VERIFY.min_fraction,
+        'verify_min_fraction',
+        _VERIFY.min_fraction,
         'share of the map points that must stay PnP inliers in every verification frame',
         Number(0.01, 1.0),
     ),
     ParameterSpec(
-        'verify_max_rms_px', _VERIFY.max_rms_px,
+        'verify_max_rms_px',
+        _VERIFY.max_rms_px,
         'largest PnP reprojection RMS of those inliers in a verification frame, pixels',
         Number(0.01, 100.0),
     ),
     ParameterSpec(
-        'reference_frame_id', 'initsel_reference_optical',
+        'reference_frame_id',
+        'initsel_reference_optical',
         'frame id of the reference camera (optical frame) for init/pose, init/points, TF',
         Text(non_empty=True),
     ),
     ParameterSpec(
-        'camera_frame_id', '',
+        'camera_frame_id',
+        '',
         "TF child frame (the current camera); '' = the image's frame id",
     ),
-    ParameterSpec('publish_tf', True, 'broadcast the pose on /tf (when tf2_msgs is installed)',
-                  Flag()),
     ParameterSpec(
-        'image_transport', ImageTransport.RAW.value,
-        "'raw': sensor_msgs/Image on image_raw; 'compressed': sensor_msgs/CompressedImage "
-        '(JPEG, PNG) on image_raw/compressed',
-        Choice(tuple(t.value for t in ImageTransport)), live=False,
+        'publish_tf', True, 'broadcast the pose on /tf (when tf2_msgs is installed)', Flag()
     ),
     ParameterSpec(
-        'bit_depth', 0,
+        'image_transport',
+        ImageTransport.RAW.value,
+        "'raw': sensor_msgs/Image on image_raw; 'compressed': sensor_msgs/CompressedImage "
+        '(JPEG, PNG) on image_raw/compressed',
+        Choice(tuple(t.value for t in ImageTransport)),
+        live=False,
+    ),
+    ParameterSpec(
+        'bit_depth',
+        0,
         'significant bits of mono16/16UC1 pixels (8-16); 0 = automatic: the highest bit set '
         'so far on the stream',
         BitDepth(),
     ),
     ParameterSpec(
-        'use_camera_info', True,
+        'use_camera_info',
+        True,
         'take intrinsics and distortion from the camera_info topic when it arrives',
-        Flag(), live=False,
+        Flag(),
+        live=False,
     ),
-    ParameterSpec('camera.fx', TUM_FR3['fx'], 'focal length x, pixels (until camera_info)',
-                  Number()),
+    ParameterSpec(
+        'camera.fx', TUM_FR3['fx'], 'focal length x, pixels (until camera_info)', Number()
+    ),
     ParameterSpec('camera.fy', TUM_FR3['fy'], 'focal length y, pixels', Number()),
     ParameterSpec('camera.cx', TUM_FR3['cx'], 'principal point x, pixels', Number()),
     ParameterSpec('camera.cy', TUM_FR3['cy'], 'principal point y, pixels', Number()),
-    ParameterSpec('camera.width', TUM_FR3['width'], 'image width, pixels',
-                  Number(1, 100_000, integer=True)),
-    ParameterSpec('camera.height', TUM_FR3['height'], 'image height, pixels',
-                  Number(1, 100_000, integer=True)),
     ParameterSpec(
-        'camera.distortion', [0.0, 0.0, 0.0, 0.0, 0.0],
+        'camera.width', TUM_FR3['width'], 'image width, pixels', Number(1, 100_000, integer=True)
+    ),
+    ParameterSpec(
+        'camera.height',
+        TUM_FR3['height'],
+        'image height, pixels',
+        Number(1, 100_000, integer=True),
+    ),
+    ParameterSpec(
+        'camera.distortion',
+        [0.0, 0.0, 0.0, 0.0, 0.0],
         'OpenCV distortion k1 k2 p1 p2 [k3 ...] (0, 4, 5, 8, 12 or 14 values); all zero = none',
         Distortion(),
     ),
@@ -380,31 +433,48 @@ class NodeSettings:
                     'ever have enough'
                 )
         intrinsics = Intrinsics(
-            v['camera.fx'], v['camera.fy'], v['camera.cx'], v['camera.cy'],
-            v['camera.width'], v['camera.height'], v['camera.distortion'],
+            v['camera.fx'],
+            v['camera.fy'],
+            v['camera.cx'],
+            v['camera.cy'],
+            v['camera.width'],
+            v['camera.height'],
+            v['camera.distortion'],
         )
         return cls(
             model_file=v['model_file'],
-            thresholds={m: v[f'thresholds.{m}'] for m in MODEL_NAMES
-                        if v[f'thresholds.{m}'] >= 0.0},
-            r_veto=v['r_veto'], max_features=v['max_features'], min_tracks=v['min_tracks'],
-            min_points=v['min_points'], min_parallax_deg=v['min_parallax_deg'],
+            thresholds={
+                m: v[f'thresholds.{m}'] for m in MODEL_NAMES if v[f'thresholds.{m}'] >= 0.0
+            },
+            r_veto=v['r_veto'],
+            max_features=v['max_features'],
+            min_tracks=v['min_tracks'],
+            min_points=v['min_points'],
+            min_parallax_deg=v['min_parallax_deg'],
             min_rotation_residual_px=v['min_rotation_residual_px'],
-            max_frames_since_reference=v['max_frames_since_reference'], mode=Mode(v['mode']),
-            refine=v['refine'], verify_frames=v['verify_frames'],
+            max_frames_since_reference=v['max_frames_since_reference'],
+            mode=Mode(v['mode']),
+            refine=v['refine'],
+            verify_frames=v['verify_frames'],
             verify_min_fraction=v['verify_min_fraction'],
             verify_max_rms_px=v['verify_max_rms_px'],
-            reference_frame_id=v['reference_frame_id'], camera_frame_id=v['camera_frame_id'],
-            publish_tf=v['publish_tf'], image_transport=ImageTransport(v['image_transport']),
-            bit_depth=v['bit_depth'], use_camera_info=v['use_camera_info'],
-            intrinsics=intrinsics, values=raw,
+            reference_frame_id=v['reference_frame_id'],
+            camera_frame_id=v['camera_frame_id'],
+            publish_tf=v['publish_tf'],
+            image_transport=ImageTransport(v['image_transport']),
+            bit_depth=v['bit_depth'],
+            use_camera_info=v['use_camera_info'],
+            intrinsics=intrinsics,
+            values=raw,
         )
 
     @property
     def default_intrinsics(self) -> bool:
         """True when ``camera.*`` are still the TUM fr3 defaults (nobody set them)."""
-        return all(self.values.get(name, SPECS[name].default) == SPECS[name].default
-                   for name in CAMERA_PARAMETERS)
+        return all(
+            self.values.get(name, SPECS[name].default) == SPECS[name].default
+            for name in CAMERA_PARAMETERS
+        )
 
     def model_path(self) -> Path:
         """The model file to load: ``model_file`` or the packaged default.
@@ -421,16 +491,21 @@ class NodeSettings:
         return SelectorConfig(
             tracker=dataclasses.replace(TrackerConfig(), max_features=self.max_features),
             policy=PolicyConfig(
-                thresholds=dict(self.thresholds), r_veto=self.r_veto,
-                min_tracks=self.min_tracks, min_points=self.min_points,
+                thresholds=dict(self.thresholds),
+                r_veto=self.r_veto,
+                min_tracks=self.min_tracks,
+                min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
                 min_rotation_residual_px=self.min_rotation_residual_px,
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
             refine=self.refine,
-            verify=VerifyConfig(frames=self.verify_frames, min_fraction=self.verify_min_fraction,
-                                max_rms_px=self.verify_max_rms_px),
+            verify=VerifyConfig(
+                frames=self.verify_frames,
+                min_fraction=self.verify_min_fraction,
+                max_rms_px=self.verify_max_rms_px,
+            ),
         )
 
 

@@ -27,7 +27,6 @@ log = logging.getLogger(__name__)
 LINGER_S = 0.5
 
 
-
 @dataclass(frozen=True)
 class ReplayPlan:
     """Which frames to publish and when.
@@ -115,8 +114,7 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.jpeg_quality <= 100:
         raise ConfigError(f'--jpeg-quality must be in 0-100, got {args.jpeg_quality}')
     sequence = open_source(args)  # before rclpy: a bad source fails fast, with one line
-    plan = plan_replay(sequence.stamps, rate=args.rate, start=args.start,
-                       duration=args.duration)
+    plan = plan_replay(sequence.stamps, rate=args.rate, start=args.start, duration=args.duration)
 
     import rclpy
     from geometry_msgs.msg import PoseStamped
@@ -127,9 +125,12 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.ros import conversions as conv
 
     info_template = conv.intrinsics_to_camera_info(sequence.intrinsics, frame_id=args.frame_id)
-    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
-                     reliability=ReliabilityPolicy.RELIABLE,
-                     durability=DurabilityPolicy.VOLATILE)
+    qos = QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=5,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+    )
     shm = OversizeMonitor()  # warns once when frames exceed the Fast DDS SHM segment
     # cv2.imencode takes BGR: compressed colour frames are 'bgr8; jpeg compressed bgr8'
     layout = 'bgr8' if args.compressed and args.encoding == 'rgb8' else args.encoding
@@ -145,18 +146,29 @@ def run(args: argparse.Namespace) -> int:
         else:
             image_pub = node.create_publisher(Image, args.image_topic, qos)
         info_pub = node.create_publisher(CameraInfo, args.camera_info_topic, qos)
-        gt_pub = (node.create_publisher(PoseStamped, args.groundtruth_topic, qos)
-                  if args.publish_groundtruth else None)
+        gt_pub = (
+            node.create_publisher(PoseStamped, args.groundtruth_topic, qos)
+            if args.publish_groundtruth
+            else None
+        )
         if args.wait_for_subscriber > 0 and not _wait_for_subscriber(
             node, image_pub, args.wait_for_subscriber
         ):
-            log.warning('no subscriber on %s after %.1f s; publishing anyway',
-                        image_pub.topic_name, args.wait_for_subscriber)
-        kind = (f'{args.compressed_format} CompressedImage' if args.compressed
-                else args.encoding)
-        log.info('replaying %s: %d frames at rate %g on %s (%s) and %s', sequence.name,
-                 plan.indices.size, args.rate, image_pub.topic_name, kind,
-                 info_pub.topic_name)
+            log.warning(
+                'no subscriber on %s after %.1f s; publishing anyway',
+                image_pub.topic_name,
+                args.wait_for_subscriber,
+            )
+        kind = f'{args.compressed_format} CompressedImage' if args.compressed else args.encoding
+        log.info(
+            'replaying %s: %d frames at rate %g on %s (%s) and %s',
+            sequence.name,
+            plan.indices.size,
+            args.rate,
+            image_pub.topic_name,
+            kind,
+            info_pub.topic_name,
+        )
         started = time.monotonic()
         while rclpy.ok():
             pass_start = started + passes * plan.period
@@ -173,18 +185,23 @@ def run(args: argparse.Namespace) -> int:
                     message = CompressedImage()
                     message.header = Header(stamp=stamp, frame_id=args.frame_id)
                     message.format = compressed_format(pixels, args.compressed_format)
-                    message.data = encode_image(pixels, args.compressed_format,
-                                                args.jpeg_quality).tobytes()
+                    message.data = encode_image(
+                        pixels, args.compressed_format, args.jpeg_quality
+                    ).tobytes()
                 else:
-                    message = conv.numpy_to_image(pixels, encoding, stamp=stamp,
-                                                  frame_id=args.frame_id)
+                    message = conv.numpy_to_image(
+                        pixels, encoding, stamp=stamp, frame_id=args.frame_id
+                    )
                 shm.check(len(message.data), image_pub.topic_name)
                 info_template.header.stamp = stamp
                 image_pub.publish(message)
                 info_pub.publish(info_template)
                 if gt_pub is not None and frame.pose is not None:
-                    gt_pub.publish(_pose_message(
-                        frame.pose, Header(stamp=stamp, frame_id=args.world_frame_id)))
+                    gt_pub.publish(
+                        _pose_message(
+                            frame.pose, Header(stamp=stamp, frame_id=args.world_frame_id)
+                        )
+                    )
                 published += 1
             else:
                 passes += 1
@@ -199,8 +216,10 @@ def run(args: argparse.Namespace) -> int:
         node.destroy_node()
         rclpy.try_shutdown()
     elapsed = time.monotonic() - started
-    print(f'published {published} frames of {sequence.name} in {elapsed:.1f} s '
-          f'({passes} full pass{"es" if passes != 1 else ""})')
+    print(
+        f'published {published} frames of {sequence.name} in {elapsed:.1f} s '
+        f'({passes} full pass{"es" if passes != 1 else ""})'
+    )
     return 0
 
 

@@ -103,5 +103,4 @@ def _segment_size(path: Path) -> int | None:
     return max(sizes) if sizes else None
 
 
-__all__ = ['DEFAULT_SEGMENT_BYTES', 'OversizeMonitor', 'ShmLimit', 'oversize_warning',
-           'shm_limit']
+__all__ = ['DEFAULT_SEGMENT_BYTES', 'OversizeMonitor', 'ShmLimit', 'oversize_warning', 'shm_limit']

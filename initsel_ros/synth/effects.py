@@ -64,10 +64,14 @@ class Effects:
     def __post_init__(self) -> None:
         object.__setattr__(self, 'gain_ramp', tuple(float(g) for g in self.gain_ramp))
         checks = (
-            ('noise', self.noise >= 0), ('blur', self.blur >= 0),
-            ('exposure', 0 <= self.exposure < 1), ('exposure_time', self.exposure_time >= 0),
-            ('line_delay', self.line_delay >= 0), ('vignetting', 0 <= self.vignetting <= 1),
-            ('full_well', self.full_well >= 0), ('jpeg_quality', 0 <= self.jpeg_quality <= 100),
+            ('noise', self.noise >= 0),
+            ('blur', self.blur >= 0),
+            ('exposure', 0 <= self.exposure < 1),
+            ('exposure_time', self.exposure_time >= 0),
+            ('line_delay', self.line_delay >= 0),
+            ('vignetting', 0 <= self.vignetting <= 1),
+            ('full_well', self.full_well >= 0),
+            ('jpeg_quality', 0 <= self.jpeg_quality <= 100),
             ('movers', self.movers >= 0),
         )
         for name, ok in checks:
@@ -76,11 +80,17 @@ class Effects:
                 raise ConfigError(f'effect {name}={value!r} is out of range')
         if self.gain_ramp:
             ramp = self.gain_ramp
-            if (len(ramp) not in (3, 4) or not all(map(math.isfinite, ramp))
-                    or min(ramp[:2]) <= 0 or ramp[2] < 0 or (len(ramp) == 4 and ramp[3] < 0)):
+            if (
+                len(ramp) not in (3, 4)
+                or not all(map(math.isfinite, ramp))
+                or min(ramp[:2]) <= 0
+                or ramp[2] < 0
+                or (len(ramp) == 4 and ramp[3] < 0)
+            ):
                 raise ConfigError(
                     f'gain_ramp must be (gain_from > 0, gain_to > 0, duration_s >= 0'
-                    f'[, start_s >= 0]), got {ramp}')
+                    f'[, start_s >= 0]), got {ramp}'
+                )
 
     @property
     def temporal(self) -> bool:
@@ -95,8 +105,9 @@ class Effects:
         return out
 
 
-def exposure_gains(n: int, amplitude: float, rng: np.random.Generator,
-                   rate_hz: float = 30.0) -> np.ndarray:
+def exposure_gains(
+    n: int, amplitude: float, rng: np.random.Generator, rate_hz: float = 30.0
+) -> np.ndarray:
     """(n,) smooth random gains around 1 (a sum of slow sinusoids), amplitude relative."""
     if amplitude <= 0 or n == 0:
         return np.ones(n)
@@ -119,8 +130,9 @@ def ramp_gains(seconds: np.ndarray, ramp: tuple[float, ...]) -> np.ndarray:
     return g0 + (g1 - g0) * np.clip((t - start) / duration, 0.0, 1.0)
 
 
-def vignette_map(camera: Intrinsics, strength: float,
-                 rays: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+def vignette_map(
+    camera: Intrinsics, strength: float, rays: tuple[np.ndarray, np.ndarray] | None = None
+) -> np.ndarray:
     """(H, W) float32 relative illumination ``1 - strength * (1 - cos^4 theta)``.
 
     Args:
@@ -130,7 +142,7 @@ def vignette_map(camera: Intrinsics, strength: float,
             (for a distorted camera); default: the pinhole rays of ``camera``.
     """
     if rays is None:
-        ys, xs = np.mgrid[0:camera.height, 0:camera.width].astype(np.float32)
+        ys, xs = np.mgrid[0 : camera.height, 0 : camera.width].astype(np.float32)
         rx, ry = (xs - camera.cx) / camera.fx, (ys - camera.cy) / camera.fy
     else:
         rx, ry = rays
@@ -149,15 +161,25 @@ class NoiseBank:
         size: frames in the bank.
     """
 
-    def __init__(self, shape: tuple[int, int, int], rng: np.random.Generator, sigma: float = 1.0,
-                 integer: bool = True, size: int = 8) -> None:
+    def __init__(
+        self,
+        shape: tuple[int, int, int],
+        rng: np.random.Generator,
+        sigma: float = 1.0,
+        integer: bool = True,
+        size: int = 8,
+    ) -> None:
         self.rng = rng
         if integer:
-            self.frames = [np.round(rng.standard_normal(shape, dtype=np.float32) * sigma)
-                           .astype(np.int16) for _ in range(size)]
+            self.frames = [
+                np.round(rng.standard_normal(shape, dtype=np.float32) * sigma).astype(np.int16)
+                for _ in range(size)
+            ]
         else:
-            self.frames = [rng.standard_normal(shape, dtype=np.float32) * np.float32(sigma)
-                           for _ in range(size)]
+            self.frames = [
+                rng.standard_normal(shape, dtype=np.float32) * np.float32(sigma)
+                for _ in range(size)
+            ]
 
     def draw(self) -> np.ndarray:
         """One noise frame (a bank frame, possibly flipped)."""
@@ -166,8 +188,9 @@ class NoiseBank:
         return cv2.flip(noise, flip) if flip < 2 else noise
 
 
-def sensor_noise(signal: np.ndarray, unit_noise: np.ndarray, read_noise: float,
-                 full_well: float, gain: float) -> np.ndarray:
+def sensor_noise(
+    signal: np.ndarray, unit_noise: np.ndarray, read_noise: float, full_well: float, gain: float
+) -> np.ndarray:
     """Signal plus shot and read noise, grey levels (float32, not clipped).
 
     Args:
@@ -187,5 +210,4 @@ def sensor_noise(signal: np.ndarray, unit_noise: np.ndarray, read_noise: float,
     return variance
 
 
-__all__ = ['Effects', 'NoiseBank', 'exposure_gains', 'ramp_gains', 'sensor_noise',
-           'vignette_map']
+__all__ = ['Effects', 'NoiseBank', 'exposure_gains', 'ramp_gains', 'sensor_noise', 'vignette_map']

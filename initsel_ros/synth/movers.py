@@ -49,12 +49,14 @@ class Mover:
         c, s = np.cos(angle), np.sin(angle)
         R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         origin = self.centre + offset + R @ (self.plane.origin - self.centre)
-        return dataclasses.replace(self.plane, origin=origin, u=R @ self.plane.u,
-                                   v=R @ self.plane.v)
+        return dataclasses.replace(
+            self.plane, origin=origin, u=R @ self.plane.u, v=R @ self.plane.v
+        )
 
 
-def make_movers(n: int, rng: np.random.Generator, target: np.ndarray,
-                eye: np.ndarray) -> tuple[Mover, ...]:
+def make_movers(
+    n: int, rng: np.random.Generator, target: np.ndarray, eye: np.ndarray
+) -> tuple[Mover, ...]:
     """``n`` boards between ``eye`` (the mean camera position) and ``target``.
 
     Each is centred 35-65 % of the way from the target to the camera, up to 30 % of that
@@ -75,14 +77,26 @@ def make_movers(n: int, rng: np.random.Generator, target: np.ndarray,
             tex = tx.paper_texture(rng, w, h, ppm)
         else:
             tex = tx.photo_noise(rng, round(h * ppm), round(w * ppm), (4.0, 12.0, 36.0))
-        centre = (target + forward * dist * rng.uniform(0.35, 0.65)
-                  + lateral * dist * rng.uniform(-0.3, 0.3) + up * dist * rng.uniform(-0.15, 0.15))
+        centre = (
+            target
+            + forward * dist * rng.uniform(0.35, 0.65)
+            + lateral * dist * rng.uniform(-0.3, 0.3)
+            + up * dist * rng.uniform(-0.15, 0.15)
+        )
         origin = centre - lateral * w / 2 + up * h / 2
         plane = make_plane(f'mover{i}', origin, lateral, -up, tex, ppm)
         direction = lateral + up * rng.uniform(-0.3, 0.3)
-        movers.append(Mover(plane, centre, direction / np.linalg.norm(direction),
-                            float(rng.uniform(0.2, 0.5)), float(rng.uniform(0.1, 0.3)),
-                            float(rng.uniform(0, 2 * np.pi)), float(rng.uniform(0.0, 0.5))))
+        movers.append(
+            Mover(
+                plane,
+                centre,
+                direction / np.linalg.norm(direction),
+                float(rng.uniform(0.2, 0.5)),
+                float(rng.uniform(0.1, 0.3)),
+                float(rng.uniform(0, 2 * np.pi)),
+                float(rng.uniform(0.0, 0.5)),
+            )
+        )
     return tuple(movers)
 
 

@@ -21,22 +21,22 @@ from initsel_ros.synth.effects import Effects
 #: ``--realism`` ranges: effect -> (probability the effect is on, range drawn uniformly,
 #: log-uniformly for full_well). Units as in :class:`Effects`.
 REALISM_RANGES: dict[str, tuple[float, tuple[float, float]]] = {
-    'exposure_time': (0.7, (0.002, 0.020)),       # s
-    'line_delay': (0.5, (10e-6, 50e-6)),          # s per row (4.8-24 ms readout at 480 rows)
-    'gain_ramp_from': (0.5, (0.6, 1.0)),          # gain; ramps up or down (coin flip)
-    'gain_ramp_to': (0.5, (1.0, 1.5)),            # gain
-    'gain_ramp_duration': (0.5, (0.5, 3.0)),      # s
-    'gain_ramp_start': (0.5, (0.0, 1.5)),         # s after the first frame
-    'exposure': (0.5, (0.03, 0.15)),              # relative amplitude
-    'vignetting': (1.0, (0.0, 0.8)),              # fraction of cos^4
-    'noise': (1.0, (0.5, 3.0)),                   # read noise, grey levels
-    'full_well': (0.8, (2500.0, 20000.0)),        # electrons (log-uniform)
-    'jpeg_quality': (0.5, (60, 95)),              # JPEG quality
-    'blur': (0.4, (0.3, 1.2)),                    # defocus sigma, px
-    'movers': (0.3, (1, 3)),                      # moving boards
-    'k1': (0.5, (-0.25, 0.15)),                   # radial distortion
-    'k2': (0.5, (-0.05, 0.05)),                   # radial distortion (+ k1^2 / 2 when k1 < 0)
-    'p': (0.5, (-1e-3, 1e-3)),                    # tangential distortion p1, p2
+    'exposure_time': (0.7, (0.002, 0.020)),  # s
+    'line_delay': (0.5, (10e-6, 50e-6)),  # s per row (4.8-24 ms readout at 480 rows)
+    'gain_ramp_from': (0.5, (0.6, 1.0)),  # gain; ramps up or down (coin flip)
+    'gain_ramp_to': (0.5, (1.0, 1.5)),  # gain
+    'gain_ramp_duration': (0.5, (0.5, 3.0)),  # s
+    'gain_ramp_start': (0.5, (0.0, 1.5)),  # s after the first frame
+    'exposure': (0.5, (0.03, 0.15)),  # relative amplitude
+    'vignetting': (1.0, (0.0, 0.8)),  # fraction of cos^4
+    'noise': (1.0, (0.5, 3.0)),  # read noise, grey levels
+    'full_well': (0.8, (2500.0, 20000.0)),  # electrons (log-uniform)
+    'jpeg_quality': (0.5, (60, 95)),  # JPEG quality
+    'blur': (0.4, (0.3, 1.2)),  # defocus sigma, px
+    'movers': (0.3, (1, 3)),  # moving boards
+    'k1': (0.5, (-0.25, 0.15)),  # radial distortion
+    'k2': (0.5, (-0.05, 0.05)),  # radial distortion (+ k1^2 / 2 when k1 < 0)
+    'p': (0.5, (-1e-3, 1e-3)),  # tangential distortion p1, p2
 }
 
 #: Per effect, the ``Effects`` fields (and ``distortion`` / ``scene``) of its default and strong
@@ -44,14 +44,20 @@ REALISM_RANGES: dict[str, tuple[float, tuple[float, float]]] = {
 EFFECT_LEVELS: dict[str, dict[str, dict[str, Any]]] = {
     'motion_blur': {'default': {'exposure_time': 0.010}, 'strong': {'exposure_time': 0.030}},
     'rolling_shutter': {'default': {'line_delay': 30e-6}, 'strong': {'line_delay': 60e-6}},
-    'exposure_ramp': {'default': {'gain_ramp': (0.6, 1.4, 2.0)},
-                      'strong': {'gain_ramp': (0.4, 1.8, 1.0)}},
+    'exposure_ramp': {
+        'default': {'gain_ramp': (0.6, 1.4, 2.0)},
+        'strong': {'gain_ramp': (0.4, 1.8, 1.0)},
+    },
     'vignetting': {'default': {'vignetting': 0.5}, 'strong': {'vignetting': 1.0}},
-    'noise': {'default': {'noise': 2.0, 'full_well': 10000.0},
-              'strong': {'noise': 4.0, 'full_well': 2500.0}},
+    'noise': {
+        'default': {'noise': 2.0, 'full_well': 10000.0},
+        'strong': {'noise': 4.0, 'full_well': 2500.0},
+    },
     'jpeg': {'default': {'jpeg_quality': 80}, 'strong': {'jpeg_quality': 40}},
-    'distortion': {'default': {'distortion': (-0.15, 0.05, 5e-4, -5e-4)},
-                   'strong': {'distortion': (-0.28, 0.08, 1e-3, -1e-3)}},
+    'distortion': {
+        'default': {'distortion': (-0.15, 0.05, 5e-4, -5e-4)},
+        'strong': {'distortion': (-0.28, 0.08, 1e-3, -1e-3)},
+    },
     'low_texture': {'default': {'scene': 'low_texture'}},
     'repeated_texture': {'default': {'scene': 'repeated'}},
     'movers': {'default': {'movers': 2}, 'strong': {'movers': 4}},
@@ -104,14 +110,18 @@ def draw_realism(seed: int, camera: Intrinsics | None = None) -> CameraDraw:
     values['vignetting'] = uniform('vignetting')
     values['noise'] = uniform('noise')
     lo, hi = r['full_well'][1]
-    values['full_well'] = (float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
-                           if on('full_well') else 0.0)
-    values['jpeg_quality'] = int(rng.integers(r['jpeg_quality'][1][0],
-                                              r['jpeg_quality'][1][1] + 1)) \
-        if on('jpeg_quality') else 0
+    values['full_well'] = (
+        float(np.exp(rng.uniform(np.log(lo), np.log(hi)))) if on('full_well') else 0.0
+    )
+    values['jpeg_quality'] = (
+        int(rng.integers(r['jpeg_quality'][1][0], r['jpeg_quality'][1][1] + 1))
+        if on('jpeg_quality')
+        else 0
+    )
     values['blur'] = uniform('blur') if on('blur') else 0.0
-    values['movers'] = int(rng.integers(r['movers'][1][0], r['movers'][1][1] + 1)) \
-        if on('movers') else 0
+    values['movers'] = (
+        int(rng.integers(r['movers'][1][0], r['movers'][1][1] + 1)) if on('movers') else 0
+    )
     distortion: tuple[float, ...] = ()
     if on('k1'):
         cam = camera or Intrinsics.tum_fr3()

@@ -36,9 +36,13 @@ def _clip_near(points: np.ndarray, near: float) -> np.ndarray:
     return np.array(out).reshape(-1, 3)
 
 
-def render_frame(scene: Scene, intrinsics: Intrinsics, T_wc: np.ndarray,
-                 rows: tuple[int, int] | None = None, color: bool = True,
-                 ) -> tuple[np.ndarray, np.ndarray]:
+def render_frame(
+    scene: Scene,
+    intrinsics: Intrinsics,
+    T_wc: np.ndarray,
+    rows: tuple[int, int] | None = None,
+    color: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
     """Render one ideal (noise-free, pinhole) frame, or a band of its rows.
 
     Args:
@@ -77,9 +81,17 @@ def render_frame(scene: Scene, intrinsics: Intrinsics, T_wc: np.ndarray,
 _TIE = 1e-5
 
 
-def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray,
-                t_cw: np.ndarray, image: np.ndarray, wbuf: np.ndarray, row0: int = 0,
-                color: bool = True) -> None:
+def _draw_plane(
+    plane: Plane,
+    K: np.ndarray,
+    K_inv: np.ndarray,
+    R_cw: np.ndarray,
+    t_cw: np.ndarray,
+    image: np.ndarray,
+    wbuf: np.ndarray,
+    row0: int = 0,
+    color: bool = True,
+) -> None:
     """Draw one plane into the buffers, which hold image rows ``row0 .. row0 + len(wbuf)``."""
     H, W = wbuf.shape
     corners_c = plane.corners() @ R_cw.T + t_cw
@@ -107,7 +119,7 @@ def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray
     mask = np.zeros((bh, bw), np.uint8)
     pts = np.round((px - [x0, y0]) * (1 << _SHIFT)).astype(np.int32)
     cv2.fillConvexPoly(mask, pts, 1, cv2.LINE_8, _SHIFT)
-    wroi = wbuf[y0 - row0:y1 - row0, x0:x1]
+    wroi = wbuf[y0 - row0 : y1 - row0, x0:x1]
     closer = cv2.compare(w, wroi, cv2.CMP_GE)
     draw = cv2.bitwise_and(mask, closer)
     if not cv2.countNonZero(draw):
@@ -123,9 +135,10 @@ def _draw_plane(plane: Plane, K: np.ndarray, K_inv: np.ndarray, R_cw: np.ndarray
     step = (1 << level) / plane.ppm
     Hm = K @ np.column_stack([R_cw @ plane.u * step, R_cw @ plane.v * step, o_c])
     Hm = np.array([[1.0, 0, -x0], [0, 1.0, -y0], [0, 0, 1.0]]) @ Hm
-    colour = cv2.warpPerspective(tex, Hm, (bw, bh), flags=cv2.INTER_LINEAR,
-                                 borderMode=cv2.BORDER_REFLECT)
-    cv2.copyTo(colour, draw, image[y0 - row0:y1 - row0, x0:x1])
+    colour = cv2.warpPerspective(
+        tex, Hm, (bw, bh), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
+    )
+    cv2.copyTo(colour, draw, image[y0 - row0 : y1 - row0, x0:x1])
 
 
 class Distorter:
@@ -152,23 +165,32 @@ class Distorter:
         dist = np.array(camera.distortion, np.float64)
         grid = np.mgrid[0:H, 0:W][::-1].reshape(2, -1).T.astype(np.float64)
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
-        und = cv2.undistortPoints(grid.reshape(-1, 1, 2), K, dist, None, None, K,
-                                  criteria).reshape(-1, 2)
-        rays = np.column_stack([(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy],
-                                np.ones(len(und))])
+        und = cv2.undistortPoints(
+            grid.reshape(-1, 1, 2), K, dist, None, None, K, criteria
+        ).reshape(-1, 2)
+        rays = np.column_stack(
+            [(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy], np.ones(len(und))]
+        )
         back, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
         err = np.linalg.norm(back.reshape(-1, 2) - grid, axis=1)
         if not np.all(np.isfinite(und)) or np.max(err) > 0.05:
             raise ConfigError(
                 f'distortion {camera.distortion} does not map the {W}x{H} image one-to-one '
-                f'(round trip error up to {np.nanmax(err):.2g} px): use smaller coefficients')
+                f'(round trip error up to {np.nanmax(err):.2g} px): use smaller coefficients'
+            )
         left = max(0, int(np.ceil(-und[:, 0].min())) + 2)
         top = max(0, int(np.ceil(-und[:, 1].min())) + 2)
         right = max(0, int(np.ceil(und[:, 0].max())) - W + 3)
         bottom = max(0, int(np.ceil(und[:, 1].max())) - H + 3)
         self.camera = camera
-        self.canvas = Intrinsics(camera.fx, camera.fy, camera.cx + left, camera.cy + top,
-                                 W + left + right, H + top + bottom)
+        self.canvas = Intrinsics(
+            camera.fx,
+            camera.fy,
+            camera.cx + left,
+            camera.cy + top,
+            W + left + right,
+            H + top + bottom,
+        )
         und = und.reshape(H, W, 2).astype(np.float32)
         self.map_x = np.ascontiguousarray(und[..., 0] + np.float32(left))
         self.map_y = np.ascontiguousarray(und[..., 1] + np.float32(top))
@@ -180,19 +202,29 @@ class Distorter:
         hi = min(int(np.ceil(band.max())) + 2, self.canvas.height)
         return lo, hi
 
-    def image(self, canvas_band: np.ndarray, first: int = 0, stop: int | None = None,
-              canvas_row0: int = 0) -> np.ndarray:
+    def image(
+        self,
+        canvas_band: np.ndarray,
+        first: int = 0,
+        stop: int | None = None,
+        canvas_row0: int = 0,
+    ) -> np.ndarray:
         """Distort colour: sensor rows ``first:stop`` from a canvas band starting at row
         ``canvas_row0`` (the whole canvas by default)."""
         stop = self.camera.height if stop is None else stop
-        return cv2.remap(canvas_band, self.map_x[first:stop],
-                         self.map_y[first:stop] - np.float32(canvas_row0), cv2.INTER_LINEAR,
-                         borderMode=cv2.BORDER_REPLICATE)
+        return cv2.remap(
+            canvas_band,
+            self.map_x[first:stop],
+            self.map_y[first:stop] - np.float32(canvas_row0),
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REPLICATE,
+        )
 
     def depth(self, canvas_depth: np.ndarray) -> np.ndarray:
         """Distort a whole-canvas depth map (nearest neighbour)."""
-        return cv2.remap(canvas_depth, self.map_x, self.map_y, cv2.INTER_NEAREST,
-                         borderMode=cv2.BORDER_CONSTANT)
+        return cv2.remap(
+            canvas_depth, self.map_x, self.map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT
+        )
 
     def __call__(self, image: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distort a whole-canvas colour image and depth map."""

@@ -61,18 +61,26 @@ class Plane:
     def corners(self) -> np.ndarray:
         """(4, 3) world corners in order (0,0), (w,0), (w,h), (0,h)."""
         w, h = self.size
-        return np.array([self.origin, self.origin + w * self.u,
-                         self.origin + w * self.u + h * self.v, self.origin + h * self.v])
+        return np.array(
+            [
+                self.origin,
+                self.origin + w * self.u,
+                self.origin + w * self.u + h * self.v,
+                self.origin + h * self.v,
+            ]
+        )
 
 
-def make_plane(name: str, origin: np.ndarray, u: np.ndarray, v: np.ndarray, texture: np.ndarray,
-               ppm: float) -> Plane:
+def make_plane(
+    name: str, origin: np.ndarray, u: np.ndarray, v: np.ndarray, texture: np.ndarray, ppm: float
+) -> Plane:
     """A plane whose size follows from the texture size and ``ppm``."""
     u = np.asarray(u, float) / np.linalg.norm(u)
     v = np.asarray(v, float) / np.linalg.norm(v)
     h, w = texture.shape[:2]
-    return Plane(name, np.asarray(origin, float), u, v, (w / ppm, h / ppm), ppm,
-                 tx.mip_levels(texture))
+    return Plane(
+        name, np.asarray(origin, float), u, v, (w / ppm, h / ppm), ppm, tx.mip_levels(texture)
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,16 +131,18 @@ def scene_target() -> np.ndarray:
     return np.array([mid[0], mid[1], 0.25])
 
 
-def _poster_planes(rng: np.random.Generator, low: bool, ppm: float,
-                   repeated: bool = False) -> list[Plane]:
+def _poster_planes(
+    rng: np.random.Generator, low: bool, ppm: float, repeated: bool = False
+) -> list[Plane]:
     seg = np.diff(POSTER_VERTICES, axis=0)
     lengths = np.linalg.norm(seg, axis=1)
     total = float(lengths.sum())
     if low:
         tex = tx.low_texture(rng, round(total * ppm), round(POSTER_HEIGHT * ppm), 170, 20)
     elif repeated:  # wallpaper, 8 cm period
-        tex = tx.repeated_texture(rng, round(total * ppm), round(POSTER_HEIGHT * ppm),
-                                  round(0.08 * ppm))
+        tex = tx.repeated_texture(
+            rng, round(total * ppm), round(POSTER_HEIGHT * ppm), round(0.08 * ppm)
+        )
     else:
         tex = tx.poster_texture(rng, total, POSTER_HEIGHT, ppm)
     planes = []
@@ -146,8 +156,14 @@ def _poster_planes(rng: np.random.Generator, low: bool, ppm: float,
     return planes
 
 
-def _sheet_planes(rng: np.random.Generator, n: int, front: tuple[float, float], low: bool,
-                  ppm: float, repeated: bool = False) -> list[Plane]:
+def _sheet_planes(
+    rng: np.random.Generator,
+    n: int,
+    front: tuple[float, float],
+    low: bool,
+    ppm: float,
+    repeated: bool = False,
+) -> list[Plane]:
     """``n`` sheets on the floor in front of the poster line, ``front`` = (near, far) metres."""
     start, d, nrm = _poster_frame()
     length = float(np.linalg.norm(POSTER_VERTICES[-1] - POSTER_VERTICES[0]))
@@ -166,8 +182,9 @@ def _sheet_planes(rng: np.random.Generator, n: int, front: tuple[float, float], 
         if low:
             tex = tx.low_texture(rng, round(w * ppm), round(h * ppm), 235, 8)
         elif repeated:  # a print of one motif, 3-6 cm period
-            tex = tx.repeated_texture(rng, round(w * ppm), round(h * ppm),
-                                      round(rng.uniform(0.03, 0.06) * ppm))
+            tex = tx.repeated_texture(
+                rng, round(w * ppm), round(h * ppm), round(rng.uniform(0.03, 0.06) * ppm)
+            )
         else:
             tex = tx.paper_texture(rng, w, h, ppm)
         origin = np.array([centre[0], centre[1], 0.0]) - u * w / 2 - v * h / 2
@@ -175,13 +192,15 @@ def _sheet_planes(rng: np.random.Generator, n: int, front: tuple[float, float], 
     return planes
 
 
-def _room_planes(rng: np.random.Generator, floor: bool = True, wall: bool = True,
-                 tiles: bool = False) -> list[Plane]:
+def _room_planes(
+    rng: np.random.Generator, floor: bool = True, wall: bool = True, tiles: bool = False
+) -> list[Plane]:
     ppm = 60.0
     planes = []
     if floor and tiles:  # 9 m x 9 m floor of 0.3 m tiles
-        tex = tx.repeated_texture(rng, round(9 * ppm), round(9 * ppm), round(0.3 * ppm),
-                                  grout=True)
+        tex = tx.repeated_texture(
+            rng, round(9 * ppm), round(9 * ppm), round(0.3 * ppm), grout=True
+        )
         planes.append(make_plane('floor', [-6.5, -4.5, 0.0], [1, 0, 0], [0, 1, 0], tex, ppm))
     elif floor:  # 9 m x 9 m floor, z = 0, normal up
         tex = tx.low_texture(rng, round(9 * ppm), round(9 * ppm), 120, 14)
@@ -211,13 +230,16 @@ def _wall_planes(rng: np.random.Generator, ppm: float) -> list[Plane]:
         sheet = tx.paper_texture(rng, w, h, wall_ppm)
         y0 = int(rng.integers(0, tex.shape[0] - sheet.shape[0]))
         x0 = int(rng.integers(0, tex.shape[1] - sheet.shape[1]))
-        tex[y0:y0 + sheet.shape[0], x0:x0 + sheet.shape[1]] = sheet
+        tex[y0 : y0 + sheet.shape[0], x0 : x0 + sheet.shape[1]] = sheet
     origin = np.array([target[0], target[1], 2.5]) - u * width / 2
     return [make_plane('wall', origin, u, -_UP, tex, wall_ppm)]
 
 
-def build_scene(name: str | SceneName = SceneName.STRUCTURE_TEXTURE, seed: int = 0,
-                ppm: float = tx.PIXELS_PER_METRE) -> Scene:
+def build_scene(
+    name: str | SceneName = SceneName.STRUCTURE_TEXTURE,
+    seed: int = 0,
+    ppm: float = tx.PIXELS_PER_METRE,
+) -> Scene:
     """Build a scene variant; the textures are a pure function of ``seed``.
 
     Scenes are cached (a few are kept): treat them as read-only.
@@ -240,14 +262,19 @@ def _build_scene(name: SceneName, seed: int, ppm: float) -> Scene:
     rng = np.random.default_rng(seed)
     target = scene_target()
     if name is SceneName.STRUCTURE_TEXTURE:
-        planes = (_room_planes(rng) + _sheet_planes(rng, 7, (0.35, 0.95), False, ppm)
-                  + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm)
-                  + _poster_planes(rng, False, ppm))
+        planes = (
+            _room_planes(rng)
+            + _sheet_planes(rng, 7, (0.35, 0.95), False, ppm)
+            + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm)
+            + _poster_planes(rng, False, ppm)
+        )
     elif name is SceneName.FLOOR:
-        planes = (_room_planes(rng, wall=False)
-                  + _sheet_planes(rng, 7, (-0.5, 0.2), False, ppm)
-                  + _sheet_planes(rng, 7, (0.3, 0.95), False, ppm)
-                  + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm))
+        planes = (
+            _room_planes(rng, wall=False)
+            + _sheet_planes(rng, 7, (-0.5, 0.2), False, ppm)
+            + _sheet_planes(rng, 7, (0.3, 0.95), False, ppm)
+            + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm)
+        )
         target = np.array([target[0], target[1], 0.0])
     elif name is SceneName.ZIGZAG:
         planes = _poster_planes(rng, False, ppm)
@@ -255,15 +282,28 @@ def _build_scene(name: SceneName, seed: int, ppm: float) -> Scene:
     elif name is SceneName.WALL:
         planes = _wall_planes(rng, ppm)
     elif name is SceneName.REPEATED:
-        planes = (_room_planes(rng, tiles=True)
-                  + _sheet_planes(rng, 7, (0.35, 0.95), False, ppm, repeated=True)
-                  + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm, repeated=True)
-                  + _poster_planes(rng, False, ppm, repeated=True))
+        planes = (
+            _room_planes(rng, tiles=True)
+            + _sheet_planes(rng, 7, (0.35, 0.95), False, ppm, repeated=True)
+            + _sheet_planes(rng, 5, (0.8, 1.4), False, ppm, repeated=True)
+            + _poster_planes(rng, False, ppm, repeated=True)
+        )
     else:
-        planes = (_room_planes(rng) + _sheet_planes(rng, 7, (0.35, 0.95), True, ppm)
-                  + _poster_planes(rng, True, ppm))
+        planes = (
+            _room_planes(rng)
+            + _sheet_planes(rng, 7, (0.35, 0.95), True, ppm)
+            + _poster_planes(rng, True, ppm)
+        )
     return Scene(name.value, tuple(planes), target)
 
 
-__all__ = ['NEAR_CONVERGENCE', 'POSTER_VERTICES', 'Plane', 'Scene', 'SceneName', 'build_scene',
-           'make_plane', 'scene_target']
+__all__ = [
+    'NEAR_CONVERGENCE',
+    'POSTER_VERTICES',
+    'Plane',
+    'Scene',
+    'SceneName',
+    'build_scene',
+    'make_plane',
+    'scene_target',
+]

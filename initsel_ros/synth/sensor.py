@@ -72,7 +72,7 @@ class PoseTrack:
         if a == 0.0:
             return self.poses[i]
         position = (1 - a) * self._t[i] + a * self._t[i + 1]
-        q = slerp(self._q[i:i + 1], self._q[i + 1:i + 2], np.array([a]))[0]
+        q = slerp(self._q[i : i + 1], self._q[i + 1 : i + 2], np.array([a]))[0]
         return pose_matrix(position, q)
 
 
@@ -88,23 +88,39 @@ class SensorRenderer:
         movers: independently moving planes.
     """
 
-    def __init__(self, scene: Scene, camera: Intrinsics, effects: Effects, track: PoseTrack,
-                 rng: np.random.Generator, movers: Sequence[Mover] = ()) -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        camera: Intrinsics,
+        effects: Effects,
+        track: PoseTrack,
+        rng: np.random.Generator,
+        movers: Sequence[Mover] = (),
+    ) -> None:
         self.scene, self.camera, self.effects, self.track = scene, camera, effects, track
         self.movers = tuple(movers)
         self.distorter = Distorter(camera) if camera.has_distortion else None
-        self.canvas = (self.distorter.canvas if self.distorter is not None else
-                       Intrinsics(camera.fx, camera.fy, camera.cx, camera.cy, camera.width,
-                                  camera.height))
+        self.canvas = (
+            self.distorter.canvas
+            if self.distorter is not None
+            else Intrinsics(
+                camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height
+            )
+        )
         shape = (camera.height, camera.width, 3)
         shot = effects.full_well > 0
         # draw order kept from the first renderer (noise bank, then gains): same bytes per seed
-        self.bank = (NoiseBank(shape, rng, effects.noise, integer=True) if effects.noise > 0
-                     and not shot else NoiseBank(shape, rng, 1.0, integer=False) if shot
-                     else None)
+        self.bank = (
+            NoiseBank(shape, rng, effects.noise, integer=True)
+            if effects.noise > 0 and not shot
+            else NoiseBank(shape, rng, 1.0, integer=False)
+            if shot
+            else None
+        )
         rel = track.stamps - track.stamps[0]
-        self.gains = (exposure_gains(len(rel), effects.exposure, rng)
-                      * ramp_gains(rel, effects.gain_ramp))
+        self.gains = exposure_gains(len(rel), effects.exposure, rng) * ramp_gains(
+            rel, effects.gain_ramp
+        )
         self.vignette = None
         if effects.vignetting > 0:
             rays = None
@@ -127,17 +143,15 @@ class SensorRenderer:
         else:
             _, canvas_depth = render_frame(scene, self.canvas, pose, color=False)
             image = self._integrate(t, pose, canvas_depth)
-            depth = (canvas_depth if self.distorter is None
-                     else self.distorter.depth(canvas_depth))
+            depth = canvas_depth if self.distorter is None else self.distorter.depth(canvas_depth)
         return self._photometry(image, float(self.gains[i])), depth
 
     # ------------------------------------------------------------------ optics over time
-    def _image_motion(self, pose: np.ndarray, depth: np.ndarray, t_a: float,
-                      t_b: float) -> float:
+    def _image_motion(self, pose: np.ndarray, depth: np.ndarray, t_a: float, t_b: float) -> float:
         """Largest image displacement (pixels) of scene points between times t_a and t_b."""
         K = self.canvas.K
         step = 16
-        v, u = np.mgrid[step // 2:depth.shape[0]:step, step // 2:depth.shape[1]:step]
+        v, u = np.mgrid[step // 2 : depth.shape[0] : step, step // 2 : depth.shape[1] : step]
         z = depth[v, u]
         ok = z > 0
         rays = np.linalg.inv(K) @ np.vstack([u[ok], v[ok], np.ones(int(ok.sum()))])
@@ -173,8 +187,9 @@ class SensorRenderer:
         H, W = self.camera.height, self.camera.width
         n_sub, step = 1, 0.0
         if e.exposure_time > 0:
-            motion = self._image_motion(pose, canvas_depth, t - e.exposure_time / 2,
-                                        t + e.exposure_time / 2)
+            motion = self._image_motion(
+                pose, canvas_depth, t - e.exposure_time / 2, t + e.exposure_time / 2
+            )
             n_sub = int(np.clip(math.ceil(motion / SUBFRAME_STEP_PX), 1, MAX_SUBFRAMES))
             if e.line_delay > 0:  # a band lasts at least one row
                 n_sub = max(1, min(n_sub, int(e.exposure_time / e.line_delay)))
@@ -205,9 +220,13 @@ class SensorRenderer:
             if r1 <= r0:
                 continue
             when = t + (b_lo - (n_bands - 1) / 2) * band_dt + float(offsets[j - b_lo])
-            rows = ((r0, r1) if self.distorter is None else self.distorter.rows_needed(r0, r1))
-            band, _ = render_frame(scene_at(self.scene, self.movers, when), self.canvas,
-                                   self.track.pose_at(when), rows=rows)
+            rows = (r0, r1) if self.distorter is None else self.distorter.rows_needed(r0, r1)
+            band, _ = render_frame(
+                scene_at(self.scene, self.movers, when),
+                self.canvas,
+                self.track.pose_at(when),
+                rows=rows,
+            )
             self.renders += 1
             if self.distorter is not None:
                 band = self.distorter.image(band, r0, r1, rows[0])

@@ -15,8 +15,12 @@ import numpy as np
 #: Default texture resolution, pixels per metre (about 2x the image resolution at 0.5 m).
 PIXELS_PER_METRE = 1000.0
 
-_FONTS = (cv2.FONT_HERSHEY_SIMPLEX, cv2.FONT_HERSHEY_DUPLEX, cv2.FONT_HERSHEY_COMPLEX,
-          cv2.FONT_HERSHEY_TRIPLEX)
+_FONTS = (
+    cv2.FONT_HERSHEY_SIMPLEX,
+    cv2.FONT_HERSHEY_DUPLEX,
+    cv2.FONT_HERSHEY_COMPLEX,
+    cv2.FONT_HERSHEY_TRIPLEX,
+)
 _LETTERS = string.ascii_letters + string.digits
 
 
@@ -24,8 +28,9 @@ def _word(rng: np.random.Generator, lo: int = 2, hi: int = 9) -> str:
     return ''.join(rng.choice(list(_LETTERS), size=int(rng.integers(lo, hi))))
 
 
-def photo_noise(rng: np.random.Generator, height: int, width: int,
-                scales: tuple[float, ...] = (3.0, 9.0, 27.0)) -> np.ndarray:
+def photo_noise(
+    rng: np.random.Generator, height: int, width: int, scales: tuple[float, ...] = (3.0, 9.0, 27.0)
+) -> np.ndarray:
     """Photo-like colour noise: blurred noise summed over several scales, (H, W, 3) uint8."""
     acc = np.zeros((height, width, 3), np.float32)
     for k, sigma in enumerate(scales):
@@ -36,14 +41,22 @@ def photo_noise(rng: np.random.Generator, height: int, width: int,
         blurred = cv2.GaussianBlur(noise, (0, 0), sigma / f)
         blurred = cv2.resize(blurred, (width, height), interpolation=cv2.INTER_CUBIC)
         blurred /= blurred.std() + 1e-6
-        acc += blurred * (0.6 ** k)
+        acc += blurred * (0.6**k)
     acc = (acc - acc.min()) / (np.ptp(acc) + 1e-6)
     tint = rng.uniform(0.4, 1.0, size=3).astype(np.float32)
     return np.clip(acc * 255 * tint + rng.uniform(0, 60), 0, 255).astype(np.uint8)
 
 
-def _text_block(img: np.ndarray, rng: np.random.Generator, x0: int, y0: int, x1: int, y1: int,
-                ink: tuple[int, int, int], scale: float) -> None:
+def _text_block(
+    img: np.ndarray,
+    rng: np.random.Generator,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    ink: tuple[int, int, int],
+    scale: float,
+) -> None:
     """Lines of random words between (x0, y0) and (x1, y1)."""
     font = int(rng.choice(_FONTS))
     thickness = max(1, round(scale * 1.6))
@@ -62,8 +75,15 @@ def _text_block(img: np.ndarray, rng: np.random.Generator, x0: int, y0: int, x1:
         y += line_step
 
 
-def _figure(img: np.ndarray, rng: np.random.Generator, x0: int, y0: int, x1: int, y1: int,
-            ink: tuple[int, int, int]) -> None:
+def _figure(
+    img: np.ndarray,
+    rng: np.random.Generator,
+    x0: int,
+    y0: int,
+    x1: int,
+    y1: int,
+    ink: tuple[int, int, int],
+) -> None:
     """A framed figure: a photo patch, a plot with axes and curves, or a diagram."""
     w, h = x1 - x0, y1 - y0
     if w < 8 or h < 8:
@@ -81,25 +101,42 @@ def _figure(img: np.ndarray, rng: np.random.Generator, x0: int, y0: int, x1: int
             color = tuple(int(c) for c in rng.integers(0, 200, 3))
             cv2.polylines(img, [pts], False, color, 2, cv2.LINE_AA)
             for p in pts[:: int(rng.integers(4, 9))]:
-                cv2.rectangle(img, (int(p[0]) - 3, int(p[1]) - 3), (int(p[0]) + 3,
-                              int(p[1]) + 3), color, -1)
+                cv2.rectangle(
+                    img, (int(p[0]) - 3, int(p[1]) - 3), (int(p[0]) + 3, int(p[1]) + 3), color, -1
+                )
     else:
         for _ in range(int(rng.integers(4, 10))):
             cx, cy = int(rng.integers(x0, x1)), int(rng.integers(y0, y1))
             bw, bh = int(rng.integers(8, max(9, w // 3))), int(rng.integers(8, max(9, h // 3)))
             color = tuple(int(c) for c in rng.integers(0, 220, 3))
             if rng.random() < 0.5:
-                cv2.rectangle(img, (cx, cy), (min(cx + bw, x1), min(cy + bh, y1)), color,
-                              int(rng.choice([-1, 2])))
+                cv2.rectangle(
+                    img,
+                    (cx, cy),
+                    (min(cx + bw, x1), min(cy + bh, y1)),
+                    color,
+                    int(rng.choice([-1, 2])),
+                )
             else:
                 cv2.circle(img, (cx, cy), min(bw, bh) // 2, color, int(rng.choice([-1, 2])))
-            cv2.line(img, (cx, cy), (int(rng.integers(x0, x1)), int(rng.integers(y0, y1))),
-                     ink, 1, cv2.LINE_AA)
+            cv2.line(
+                img,
+                (cx, cy),
+                (int(rng.integers(x0, x1)), int(rng.integers(y0, y1))),
+                ink,
+                1,
+                cv2.LINE_AA,
+            )
     cv2.rectangle(img, (x0, y0), (x1 - 1, y1 - 1), ink, 1)
 
 
-def paper_texture(rng: np.random.Generator, width_m: float, height_m: float,
-                  ppm: float = PIXELS_PER_METRE, contrast: float | None = None) -> np.ndarray:
+def paper_texture(
+    rng: np.random.Generator,
+    width_m: float,
+    height_m: float,
+    ppm: float = PIXELS_PER_METRE,
+    contrast: float | None = None,
+) -> np.ndarray:
     """A printed sheet: title, text columns, figures and photos on off-white paper.
 
     Args:
@@ -121,8 +158,9 @@ def paper_texture(rng: np.random.Generator, width_m: float, height_m: float,
     margin = int(0.06 * min(w, h))
     # title
     title_h = int(h * rng.uniform(0.06, 0.12))
-    _text_block(img, rng, margin, margin, w - margin, margin + title_h, ink,
-                scale=max(0.8, title_h / 40))
+    _text_block(
+        img, rng, margin, margin, w - margin, margin + title_h, ink, scale=max(0.8, title_h / 40)
+    )
     y = margin + title_h + margin // 2
     n_cols = int(rng.integers(1, 3))
     col_w = (w - 2 * margin - (n_cols - 1) * margin // 2) // n_cols
@@ -135,14 +173,23 @@ def paper_texture(rng: np.random.Generator, width_m: float, height_m: float,
             if rng.random() < 0.45:
                 _figure(img, rng, x0, yy, x0 + col_w, y1, ink)
             else:
-                _text_block(img, rng, x0, yy, x0 + col_w, y1, ink,
-                            scale=float(rng.uniform(0.45, 1.1)) * ppm / 1000)
+                _text_block(
+                    img,
+                    rng,
+                    x0,
+                    yy,
+                    x0 + col_w,
+                    y1,
+                    ink,
+                    scale=float(rng.uniform(0.45, 1.1)) * ppm / 1000,
+                )
             yy = y1 + margin // 3
     return img
 
 
-def poster_texture(rng: np.random.Generator, width_m: float, height_m: float,
-                   ppm: float = PIXELS_PER_METRE) -> np.ndarray:
+def poster_texture(
+    rng: np.random.Generator, width_m: float, height_m: float, ppm: float = PIXELS_PER_METRE
+) -> np.ndarray:
     """A colourful poster: warm photo-like background, large words, pictures and logos."""
     w, h = round(width_m * ppm), round(height_m * ppm)
     base = np.zeros((h, w, 3), np.float32)
@@ -165,27 +212,44 @@ def poster_texture(rng: np.random.Generator, width_m: float, height_m: float,
         x, y = int(rng.integers(0, max(1, w - tw))), int(rng.integers(th, h))
         cv2.putText(img, word, (x + 3, y + 3), font, scale, (60, 30, 20), thick + 2, cv2.LINE_AA)
         cv2.putText(img, word, (x, y), font, scale, (250, 245, 240), thick, cv2.LINE_AA)
-    _text_block(img, rng, int(0.05 * w), int(0.8 * h), int(0.95 * w), h - 5, (40, 20, 20),
-                scale=0.9 * ppm / 1000)
+    _text_block(
+        img,
+        rng,
+        int(0.05 * w),
+        int(0.8 * h),
+        int(0.95 * w),
+        h - 5,
+        (40, 20, 20),
+        scale=0.9 * ppm / 1000,
+    )
     return img
 
 
-def low_texture(rng: np.random.Generator, width_px: int, height_px: int,
-                base: float = 150.0, amplitude: float = 12.0) -> np.ndarray:
+def low_texture(
+    rng: np.random.Generator,
+    width_px: int,
+    height_px: int,
+    base: float = 150.0,
+    amplitude: float = 12.0,
+) -> np.ndarray:
     """A smooth, nearly uniform grey surface (few corners), (H, W, 3) uint8."""
     gy, gx = np.mgrid[0:height_px, 0:width_px].astype(np.float32)
     angle = rng.uniform(0, np.pi)
     ramp = np.cos(angle) * gx / width_px + np.sin(angle) * gy / height_px
-    blotch = cv2.GaussianBlur(rng.standard_normal((height_px, width_px)).astype(np.float32),
-                              (0, 0), max(width_px, height_px) / 12)
+    blotch = cv2.GaussianBlur(
+        rng.standard_normal((height_px, width_px)).astype(np.float32),
+        (0, 0),
+        max(width_px, height_px) / 12,
+    )
     blotch /= blotch.std() + 1e-6
     val = base + amplitude * (ramp - 0.5) + 0.4 * amplitude * blotch
     tint = rng.uniform(0.92, 1.05, 3).astype(np.float32)
     return np.clip(val[..., None] * tint, 0, 255).astype(np.uint8)
 
 
-def repeated_texture(rng: np.random.Generator, width_px: int, height_px: int,
-                     period_px: int, grout: bool = False) -> np.ndarray:
+def repeated_texture(
+    rng: np.random.Generator, width_px: int, height_px: int, period_px: int, grout: bool = False
+) -> np.ndarray:
     """One random motif tiled with period ``period_px`` (wallpaper, fabric, floor tiles).
 
     Many strong corners, all alike: descriptor matching finds several equally good candidates
@@ -210,8 +274,16 @@ def repeated_texture(rng: np.random.Generator, width_px: int, height_px: int,
     else:
         font = int(rng.choice(_FONTS))
         scale = p / 45.0
-        cv2.putText(tile, _word(rng, 1, 3), (p // 8, (2 * p) // 3), font, scale, ink,
-                    max(1, round(scale * 1.5)), cv2.LINE_AA)
+        cv2.putText(
+            tile,
+            _word(rng, 1, 3),
+            (p // 8, (2 * p) // 3),
+            font,
+            scale,
+            ink,
+            max(1, round(scale * 1.5)),
+            cv2.LINE_AA,
+        )
         r = max(2, p // 8)
         cx, cy = int(rng.integers(r, p - r)), int(rng.integers(r, p - r))
         cv2.circle(tile, (cx, cy), r, ink, -1, cv2.LINE_AA)

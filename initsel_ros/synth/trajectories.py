@@ -83,9 +83,13 @@ def nominal_eye(distance: float = 1.2) -> np.ndarray:
     return target + distance * d / np.linalg.norm(d)
 
 
-def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed: int = 0,
-                    target: np.ndarray | None = None, start: int = 0,
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def make_trajectory(
+    name: str | TrajectoryName,
+    frames: int | None = None,
+    seed: int = 0,
+    target: np.ndarray | None = None,
+    start: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
     """Timestamps and camera-to-world poses for a trajectory kind.
 
     Args:
@@ -109,8 +113,10 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
         stamps, poses = near_trajectory()
         stop = len(stamps) if frames is None else start + frames
         if stop > len(stamps) or start >= len(stamps):
-            raise ConfigError(f'the {name.value} trajectory has {len(stamps)} frames, '
-                              f'frames {start}..{stop - 1} requested')
+            raise ConfigError(
+                f'the {name.value} trajectory has {len(stamps)} frames, '
+                f'frames {start}..{stop - 1} requested'
+            )
         stamps, poses = stamps[start:stop], poses[start:stop]
         if name is TrajectoryName.FAR:
             poses = poses.copy()
@@ -144,9 +150,14 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
         offset = nominal_eye(1.3) - target
         angle = np.deg2rad(25.0) * np.sin(2 * np.pi * 0.1 * t)
         c, s = np.cos(angle), np.sin(angle)
-        eyes = np.stack([target[0] + c * offset[0] - s * offset[1],
-                         target[1] + s * offset[0] + c * offset[1],
-                         np.full(n, target[2] + offset[2])], axis=1)
+        eyes = np.stack(
+            [
+                target[0] + c * offset[0] - s * offset[1],
+                target[1] + s * offset[0] + c * offset[1],
+                np.full(n, target[2] + offset[2]),
+            ],
+            axis=1,
+        )
         return stamps, look_at(eyes, np.repeat(target[None], n, axis=0))
     # RANDOM: smooth sums of sinusoids for the eye, the looked-at point and roll
     rng = np.random.default_rng(seed)
@@ -155,8 +166,9 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
         freqs = rng.uniform(0.03, 0.35, (3, dims))
         phases = rng.uniform(0, 2 * np.pi, (3, dims))
         amps = rng.uniform(0.3, 1.0, (3, dims))
-        wave = np.sum(amps[None] * np.sin(2 * np.pi * freqs[None] * t[:, None, None]
-                                          + phases[None]), axis=1)
+        wave = np.sum(
+            amps[None] * np.sin(2 * np.pi * freqs[None] * t[:, None, None] + phases[None]), axis=1
+        )
         return amplitude * wave / amps.sum(axis=0)
 
     distance = rng.uniform(0.9, 2.4)
@@ -169,5 +181,12 @@ def make_trajectory(name: str | TrajectoryName, frames: int | None = None, seed:
     return stamps, poses
 
 
-__all__ = ['NEAR_FILE', 'START_TIME', 'TrajectoryName', 'look_at', 'make_trajectory',
-           'near_trajectory', 'nominal_eye']
+__all__ = [
+    'NEAR_FILE',
+    'START_TIME',
+    'TrajectoryName',
+    'look_at',
+    'make_trajectory',
+    'near_trajectory',
+    'nominal_eye',
+]

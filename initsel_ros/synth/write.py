@@ -70,23 +70,35 @@ class _Progress:
         width = 30
         filled = int(width * done / max(self.total, 1))
         fps = done / max(now - self.start, 1e-9)
-        sys.stderr.write(f'\r[{"#" * filled}{"." * (width - filled)}] {done}/{self.total} '
-                         f'{fps:5.1f} frames/s')
+        sys.stderr.write(
+            f'\r[{"#" * filled}{"." * (width - filled)}] {done}/{self.total} {fps:5.1f} frames/s'
+        )
         if done >= self.total:
             sys.stderr.write('\n')
         sys.stderr.flush()
 
 
-def _camera(width: int | None, height: int | None, intrinsics: Intrinsics | None,
-            distortion: tuple[float, ...]) -> Intrinsics:
+def _camera(
+    width: int | None,
+    height: int | None,
+    intrinsics: Intrinsics | None,
+    distortion: tuple[float, ...],
+) -> Intrinsics:
     cam = intrinsics or Intrinsics.tum_fr3()
     if width or height:
         w = width or round((height or cam.height) * cam.width / cam.height)
         h = height or round(w * cam.height / cam.width)
         cam = cam.scaled(int(w), int(h))
     if distortion:
-        cam = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height,
-                         tuple(float(d) for d in distortion))
+        cam = Intrinsics(
+            cam.fx,
+            cam.fy,
+            cam.cx,
+            cam.cy,
+            cam.width,
+            cam.height,
+            tuple(float(d) for d in distortion),
+        )
     return cam
 
 
@@ -148,10 +160,15 @@ def render(
     cam = _camera(width, height, intrinsics, distortion)
     stamps, poses = make_trajectory(trajectory, frames, seed, start=start)
     world = build_scene(scene, seed)
-    movers = make_movers(effects.movers, np.random.default_rng([seed, 2]), world.target,
-                         poses[:, :3, 3].mean(axis=0))
-    sensor = SensorRenderer(world, cam, effects, PoseTrack(stamps, poses),
-                            np.random.default_rng(seed + 1), movers)
+    movers = make_movers(
+        effects.movers,
+        np.random.default_rng([seed, 2]),
+        world.target,
+        poses[:, :3, 3].mean(axis=0),
+    )
+    sensor = SensorRenderer(
+        world, cam, effects, PoseTrack(stamps, poses), np.random.default_rng(seed + 1), movers
+    )
     try:
         (out / 'rgb').mkdir(parents=True, exist_ok=True)
         (out / 'depth').mkdir(parents=True, exist_ok=True)
@@ -176,10 +193,12 @@ def render(
         for i in range(len(stamps)):
             image, depth = sensor.frame(i)
             depth_png = np.clip(np.round(depth * DEPTH_SCALE), 0, 65535).astype(np.uint16)
-            pending.append(pool.submit(write, out / 'rgb' / (names[i] + rgb_ext), image,
-                                       rgb_params))
-            pending.append(pool.submit(write, out / 'depth' / (names[i] + '.png'), depth_png,
-                                       depth_params))
+            pending.append(
+                pool.submit(write, out / 'rgb' / (names[i] + rgb_ext), image, rgb_params)
+            )
+            pending.append(
+                pool.submit(write, out / 'depth' / (names[i] + '.png'), depth_png, depth_params)
+            )
             while len(pending) > 4 * max(1, workers):
                 pending.popleft().result()
             bar.update(i + 1)
@@ -187,13 +206,17 @@ def render(
             f.result()
     seconds = time.perf_counter() - t_start
 
-    write_listing(out / 'rgb.txt', stamps, [f'rgb/{n}{rgb_ext}' for n in names],
-                  f'color images (initsel synth: scene {scene}, trajectory {trajectory}, '
-                  f'seed {seed})')
+    write_listing(
+        out / 'rgb.txt',
+        stamps,
+        [f'rgb/{n}{rgb_ext}' for n in names],
+        f'color images (initsel synth: scene {scene}, trajectory {trajectory}, seed {seed})',
+    )
     write_listing(out / 'depth.txt', stamps, [f'depth/{n}.png' for n in names], 'depth maps')
     t, q = matrix_to_pose(poses)
-    write_trajectory(out / 'groundtruth.txt', stamps, t, q,
-                     'ground truth trajectory (camera-to-world, exact)')
+    write_trajectory(
+        out / 'groundtruth.txt', stamps, t, q, 'ground truth trajectory (camera-to-world, exact)'
+    )
     cam.save_yaml(out / 'intrinsics.yaml')
     _save_effects(out / 'effects.yaml', effects, cam.distortion, realism, seed, len(movers))
 
@@ -211,25 +234,42 @@ def render(
                 target.unlink()
             bagio.write_bag(seq, target, fmt)
             written.append(target)
-    result = SynthResult(out, len(stamps), seconds, tuple(written), effects, cam.distortion,
-                         sensor.renders)
+    result = SynthResult(
+        out, len(stamps), seconds, tuple(written), effects, cam.distortion, sensor.renders
+    )
     _LOG.info('%s: %d frames in %.1f s (%.1f frames/s)', out, result.frames, seconds, result.fps)
     return result
 
 
-def _save_effects(path: Path, effects: Effects, distortion: tuple[float, ...], realism: bool,
-                  seed: int, movers: int) -> None:
+def _save_effects(
+    path: Path,
+    effects: Effects,
+    distortion: tuple[float, ...],
+    realism: bool,
+    seed: int,
+    movers: int,
+) -> None:
     """Write the rendered effects next to the frames (provenance)."""
     import yaml
 
-    data = {'effects': effects.to_dict(), 'distortion': list(distortion),
-            'realism': bool(realism), 'seed': int(seed), 'movers': movers}
+    data = {
+        'effects': effects.to_dict(),
+        'distortion': list(distortion),
+        'realism': bool(realism),
+        'seed': int(seed),
+        'movers': movers,
+    }
     path.write_text(yaml.safe_dump(data, sort_keys=False))
 
 
-def render_sequence(out_dir: Path | str, scene: str = 'structure_texture',
-                    trajectory: str = 'near', frames: int | None = None, seed: int = 0,
-                    **options: object) -> Path:
+def render_sequence(
+    out_dir: Path | str,
+    scene: str = 'structure_texture',
+    trajectory: str = 'near',
+    frames: int | None = None,
+    seed: int = 0,
+    **options: object,
+) -> Path:
     """Render a TUM folder (see :func:`render` for the options) and return its path."""
     return render(out_dir, scene, trajectory, frames, seed, **options).path  # type: ignore[arg-type]
 
