@@ -36,6 +36,7 @@ from initsel_ros.datasets.poses import (
 )
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
 from initsel_ros.datasets.stamps import ns_to_seconds
+from initsel_ros.datasets.tum import read_text
 from initsel_ros.errors import ConfigError, DatasetError
 
 _LOG = logging.getLogger(__name__)
@@ -64,12 +65,7 @@ def is_euroc_folder(path: Path) -> bool:
 
 def _csv_rows(path: Path, min_columns: int, expected: str) -> list[tuple[int, list[str]]]:
     """(line number, fields) of a EuRoC csv; '#' lines are comments."""
-    try:
-        text = path.read_text()
-    except FileNotFoundError as exc:
-        raise DatasetError(f'{path}: file not found') from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DatasetError(f'{path}: cannot read: {exc}') from exc
+    text = read_text(path)
     rows = []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()

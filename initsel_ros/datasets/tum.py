@@ -33,15 +33,20 @@ LISTING_FORMAT = 'timestamp filename'
 TRAJECTORY_FORMAT = 'timestamp tx ty tz qx qy qz qw'
 
 
-def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
-    """(line number, fields) of the non-comment, non-blank lines of a text file."""
+def read_text(path: Path) -> str:
+    """A dataset text file's content; a missing or unreadable file is one DatasetError line."""
     path = Path(path)
     try:
-        text = path.read_text()
+        return path.read_text()
     except FileNotFoundError as exc:
         raise DatasetError(f'{path}: file not found') from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise DatasetError(f'{path}: cannot read: {exc}') from exc
+
+
+def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
+    """(line number, fields) of the non-comment, non-blank lines of a text file."""
+    text = read_text(path)
     out = []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
