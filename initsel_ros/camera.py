@@ -95,6 +95,22 @@ class Intrinsics:
         """True when any distortion coefficient is non-zero."""
         return any(d != 0.0 for d in self.distortion)
 
+    def undistort_pixels(self, pixels: np.ndarray) -> np.ndarray:
+        """(N, 2) float32 pixels with this camera's lens distortion removed (same K).
+
+        The node, ``initsel dataset`` and ``initsel seedmap`` all undistort tracks this way.
+        """
+        pts = np.asarray(pixels, dtype=np.float32).reshape(-1, 2)
+        if not self.has_distortion or len(pts) == 0:
+            return pts
+        import cv2
+
+        K = self.K
+        out = cv2.undistortPoints(
+            pts.reshape(-1, 1, 2), K, np.asarray(self.distortion, dtype=np.float64), P=K
+        )
+        return out.reshape(-1, 2).astype(np.float32)
+
     def scaled(self, width: int, height: int) -> Intrinsics:
         """The same camera for an image resized to ``width`` x ``height``."""
         sx, sy = width / self.width, height / self.height

@@ -353,16 +353,7 @@ def _open(
 
 def undistort_pixels(pixels: np.ndarray, intrinsics: Any) -> np.ndarray:
     """(N, 2) pixels without the lens distortion of ``intrinsics`` (as the node does)."""
-    if not intrinsics.has_distortion or len(pixels) == 0:
-        return np.asarray(pixels, dtype=np.float32)
-    K = intrinsics.K
-    out = cv2.undistortPoints(
-        np.asarray(pixels, np.float32).reshape(-1, 1, 2),
-        K,
-        np.asarray(intrinsics.distortion, dtype=np.float64),
-        P=K,
-    )
-    return out.reshape(-1, 2).astype(np.float32)
+    return intrinsics.undistort_pixels(pixels)
 
 
 @dataclass(frozen=True)

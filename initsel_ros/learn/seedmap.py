@@ -42,6 +42,8 @@ from initsel_ros.geometry import (
     triangulate_pair,
 )
 from initsel_ros.learn.baselines import (
+    ORB_MIN_PARALLAX_DEG,
+    ORB_MIN_POINTS,
     OrbSlamVersion,
     butt_rule,
     orbslam_scores,
@@ -59,8 +61,6 @@ SYSTEMS = ('initsel', 'ORB-SLAM2', 'ORB-SLAM3', 'VINS-Mono', 'Butt 2020')
 PLANAR_MARKERS = ('wall', 'floor', 'planar')
 #: Substrings that mark a sequence without a usable baseline (no initialization expected).
 NO_BASELINE_MARKERS = ('rotation', 'static')
-ORB_MIN_POINTS = 50
-ORB_MIN_PARALLAX_DEG = 1.0
 
 
 @dataclass(frozen=True)
@@ -171,16 +171,7 @@ class _Batch:
         return cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
 
     def undistort(self, pts: np.ndarray) -> np.ndarray:
-        intr = self.intrinsics
-        if not intr.has_distortion or len(pts) == 0:
-            return np.asarray(pts, np.float64)
-        out = cv2.undistortPoints(
-            pts.reshape(-1, 1, 2).astype(np.float32),
-            intr.K,
-            np.asarray(intr.distortion, np.float64),
-            P=intr.K,
-        )
-        return out.reshape(-1, 2).astype(np.float64)
+        return self.intrinsics.undistort_pixels(pts).astype(np.float64)
 
     def outcome(
         self,
