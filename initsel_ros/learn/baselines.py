@@ -29,6 +29,9 @@ CHI2_H = 5.991
 CHI2_F = 3.841
 #: VINS-Mono's virtual focal length (pixels).
 VINS_FOCAL = 460.0
+#: ORB-SLAM's acceptance of a reconstruction: triangulated points, and parallax (degrees).
+ORB_MIN_POINTS = 50
+ORB_MIN_PARALLAX_DEG = 1.0
 
 
 class OrbSlamVersion(int, Enum):
@@ -346,6 +349,8 @@ def orbslam_choice(ratio: np.ndarray, version: OrbSlamVersion = OrbSlamVersion.O
 __all__ = [
     'CHI2_F',
     'CHI2_H',
+    'ORB_MIN_PARALLAX_DEG',
+    'ORB_MIN_POINTS',
     'VINS_FOCAL',
     'OrbSlamScores',
     'OrbSlamVersion',

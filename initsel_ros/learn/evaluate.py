@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.learn import baselines
+from initsel_ros.learn.baselines import ORB_MIN_PARALLAX_DEG, ORB_MIN_POINTS
 from initsel_ros.learn.candidates import Candidate, FittedCandidate, fit_candidate
 from initsel_ros.learn.table import PairTable, input_columns
 from initsel_ros.learn.train import TrainConfig, feature_columns, label_column
@@ -42,10 +43,6 @@ PAPER_RESULTS: dict[str, tuple[float, float, float, float]] = {
     'Model E after R veto': (0.7815, 0.5041, 0.5256, 0.5146),
     'Model H after R veto': (0.8399, 0.3600, 0.0552, 0.0957),
 }
-
-#: ORB-SLAM's acceptance of a reconstruction.
-ORB_MIN_POINTS = 50
-ORB_MIN_PARALLAX_DEG = 1.0
 
 
 @dataclass(frozen=True)
