@@ -384,6 +384,12 @@ def estimate_pose(
     )
 
 
+def skew(v: np.ndarray) -> np.ndarray:
+    """(3, 3) cross-product matrix ``[v]_x`` of a (3,) vector (``[v]_x w = v x w``)."""
+    x, y, z = np.asarray(v, dtype=np.float64).reshape(3)
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
 def homogeneous(p: np.ndarray) -> np.ndarray:
     """(N, 2) pixels -> (N, 3) homogeneous coordinates, float64."""
     return np.hstack([np.asarray(p, dtype=np.float64), np.ones((len(p), 1))])

@@ -35,6 +35,7 @@ from initsel_ros.geometry import (
     fundamental_from_essential,
     homogeneous,
     sampson_fundamental,
+    skew,
 )
 from initsel_ros.refine import refine_essential
 
@@ -198,8 +199,7 @@ def _refined_essential(
     if not est.ok or np.count_nonzero(est.inliers) < 6:
         return np.asarray(est.matrix, dtype=np.float64)
     R, t = refine_essential(est.R, est.t, p0[est.inliers], p1[est.inliers], K)
-    skew = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
-    return skew @ R
+    return skew(t) @ R
 
 
 #: Median of the chi-square distribution with one degree of freedom: a Sampson error of an

@@ -22,7 +22,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import csr_matrix
 
 from initsel_ros.errors import GeometryError
-from initsel_ros.geometry import fundamental_from_essential, sampson_fundamental
+from initsel_ros.geometry import fundamental_from_essential, sampson_fundamental, skew
 
 
 @dataclass(frozen=True)
@@ -136,8 +136,7 @@ def refine_essential(
 
     def residuals(x: np.ndarray) -> np.ndarray:
         Rk, tk = pose(x)
-        skew = np.array([[0, -tk[2], tk[1]], [tk[2], 0, -tk[0]], [-tk[1], tk[0], 0]])
-        F = fundamental_from_essential(skew @ Rk, K)
+        F = fundamental_from_essential(skew(tk) @ Rk, K)
         return np.sqrt(sampson_fundamental(F, p0, p1))
 
     solution = least_squares(residuals, np.zeros(5), method='lm', max_nfev=max_evaluations)
@@ -227,14 +226,14 @@ def refine_two_view(
         d_proj0 = _projection_jacobian(K, X)  # (n, 2, 3)
         d_proj1 = _projection_jacobian(K, Xc)
         # d(exp(w) R X)/dw = -[R X]_x for small w (the corrections stay small)
-        skew = np.zeros((n, 3, 3))
-        skew[:, 0, 1], skew[:, 0, 2] = Y[:, 2], -Y[:, 1]
-        skew[:, 1, 0], skew[:, 1, 2] = -Y[:, 2], Y[:, 0]
-        skew[:, 2, 0], skew[:, 2, 1] = Y[:, 1], -Y[:, 0]
+        cross = np.zeros((n, 3, 3))
+        cross[:, 0, 1], cross[:, 0, 2] = Y[:, 2], -Y[:, 1]
+        cross[:, 1, 0], cross[:, 1, 2] = -Y[:, 2], Y[:, 0]
+        cross[:, 2, 0], cross[:, 2, 1] = Y[:, 1], -Y[:, 0]
         d_t = (np.eye(3) - np.outer(tk, tk)) @ basis / np.linalg.norm(raw)  # (3, 2)
         block = np.zeros((n, 4, 8))
         block[:, 0:2, 5:8] = d_proj0
-        block[:, 2:4, 0:3] = d_proj1 @ skew
+        block[:, 2:4, 0:3] = d_proj1 @ cross
         block[:, 2:4, 3:5] = d_proj1 @ d_t
         block[:, 2:4, 5:8] = d_proj1 @ Rk
         return csr_matrix((block.ravel(), (jac_rows, jac_cols)), shape=(4 * n, 5 + 3 * n))

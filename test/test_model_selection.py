@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from geometry_fixtures import K, two_view
 
-from initsel_ros.geometry import Method, estimate_pose
+from initsel_ros.geometry import Method, estimate_pose, skew
 from initsel_ros.model_selection import (
     fundamental_from_essential,
     gric,
@@ -19,10 +19,6 @@ from initsel_ros.model_selection import (
 )
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-
-
 def test_sampson_errors_vanish_on_exact_data_and_grow_with_the_offset():
     p0, p1, R, t, _ = two_view(planar=True, noise_px=0.0)
     H, _ = cv2.findHomography(p0, p1, 0)
@@ -30,7 +26,7 @@ def test_sampson_errors_vanish_on_exact_data_and_grow_with_the_offset():
     shifted = p1 + np.array([0.0, 2.0])  # 2 px off: the first-order error is close to the true one
     err = np.sqrt(sampson_homography(H, p0, shifted))
     assert np.median(err) == pytest.approx(2.0 / math.sqrt(2), rel=0.1)  # split over 2 views
-    F = fundamental_from_essential(_skew(t) @ R, K)
+    F = fundamental_from_essential(skew(t) @ R, K)
     assert np.max(sampson_fundamental(F, p0, p1)) < 1e-6
     assert np.median(sampson_fundamental(F * 7.0, p0, shifted)) > 0.1  # scale-free, non-zero
 

@@ -13,14 +13,11 @@ from initsel_ros.geometry import (
     fundamental_from_essential,
     rotation_angle_deg,
     sampson_fundamental,
+    skew,
     translation_chordal_error,
     triangulate,
 )
 from initsel_ros.refine import refine_essential, refine_two_view, reprojection_errors
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
 
 def _perturbed(R, t, seed=1):
@@ -56,7 +53,7 @@ def test_bundle_adjustment_drops_outliers_and_resists_them():
     # Two views cannot see an error along the epipolar line, and the adjustment splits an
     # error across it between both images: the outliers that must go are those off their
     # true epipolar line by more than twice the threshold.
-    F = fundamental_from_essential(_skew(t) @ R, K)
+    F = fundamental_from_essential(skew(t) @ R, K)
     off_line = np.sqrt(sampson_fundamental(F, p0[:20], p1[:20]) * 2) > 5.0
     assert off_line.sum() >= 8 and not result.kept[:20][off_line].any()
     assert result.kept[20:].mean() > 0.95
