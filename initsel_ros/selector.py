@@ -11,7 +11,6 @@ import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
-import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
@@ -258,25 +257,16 @@ class Selector:
             decision = Decision(reason, n_tracks=found, detail=f'{found} features detected')
         return FrameResult(index, stamp_ns, stamp_ns, decision, None, True, 0)
 
-    def _undistort(self, pts: np.ndarray) -> np.ndarray:
-        if not self.intrinsics.has_distortion or len(pts) == 0:
-            return pts
-        K = self.intrinsics.K
-        out = cv2.undistortPoints(
-            pts.reshape(-1, 1, 2).astype(np.float32),
-            K,
-            np.asarray(self.intrinsics.distortion, dtype=np.float64),
-            P=K,
-        )
-        return out.reshape(-1, 2)
-
     def process(self, image: np.ndarray, stamp_ns: int) -> FrameResult:
         """Handle one frame (see :meth:`_process`); the result carries its tracks too."""
         self._frame_tracks = None
         result = self._process(image, stamp_ns)
-        tracks = self._frame_tracks or self.tracker.tracks()
+        # The tracks this frame was decided on; a new reference's fresh detections otherwise.
+        # (``is None``: an empty Tracks is falsy.) ``thresholds`` is replaced, never mutated,
+        # by update_config, so the result can share it.
+        tracks = self.tracker.tracks() if self._frame_tracks is None else self._frame_tracks
         return replace(
-            result, tracks_ref=tracks.ref, tracks_cur=tracks.cur, thresholds=dict(self.thresholds)
+            result, tracks_ref=tracks.ref, tracks_cur=tracks.cur, thresholds=self.thresholds
         )
 
     def _process(self, image: np.ndarray, stamp_ns: int) -> FrameResult:
@@ -312,7 +302,8 @@ class Selector:
         tracks = self.tracker.track(gray)
         self._frame_tracks = tracks
         since = self.tracker.frames_since_reference
-        ref, cur = self._undistort(tracks.ref), self._undistort(tracks.cur)
+        ref = self.intrinsics.undistort_pixels(tracks.ref)
+        cur = self.intrinsics.undistort_pixels(tracks.cur)
         decision = decide_pair(self.models, self.thresholds, self.config.policy, ref, cur, w, h)
         if decision.reason is Reason.TOO_FEW_TRACKS:
             if self._candidate is not None:
