@@ -99,3 +99,11 @@ def test_vins_parallax_uses_the_virtual_focal_length():
     assert baselines.vins_parallax(p0, p1, K) == pytest.approx(46.0)
     rule = baselines.vins_rule(np.array([25, 25, 10]), np.array([31.0, 29.0, 40.0]))
     assert rule.tolist() == [True, False, False]
+
+
+def test_orbslam_scores_take_exactly_eight_points():
+    # Low-texture frames can leave exactly 8 tracks; a dataset build once died on them.
+    rng = np.random.default_rng(4)
+    p0, p1 = _pair(rng, False, _rot_y(0.05), np.array([-0.3, 0.0, 0.0]), noise=0.0, n=8)
+    eight = baselines.orbslam_scores(p0, p1)
+    assert np.isfinite(eight.s_f) and eight.s_f > 0

@@ -312,7 +312,8 @@ def orbslam_scores(
         empty = np.zeros(n, dtype=bool)
         return OrbSlamScores(0.0, 0.0, math.nan, nan33, nan33, empty, empty)
     rng = np.random.default_rng(0) if rng is None else rng
-    sets = np.argpartition(rng.random((iterations, n)), 8, axis=1)[:, :8]
+    # The 8 smallest of n random keys: a random 8-point set (kth 7 when n is exactly 8).
+    sets = np.argpartition(rng.random((iterations, n)), min(8, n - 1), axis=1)[:, :8]
     n0, T0 = _normalize(p0)
     n1, T1 = _normalize(p1)
     Hn = _homographies(n0[sets], n1[sets])
