@@ -488,26 +488,77 @@ def rotation_angle_deg(R: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
 
 
-def rotation_only_residual_px(p0: np.ndarray, p1: np.ndarray, K: np.ndarray) -> float:
+def _kabsch(b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """Rotations ``R`` with ``b1 ~ R b0`` (least squares), batched over leading axes.
+
+    Args:
+        b0: (..., N, 3) unit bearings in the first view.
+        b1: (..., N, 3) the same bearings in the second view.
+    """
+    U, _, Vt = np.linalg.svd(np.swapaxes(b1, -1, -2) @ b0)
+    d = np.sign(np.linalg.det(U @ Vt))
+    d = np.where(d == 0, 1.0, d)
+    U = U.copy()
+    U[..., :, 2] *= d[..., None]
+    return U @ Vt
+
+
+def _rotation_residuals_px(
+    R: np.ndarray, b0: np.ndarray, pixels: np.ndarray, K: np.ndarray
+) -> np.ndarray:
+    """Pixel distances between ``pixels`` (N, 2) and bearings ``b0`` (N, 3) rotated by ``R``.
+
+    ``R`` is (3, 3) or a stack (H, 3, 3); the result is (N,) or (H, N). One matrix product for
+    the whole stack (inf where a point falls behind the camera).
+    """
+    M = np.asarray(K @ R)
+    stack = M.reshape(-1, 3, 3)
+    proj = (b0 @ stack.transpose(2, 0, 1).reshape(3, -1)).reshape(len(b0), -1, 3)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        u = proj[..., 0] / proj[..., 2] - pixels[:, :1]
+        err = np.hypot(u, proj[..., 1] / proj[..., 2] - pixels[:, 1:])
+    err = np.where(proj[..., 2] > 0, err, np.inf).T
+    return err[0] if M.ndim == 2 else err
+
+
+#: Minimal samples (two bearing pairs each) of the robust rotation fit.
+ROTATION_HYPOTHESES = 128
+
+
+def rotation_only_residual_px(
+    p0: np.ndarray, p1: np.ndarray, K: np.ndarray, hypotheses: int = ROTATION_HYPOTHESES
+) -> float:
     """Median pixel residual of the best pure rotation between two views.
 
     The bearing vectors of a pure rotation are related by one rotation matrix, whatever the
-    depths; its least-squares fit (Kabsch, closed form) leaves only the tracking noise. A
-    baseline leaves parallax that no rotation explains. Returns NaN for fewer than 3 points.
+    depths; fitted, it leaves only the tracking noise, while a baseline leaves parallax that no
+    rotation explains. "Best" is least median of squares: the least-squares (Kabsch) fit on
+    all points and rotations from ``hypotheses`` random pairs of points (the minimal sample)
+    are scored by their median residual, and the best is refitted on its better half. Objects
+    moving independently, or gross tracking errors, on fewer than half of the points
+    therefore cannot pass for parallax, as they do for a least-squares fit.
+    Deterministic (fixed seed). Returns NaN for fewer than 3 points.
     """
     a, b = _check_pair(p0, p1)
     K = _check_camera_matrix(K)
-    if a.shape[0] < 3:
+    n = a.shape[0]
+    if n < 3:
         return float('nan')
     K_inv = np.linalg.inv(K)
     b0 = homogeneous(a) @ K_inv.T
     b1 = homogeneous(b) @ K_inv.T
     b0 /= np.linalg.norm(b0, axis=1, keepdims=True)
     b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-    U, _, Vt = np.linalg.svd(b1.T @ b0)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    R = U @ D @ Vt  # b1 ~ R b0
-    proj = (b0 @ R.T) @ K.T
-    with np.errstate(divide='ignore', invalid='ignore'):
-        err = np.linalg.norm(proj[:, :2] / proj[:, 2:3] - b, axis=1)
-    return float(np.nanmedian(err))
+    rng = np.random.default_rng(0)
+    first = rng.integers(0, n, hypotheses)
+    second = (first + rng.integers(1, n, hypotheses)) % n  # a different point
+    pairs = np.stack([first, second], axis=1)
+    rotations = np.concatenate([_kabsch(b0, b1)[None], _kabsch(b0[pairs], b1[pairs])])
+    medians = np.median(_rotation_residuals_px(rotations, b0, b, K), axis=1)
+    best = int(np.argmin(medians))
+    err = _rotation_residuals_px(rotations[best], b0, b, K)
+    half = err <= np.median(err)
+    if half.sum() >= 3:
+        refit = _kabsch(b0[half], b1[half])
+        medians = np.append(medians, np.median(_rotation_residuals_px(refit, b0, b, K)))
+    return float(np.nanmin(medians))

@@ -46,8 +46,9 @@ class PolicyConfig:
         min_parallax_deg: a pose needs at least this median parallax, degrees.
         min_rotation_residual_px: when a model fires, the flow must leave at least this median
             residual, pixels, after the best pure rotation is taken out
-            (``geometry.rotation_only_residual_px``): a rotation alone explains any flow with
-            less, whatever the pose estimators make of it.
+            (``geometry.rotation_only_residual_px``, a least-median fit that independently
+            moving objects on under half of the tracks do not sway): a rotation alone explains
+            any flow with less, whatever the pose estimators make of it.
     """
 
     thresholds: Mapping[str, float] = field(default_factory=dict)

@@ -319,3 +319,26 @@ def test_a_firing_model_on_a_pan_is_refused_as_rotation(rotation_sequence):
     assert not any(r.initialization for r in results)
     refused = [r for r in results if r.decision.reason is Reason.ROTATION]
     assert refused and 'rotation alone explains the flow' in refused[-1].decision.detail
+
+
+def test_boards_moving_in_front_of_a_pan_do_not_pass_for_parallax(tmp_path):
+    """Two boards slide across a panning view: their motion is no baseline, and the robust
+    rotation fit sees the pan behind them (a least-squares fit let one batch initialize)."""
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.synth import render
+    from initsel_ros.synth.effects import Effects
+
+    path = render(
+        tmp_path / 'pan',
+        trajectory='rotation',
+        frames=60,
+        start=30,
+        seed=63,
+        effects=Effects(movers=2),
+    ).path
+    seq = open_sequence(path)
+    sel = Selector(constant_models(E=0.9, H=0.9, R=0.01), seq.intrinsics)
+    results = [sel.process(seq.image(i), int(t)) for i, t in enumerate(seq.stamps_ns)]
+    assert not any(r.initialization for r in results)
+    assert not any(r.decision.reason is Reason.VERIFYING for r in results)
+    assert any(r.decision.reason is Reason.ROTATION for r in results)
