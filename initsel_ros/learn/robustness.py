@@ -804,9 +804,11 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], out_dir: Path) -> list[Pa
         fig, axes = plt.subplots(1, len(COLUMNS), figsize=(14, 4.2), sharey=True)
         for ax, m in zip(axes, COLUMNS, strict=True):
             draw(ax, effect, f'{m}_precision')
-            ax.set_title(f'{m} after the R veto' if m != 'R' else 'R (model files only)')
+            ax.set_title(f'{m} (model files: after the R veto)' if m != 'R' else 'R (model files)')
         axes[0].set_ylabel('precision')
-        fig.suptitle(f'Precision under {effect} (clean, default, strong)')
+        fig.suptitle(
+            'Precision on clean data' if effect == 'none' else f'Precision under {effect}'
+        )
         legend(fig)
         fig.tight_layout(rect=(0, 0.12, 1, 1))
         path = out_dir / f'precision_{_slug(effect)}.png'
