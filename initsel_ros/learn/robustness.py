@@ -11,12 +11,18 @@ depth error) on every pair with a baseline of at least 5 cm.
 
 ``models``: for each effect of :data:`initsel_ros.synth.realism.EFFECT_LEVELS` at the clean,
 default and strong strengths, a near-like sequence (and a pure-rotation one) is rendered,
-labelled with ``initsel dataset``'s machinery (:mod:`initsel_ros.learn.pairs`, points
-undistorted first as the selector does) and scored with a model file
-(:func:`initsel_ros.learn.evaluate.evaluate`): precision and recall of F/E/H after the R veto,
-the share of good first initializations, and false 'yes' on pure rotation.
+labelled once with ``initsel dataset``'s machinery (:mod:`initsel_ros.learn.pairs`, points
+undistorted first as the selector does) and scored with every model file given
+(:func:`initsel_ros.learn.evaluate.evaluate`, the same pairs for each): precision and recall of
+F/E/H after the R veto and of R, the share of good first initializations, and false 'yes' on
+pure rotation. The baselines of the same report (:data:`BASELINES`: ORB-SLAM2/3, VINS-Mono
+rule+RANSAC, Butt 2020) get rows of their own. :func:`choose_model` then picks the file to ship.
 
-Run ``python -m initsel_ros.learn.robustness tracker|models --out DIR``.
+Run ``python -m initsel_ros.learn.robustness tracker --out DIR``, or::
+
+    python -m initsel_ros.learn.robustness models --out DIR \
+        --models shipped=config/models.json --models effects_mix=/tmp/x.json \
+        --markdown FILE.md --csv FILE.csv --plots PLOT_DIR
 """
 
 from __future__ import annotations
@@ -818,7 +824,7 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], out_dir: Path) -> list[Pa
     ncol = min(len(effects), 4)
     nrow = -(-len(effects) // ncol)
     fig, axes = plt.subplots(
-        nrow, ncol, figsize=(3.6 * ncol, 3.0 * nrow + 1.2), sharey=True, squeeze=False
+        nrow, ncol, figsize=(max(3.6 * ncol, 9.0), 3.0 * nrow + 1.2), sharey=True, squeeze=False
     )
     for ax, effect in zip(axes.flat, effects, strict=False):
         draw(ax, effect, 'false_yes_pan')
@@ -827,9 +833,9 @@ def plot_comparison(rows: Sequence[Mapping[str, Any]], out_dir: Path) -> list[Pa
         ax.set_ylabel("share of 'yes' on the pure pan")
     for ax in list(axes.flat)[len(effects) :]:
         ax.set_visible(False)
-    fig.suptitle("False 'yes' on the pure pan (lower is better) against effect strength")
+    fig.suptitle("False 'yes' on the pure pan against effect strength (lower is better)")
     legend(fig)
-    fig.tight_layout(rect=(0, 1.0 / (3.0 * nrow + 1.2), 1, 1))
+    fig.tight_layout(rect=(0, 0.8 / (3.0 * nrow + 1.2), 1, 1))
     path = out_dir / 'false_yes_pan.png'
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -978,6 +984,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         help='effects (default: every one of EFFECT_LEVELS, then all together)',
     )
     mod.add_argument('--no-baselines', action='store_true', help='model files only')
+    mod.add_argument(
+        '--frames',
+        type=int,
+        nargs=2,
+        default=None,
+        metavar=('NEAR', 'ROTATION'),
+        help='shorter sequences for a quick look (default: 150 and 60 frames); their figures '
+        'differ from the full run (a 31-frame pan is its fastest second only)',
+    )
     mod.add_argument('--markdown', type=Path, default=None, help='also write the table here')
     mod.add_argument('--csv', type=Path, default=None, help='write every figure here')
     mod.add_argument('--plots', type=Path, default=None, help='folder for the PNG figures')
@@ -994,7 +1009,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         reference = args.reference or ('shipped' if 'shipped' in models else next(iter(models)))
         if reference not in models:
             parser.error(f'--reference {reference!r} is not one of {", ".join(models)}')
-        rows = compare_models(args.out, models, args.effects, baselines=not args.no_baselines)
+        rows = compare_models(
+            args.out,
+            models,
+            args.effects,
+            frames=tuple(args.frames) if args.frames else None,
+            baselines=not args.no_baselines,
+        )
         _, why = choose_model(rows, reference, args.max_clean_loss)
         text = comparison_markdown(rows, why)
         if args.csv:
