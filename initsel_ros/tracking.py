@@ -347,17 +347,8 @@ def fit_gain_bias(
         ``(a, b, cur_means)`` (``cur_means``: the patch means used, grey levels), or None when
         fewer than 20 patches qualify or their intensities span less than 10 grey levels.
     """
-    k = (window_px, window_px)
-    samples = []
-    for img, pts in ((prev, p_prev), (cur, p_cur)):
-        mean = cv2.blur(img.astype(np.float32), k)
-        hi = cv2.dilate(img, np.ones(k, np.uint8))
-        lo = cv2.erode(img, np.ones(k, np.uint8))
-        xy = np.rint(pts).astype(np.int64)
-        x = np.clip(xy[:, 0], 0, img.shape[1] - 1)
-        y = np.clip(xy[:, 1], 0, img.shape[0] - 1)
-        samples.append((mean[y, x].astype(np.float64), (hi[y, x] < 250) & (lo[y, x] > 5)))
-    (m_prev, ok_prev), (m_cur, ok_cur) = samples
+    m_prev, ok_prev = patch_means(prev, p_prev, window_px)
+    m_cur, ok_cur = patch_means(cur, p_cur, window_px)
     use = ok_prev & ok_cur
     for _ in range(max(1, iterations)):
         if use.sum() < _MIN_PHOTOMETRIC_POINTS or np.ptp(m_cur[use]) < 10:
@@ -372,6 +363,51 @@ def fit_gain_bias(
     if not (0.2 < a < 5.0) or use.sum() < _MIN_PHOTOMETRIC_POINTS:
         return None
     return float(a), float(b), m_cur[use]
+
+
+def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mean intensity of the ``window_px`` patch at each point, and whether it is unclipped.
+
+    The values of ``cv2.blur`` (float32, reflected border) and of the ``cv2.dilate`` /
+    ``cv2.erode`` test (no pixel >= 250 or <= 5 inside the image) at the rounded, clamped
+    points, bit for bit, but read from the patches alone: filtering the whole frame for a few
+    hundred points cost more than the rest of the gain and bias fit.
+
+    Args:
+        img: (H, W) uint8 frame.
+        pts: (N, 2) pixels.
+        window_px: patch side, pixels.
+
+    Returns:
+        ``(means, unclipped)``: (N,) float64 patch means, (N,) bool.
+    """
+    h, w = img.shape
+    xy = np.rint(pts).astype(np.int64)
+    x = np.clip(xy[:, 0], 0, w - 1)
+    y = np.clip(xy[:, 1], 0, h - 1)
+    k = window_px
+    if min(h, w) <= k:  # reflection beyond one image width: let OpenCV handle the border
+        size = (k, k)
+        mean = cv2.blur(img.astype(np.float32), size)
+        hi = cv2.dilate(img, np.ones(size, np.uint8))
+        lo = cv2.erode(img, np.ones(size, np.uint8))
+        return mean[y, x].astype(np.float64), (hi[y, x] < 250) & (lo[y, x] > 5)
+    offsets = np.arange(k) - k // 2  # OpenCV's default anchor, the centre
+    rows = y[:, None] + offsets
+    cols = x[:, None] + offsets
+    patches = img[_reflect_101(rows, h)[:, :, None], _reflect_101(cols, w)[:, None, :]]
+    # integer sums are exact; OpenCV scales them in double and stores float32
+    sums = patches.sum(axis=(1, 2), dtype=np.int64).astype(np.float64)
+    means = (sums * (1.0 / (k * k))).astype(np.float32).astype(np.float64)
+    inside = ((rows >= 0) & (rows < h))[:, :, None] & ((cols >= 0) & (cols < w))[:, None, :]
+    clipped = ((patches >= 250) | (patches <= 5)) & inside  # dilate/erode ignore the border
+    return means, ~clipped.any(axis=(1, 2))
+
+
+def _reflect_101(index: np.ndarray, n: int) -> np.ndarray:
+    """Indices mirrored into ``[0, n)`` without repeating the edge (``BORDER_REFLECT_101``)."""
+    index = np.abs(index)
+    return np.where(index >= n, 2 * (n - 1) - index, index)
 
 
 def _zncc(gray: np.ndarray, window_px: int) -> np.ndarray:

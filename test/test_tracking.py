@@ -127,6 +127,31 @@ def test_fit_gain_bias_recovers_gain_and_bias_and_ignores_saturated_patches():
     assert fit_gain_bias(flat, flat, pts, pts, 17) is None  # no intensity spread to fit
 
 
+@pytest.mark.parametrize('window', [4, 5, 17, 21])
+def test_patch_means_equal_the_whole_frame_filters_bit_for_bit(window):
+    from initsel_ros.tracking import patch_means
+
+    rng = np.random.default_rng(window)
+    img = texture(7).copy()
+    img[100:110, 200:260] = 255  # saturated and black blobs, clipped pixels on the border
+    img[300:305, 10:15] = 0
+    img[0:3, ::37] = 252
+    img[-3:, 5::41] = 3
+    h, w = img.shape
+    pts = np.column_stack((rng.uniform(-3, w + 2, 400), rng.uniform(-3, h + 2, 400)))
+    pts[:4] = [[0, 0], [w - 1, h - 1], [3.5, 2.5], [w - 2.5, h - 3.49]]
+    size = (window, window)
+    mean = cv2.blur(img.astype(np.float32), size)
+    hi = cv2.dilate(img, np.ones(size, np.uint8))
+    lo = cv2.erode(img, np.ones(size, np.uint8))
+    xy = np.rint(pts).astype(np.int64)
+    x, y = np.clip(xy[:, 0], 0, w - 1), np.clip(xy[:, 1], 0, h - 1)
+    means, unclipped = patch_means(img, pts.astype(np.float32), window)
+    np.testing.assert_array_equal(means, mean[y, x].astype(np.float64))
+    np.testing.assert_array_equal(unclipped, (hi[y, x] < 250) & (lo[y, x] > 5))
+    assert 0 < unclipped.sum() < len(pts)
+
+
 def test_unknown_photometric_mode_is_rejected():
     with pytest.raises(ValueError, match='bogus'):
         TrackerConfig(photometric='bogus')
