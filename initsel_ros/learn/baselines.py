@@ -251,7 +251,10 @@ def _fundamentals(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
 
 
 def _apply(M: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(B, 3, 3) matrices times the homogeneous points (x, y, 1), x and y (N,) -> 3 x (B, N)."""
+    """(B, 3, 3) matrices times the homogeneous points (x, y, 1), x and y (N,) -> 3 x (B, N).
+
+    The three results are views of one fresh array (the callers work on them in place).
+    """
     out = M @ np.vstack((x, y, np.ones_like(x)))
     return out[:, 0], out[:, 1], out[:, 2]
 
@@ -259,31 +262,60 @@ def _apply(M: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...
 def _chi2_transfer(
     M: np.ndarray, src: np.ndarray, dst: np.ndarray, inv_sigma2: float
 ) -> np.ndarray:
-    """Squared transfer error of src through homographies M against dst, over sigma^2: (B, N)."""
+    """Squared transfer error of src through homographies M against dst, over sigma^2: (B, N).
+
+    NaN where a point maps to infinity (it fails every ``chi2 <= cut-off`` test). Computed in
+    place: (B, N) temporaries were a good part of the ORB-SLAM baseline's time.
+    """
     a, b, c = _apply(M, src[:, 0], src[:, 1])
     with np.errstate(divide='ignore', invalid='ignore'):
-        inv_c = 1.0 / c
-        chi2 = ((a * inv_c - dst[:, 0]) ** 2 + (b * inv_c - dst[:, 1]) ** 2) * inv_sigma2
-    return np.nan_to_num(chi2, nan=np.inf)
+        inv_c = np.divide(1.0, c, out=c)
+        a *= inv_c
+        a -= dst[:, 0]
+        a *= a
+        b *= inv_c
+        b -= dst[:, 1]
+        b *= b
+        a += b
+        if inv_sigma2 != 1.0:
+            a *= inv_sigma2
+    return a
 
 
 def _chi2_epipolar(
     lines_from: np.ndarray, src: np.ndarray, dst: np.ndarray, inv_sigma2: float
 ) -> np.ndarray:
-    """Squared distance of dst to the epipolar lines M @ src, over sigma^2: (B, N)."""
+    """Squared distance of dst to the epipolar lines M @ src, over sigma^2: (B, N).
+
+    NaN for a degenerate line (fails every cut-off test); computed in place.
+    """
     a, b, c = _apply(lines_from, src[:, 0], src[:, 1])
     with np.errstate(divide='ignore', invalid='ignore'):
-        num = a * dst[:, 0] + b * dst[:, 1] + c
-        chi2 = num * num / (a * a + b * b) * inv_sigma2
-    return np.nan_to_num(chi2, nan=np.inf)
+        num = a * dst[:, 0]
+        num += b * dst[:, 1]
+        num += c
+        num *= num
+        a *= a
+        b *= b
+        a += b
+        num /= a
+        if inv_sigma2 != 1.0:
+            num *= inv_sigma2
+    return num
 
 
 def _score(chi_a: np.ndarray, chi_b: np.ndarray, reject: float) -> tuple[np.ndarray, np.ndarray]:
-    """ORB-SLAM's score: sum of (5.991 - chi2) over both directions where chi2 <= ``reject``."""
-    ok_a, ok_b = chi_a <= reject, chi_b <= reject
-    score = np.where(ok_a, CHI2_H - chi_a, 0.0).sum(-1)
-    score += np.where(ok_b, CHI2_H - chi_b, 0.0).sum(-1)
-    return score, ok_a & ok_b
+    """ORB-SLAM's score: sum of (5.991 - chi2) over both directions where chi2 <= ``reject``.
+
+    ``chi_a`` and ``chi_b`` are overwritten.
+    """
+    ok_a, ok_b = chi_a <= reject, chi_b <= reject  # NaN: False
+    score = np.zeros(len(chi_a))
+    for chi, ok in ((chi_a, ok_a), (chi_b, ok_b)):
+        gain = np.subtract(CHI2_H, chi, out=chi)
+        np.copyto(gain, 0.0, where=~ok)
+        score += gain.sum(-1)
+    return score, np.logical_and(ok_a, ok_b, out=ok_a)
 
 
 def orbslam_scores(
@@ -316,9 +348,10 @@ def orbslam_scores(
     sets = np.argpartition(rng.random((iterations, n)), min(8, n - 1), axis=1)[:, :8]
     n0, T0 = _normalize(p0)
     n1, T1 = _normalize(p1)
-    Hn = _homographies(n0[sets], n1[sets])
+    x0, x1 = n0[sets], n1[sets]
+    Hn = _homographies(x0, x1)
     H = np.linalg.inv(T1) @ Hn @ T0
-    Fn = _fundamentals(n0[sets], n1[sets])
+    Fn = _fundamentals(x0, x1)
     F = T1.T @ Fn @ T0
     inv_sigma2 = 1.0 / (sigma * sigma)
     with np.errstate(all='ignore'):
