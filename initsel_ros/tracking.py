@@ -18,6 +18,7 @@ from enum import Enum
 
 import cv2
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from initsel_ros.errors import ImageConversionError
 
@@ -392,22 +393,20 @@ def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.nd
         hi = cv2.dilate(img, np.ones(size, np.uint8))
         lo = cv2.erode(img, np.ones(size, np.uint8))
         return mean[y, x].astype(np.float64), (hi[y, x] < 250) & (lo[y, x] > 5)
-    offsets = np.arange(k) - k // 2  # OpenCV's default anchor, the centre
-    rows = y[:, None] + offsets
-    cols = x[:, None] + offsets
-    patches = img[_reflect_101(rows, h)[:, :, None], _reflect_101(cols, w)[:, None, :]]
+    # windows centred on the points (OpenCV's default anchor) of the frame padded as blur pads
+    # it (reflect 101) and of the clipped-pixel mask padded with zeros (dilate and erode
+    # ignore the border)
+    before, after = k // 2, k - 1 - k // 2
+    padded = cv2.copyMakeBorder(img, before, after, before, after, cv2.BORDER_REFLECT_101)
+    patches = sliding_window_view(padded, (k, k))[y, x]
     # integer sums are exact; OpenCV scales them in double and stores float32
     sums = patches.sum(axis=(1, 2), dtype=np.int64).astype(np.float64)
     means = (sums * (1.0 / (k * k))).astype(np.float32).astype(np.float64)
-    inside = ((rows >= 0) & (rows < h))[:, :, None] & ((cols >= 0) & (cols < w))[:, None, :]
-    clipped = ((patches >= 250) | (patches <= 5)) & inside  # dilate/erode ignore the border
-    return means, ~clipped.any(axis=(1, 2))
-
-
-def _reflect_101(index: np.ndarray, n: int) -> np.ndarray:
-    """Indices mirrored into ``[0, n)`` without repeating the edge (``BORDER_REFLECT_101``)."""
-    index = np.abs(index)
-    return np.where(index >= n, 2 * (n - 1) - index, index)
+    clipped = ((img >= 250) | (img <= 5)).view(np.uint8)
+    clipped = cv2.copyMakeBorder(
+        clipped, before, after, before, after, cv2.BORDER_CONSTANT, value=0
+    )
+    return means, ~sliding_window_view(clipped, (k, k))[y, x].any(axis=(1, 2))
 
 
 def _zncc(gray: np.ndarray, window_px: int) -> np.ndarray:
