@@ -22,7 +22,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -620,7 +620,9 @@ def _run_in_pool(
                     bounds = chunk_bounds(len(tracked.inputs), config.chunk)
                     plan.n_chunks = len(bounds)
                     for j, (start, stop) in enumerate(bounds):
-                        running[pool.submit(label_inputs, tracked, start, stop)] = (plan, j)
+                        # send each chunk its own pairs only, not the whole batch's arrays
+                        part = replace(tracked, inputs=tracked.inputs[start:stop])
+                        running[pool.submit(label_inputs, part)] = (plan, j)
                 if plan.done:
                     on_done(plan)
             top_up()
