@@ -372,3 +372,16 @@ def test_bad_effect_values_are_rejected():
         Effects(gain_ramp=(0.6, 1.4))
     with pytest.raises(ConfigError, match='jpeg_quality'):
         Effects(jpeg_quality=101)
+
+
+def test_low_texture_scene_leaves_few_trackable_corners(tmp_path):
+    # The same view of the default scene and of the low-texture one, the same corner detector
+    # as the tracker's quality bar: a bare scene must starve KLT of corners.
+    rich, bare = (
+        open_sequence(render(tmp_path / s, scene=s, trajectory='near', frames=1, start=80).path)
+        for s in ('structure_texture', 'low_texture')
+    )
+    n_rich, n_bare = (
+        len(cv2.goodFeaturesToTrack(seq.gray(0), 5000, 0.01, 8)) for seq in (rich, bare)
+    )
+    assert n_rich >= 400 and n_bare < n_rich / 3  # here 609 and 131
