@@ -53,8 +53,8 @@ def _baseline_points(test: PairTable, model: str) -> dict[str, np.ndarray]:
             ok = (
                 (choice == model)
                 & (np.asarray(test[f'{model}_ok']) == 1)
-                & (np.asarray(test[f'{model}_n_points']) >= 50)
-                & (np.asarray(test[f'{model}_parallax_deg']) >= 1.0)
+                & (np.asarray(test[f'{model}_n_points']) >= baselines.ORB_MIN_POINTS)
+                & (np.asarray(test[f'{model}_parallax_deg']) >= baselines.ORB_MIN_PARALLAX_DEG)
             )
             points[f'ORB-SLAM{version.value}'] = ok
     if model in ('E', 'F'):

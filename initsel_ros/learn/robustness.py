@@ -503,7 +503,8 @@ def _system_row(
     }
     for m in COLUMNS:
         sc = scores[rows_by_column[m]] if m in rows_by_column else None
-        p = sc.precision if sc else math.nan
+        # A system that says yes on no pair has no precision (NaN, '-'), not a precision of 0.
+        p = sc.precision if sc and sc.predicted > 0 else math.nan
         r = sc.recall if sc else math.nan
         row[f'{m}_precision'], row[f'{m}_recall'], row[f'{m}_f1'] = p, r, f1_score(p, r)
     row['first_yes_good'] = seq.first_yes_good
@@ -892,9 +893,9 @@ def choose_model(
             for m in COLUMNS:
                 mine = float(clean[name][f'{m}_precision'])
                 ref = float(clean[reference][f'{m}_precision'])
-                if math.isnan(ref):
-                    continue
-                if math.isnan(mine) or mine < ref - max_clean_loss - 1e-9:
+                if math.isnan(ref) or math.isnan(mine):
+                    continue  # undefined (no 'yes' at all): a loss of recall, not of precision
+                if mine < ref - max_clean_loss - 1e-9:
                     losses.append(f'{m} {_num(mine)} < {_num(ref)} - {max_clean_loss:g}')
             reasons[name] = (
                 'not eligible: clean precision ' + ', '.join(losses) if losses else 'eligible'
