@@ -523,10 +523,16 @@ def _rotation_residuals_px(
 
 #: Minimal samples (two bearing pairs each) of the robust rotation fit.
 ROTATION_HYPOTHESES = 128
+#: Hypotheses are scored on at most this many points (an even, deterministic subset).
+ROTATION_SCORING_POINTS = 300
 
 
 def rotation_only_residual_px(
-    p0: np.ndarray, p1: np.ndarray, K: np.ndarray, hypotheses: int = ROTATION_HYPOTHESES
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    hypotheses: int = ROTATION_HYPOTHESES,
+    enough_below_px: float | None = None,
 ) -> float:
     """Median pixel residual of the best pure rotation between two views.
 
@@ -536,11 +542,26 @@ def rotation_only_residual_px(
     all points and rotations from ``hypotheses`` random pairs of points (the minimal sample)
     are scored by their median residual, and the best is refitted on its better half. Objects
     moving independently, or gross tracking errors, on fewer than half of the points
-    therefore cannot pass for parallax, as they do for a least-squares fit.
-    Deterministic (fixed seed). Returns NaN for fewer than 3 points.
+    therefore cannot pass for parallax, as they do for a least-squares fit. Like the pose
+    check's median parallax, it also calls a pair a rotation when more than half of its
+    points are so far away that the baseline moves them by less than the residual.
+
+    Args:
+        p0: (N, 2) pixels in the first view; rows with a non-finite value are ignored.
+        p1: (N, 2) the same points in the second view.
+        K: (3, 3) camera matrix.
+        hypotheses: minimal samples drawn (fixed seed: the result is deterministic).
+        enough_below_px: when the least-squares fit alone already leaves less than this, it
+            is returned without the robust search (the robust residual can only be lower);
+            a caller comparing with a threshold passes it to skip the search on plain pans.
+
+    Returns:
+        The residual in pixels; NaN for fewer than 3 finite points.
     """
     a, b = _check_pair(p0, p1)
     K = _check_camera_matrix(K)
+    finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    a, b = a[finite], b[finite]
     n = a.shape[0]
     if n < 3:
         return float('nan')
@@ -549,16 +570,21 @@ def rotation_only_residual_px(
     b1 = homogeneous(b) @ K_inv.T
     b0 /= np.linalg.norm(b0, axis=1, keepdims=True)
     b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
+    least_squares = _kabsch(b0, b1)
+    best = float(np.median(_rotation_residuals_px(least_squares, b0, b, K)))
+    if enough_below_px is not None and best < enough_below_px:
+        return best
     rng = np.random.default_rng(0)
     first = rng.integers(0, n, hypotheses)
     second = (first + rng.integers(1, n, hypotheses)) % n  # a different point
     pairs = np.stack([first, second], axis=1)
-    rotations = np.concatenate([_kabsch(b0, b1)[None], _kabsch(b0[pairs], b1[pairs])])
-    medians = np.median(_rotation_residuals_px(rotations, b0, b, K), axis=1)
-    best = int(np.argmin(medians))
-    err = _rotation_residuals_px(rotations[best], b0, b, K)
+    rotations = np.concatenate([least_squares[None], _kabsch(b0[pairs], b1[pairs])])
+    subset = np.linspace(0, n - 1, min(n, ROTATION_SCORING_POINTS)).astype(np.int64)
+    scores = np.median(_rotation_residuals_px(rotations, b0[subset], b[subset], K), axis=1)
+    err = _rotation_residuals_px(rotations[int(np.argmin(scores))], b0, b, K)
+    best = min(best, float(np.median(err)))
     half = err <= np.median(err)
     if half.sum() >= 3:
         refit = _kabsch(b0[half], b1[half])
-        medians = np.append(medians, np.median(_rotation_residuals_px(refit, b0, b, K)))
-    return float(np.nanmin(medians))
+        best = min(best, float(np.median(_rotation_residuals_px(refit, b0, b, K))))
+    return best

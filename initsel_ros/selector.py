@@ -345,7 +345,12 @@ class Selector:
     ) -> FrameResult:
         """A model fired: estimate every candidate, choose by evidence, refine, maybe hold."""
         decision = result.decision
-        residual = rotation_only_residual_px(ref, cur, self.intrinsics.K)
+        residual = rotation_only_residual_px(
+            ref,
+            cur,
+            self.intrinsics.K,
+            enough_below_px=self.config.policy.min_rotation_residual_px,
+        )
         if not residual >= self.config.policy.min_rotation_residual_px:
             return replace(
                 result,

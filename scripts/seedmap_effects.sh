@@ -13,9 +13,10 @@ shift $(( $# > 2 ? 2 : $# ))
 mkdir -p "$X" "$OUT"
 render() {  # name, then initsel synth options; skipped when already rendered
     local name=$1; shift
-    [ -f "$X/$name/groundtruth.txt" ] || initsel synth --out "$X/$name" --no-progress "$@" >/dev/null
+    [ -f "$X/$name/effects.yaml" ] || initsel synth --out "$X/$name" --no-progress "$@" >/dev/null
 }
 STRENGTH=${STRENGTH:-default}
+case "$STRENGTH" in default | strong) ;; *) echo "STRENGTH must be default or strong" >&2; exit 2 ;; esac
 # Strengths of initsel_ros.synth.realism.EFFECT_LEVELS.
 if [ "$STRENGTH" = strong ]; then
     sfx=_strong

@@ -176,6 +176,24 @@ def test_rotation_only_residual_is_not_fooled_by_objects_moving_on_their_own():
     least_squares = np.median(_rotation_residuals_px(_kabsch(b0, b1), b0, p1, K))
     assert least_squares > 3.0
     # ... the robust fit is not: the boards cannot pass for parallax.
-    assert rotation_only_residual_px(p0, p1, K) < 0.6
+    assert rotation_only_residual_px(p0, p1, K) < 1.5  # the noise is 0.3 px per coordinate
     order = rng.permutation(300)  # fixed seed: the answer does not hinge on point order
-    assert rotation_only_residual_px(p0[order], p1[order], K) < 0.6
+    assert rotation_only_residual_px(p0[order], p1[order], K) < 1.5
+
+
+def test_rotation_only_residual_skips_bad_rows_and_can_stop_at_a_threshold():
+    from geometry_fixtures import K, two_view
+
+    from initsel_ros.geometry import rotation_only_residual_px
+
+    a, b, *_ = two_view(planar=False, baseline=0.05)
+    clean = rotation_only_residual_px(a, b, K)
+    a_bad, b_bad = a.copy(), b.copy()
+    a_bad[:5] = np.nan
+    b_bad[5:8, 0] = np.inf
+    assert np.isfinite(rotation_only_residual_px(a_bad, b_bad, K))
+    assert np.isnan(rotation_only_residual_px(a_bad[:7], b_bad[:7], K))  # < 3 finite rows
+    # With a threshold the least-squares residual is returned when it is already below it;
+    # above it, the full search runs and gives the same value as without one.
+    assert rotation_only_residual_px(a, b, K, enough_below_px=1e-3) == clean
+    assert rotation_only_residual_px(a, b, K, enough_below_px=1e3) >= clean
