@@ -126,12 +126,14 @@ def time_estimators(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
 
 
 def time_fire(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
-    """The once-per-initialization work: F, E, H estimates, GRIC selection, bundle adjustment.
+    """The once-per-initialization work: rotation guard, F, E, H estimates, GRIC selection,
+    bundle adjustment.
 
-    Parts are timed on the same pairs: the three estimates, the selection (with the E refit),
-    and the two-view bundle adjustment of the winner.
+    Parts are timed on the same pairs: the rotation guard (and, as its in-run baseline, its
+    least-squares fit alone), the three estimates, the selection (with the E refit), and the
+    two-view bundle adjustment of the winner.
     """
-    from initsel_ros.geometry import Method, estimate_pose
+    from initsel_ros.geometry import Method, estimate_pose, rotation_only_residual_px
     from initsel_ros.model_selection import select_method
     from initsel_ros.refine import refine_two_view
 
@@ -155,14 +157,26 @@ def time_fire(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
         if est is not None:
             refine_two_view(est.R, est.t, est.points, p0[est.indices], p1[est.indices], K)
 
+    def guard(i: int) -> float:
+        return rotation_only_residual_px(*pairs[i % len(pairs)], K)
+
+    def guard_least_squares(i: int) -> float:  # the search skipped: the pre-issue-13 cost
+        return rotation_only_residual_px(*pairs[i % len(pairs)], K, enough_below_px=np.inf)
+
     parts = [
+        Timing('  rotation guard (least-median fit)', time_calls(guard, repeat, warmup=1)),
+        Timing(
+            '    its least-squares fit alone (the cost on a plain pan)',
+            time_calls(guard_least_squares, repeat, warmup=1),
+        ),
         Timing('  F + E + H estimates', time_calls(estimates, repeat, warmup=1)),
         Timing('  GRIC selection (with the E refit)', time_calls(select, repeat, warmup=1)),
         Timing('  two-view bundle adjustment of the winner', time_calls(refine, repeat, warmup=1)),
     ]
     total = Timing(
-        'fire time: estimates + selection + bundle adjustment (once per initialization)',
-        np.sum([p.seconds for p in parts], axis=0),
+        'fire time: rotation guard + estimates + selection + bundle adjustment '
+        '(once per initialization)',
+        np.sum([p.seconds for p in parts if not p.name.startswith('    ')], axis=0),
     )
     return [total, *parts]
 
