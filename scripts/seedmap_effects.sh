@@ -13,36 +13,20 @@ shift $(( $# > 2 ? 2 : $# ))
 mkdir -p "$X" "$OUT"
 render() {  # name, then initsel synth options; skipped when already rendered
     local name=$1; shift
-    [ -f "$X/$name/effects.yaml" ] || initsel synth --out "$X/$name" --no-progress "$@" >/dev/null
+    [ -f "$X/$name/effects.yaml" ] ||
+        initsel synth --out "$X/$name" --strength "$STRENGTH" --no-progress "$@" >/dev/null
 }
 STRENGTH=${STRENGTH:-default}
 case "$STRENGTH" in default | strong) ;; *) echo "STRENGTH must be default or strong" >&2; exit 2 ;; esac
-# Strengths of initsel_ros.synth.realism.EFFECT_LEVELS.
-if [ "$STRENGTH" = strong ]; then
-    sfx=_strong
-    declare -A FX=(
-        [blur]="--exposure-time 0.030"
-        [rolling]="--line-delay 6e-5"
-        [ramp]="--gain-ramp 0.4,1.8,1"
-        [vignetting]="--vignetting 1.0"
-        [shot]="--noise 4 --full-well 2500"
-        [jpeg]="--jpeg-quality 40"
-        [distortion]="--distortion=-0.28,0.08,1e-3,-1e-3"
-        [movers]="--movers 4"
-    )
-else
-    sfx=
-    declare -A FX=(
-        [blur]="--exposure-time 0.010"
-        [rolling]="--line-delay 3e-5"
-        [ramp]="--gain-ramp 0.6,1.4,2"
-        [vignetting]="--vignetting 0.5"
-        [shot]="--noise 2 --full-well 10000"
-        [jpeg]="--jpeg-quality 80"
-        [distortion]="--distortion=-0.15,0.05,5e-4,-5e-4"
-        [movers]="--movers 2"
-    )
-fi
+sfx=
+if [ "$STRENGTH" = strong ]; then sfx=_strong; fi
+# Short names -> effects of initsel_ros.synth.realism.EFFECT_LEVELS, rendered at $STRENGTH.
+declare -A FX=(
+    [blur]="--effect motion_blur" [rolling]="--effect rolling_shutter"
+    [ramp]="--effect exposure_ramp" [vignetting]="--effect vignetting"
+    [shot]="--effect noise" [jpeg]="--effect jpeg" [distortion]="--effect distortion"
+    [movers]="--effect movers"
+)
 ALL="${FX[shot]} ${FX[blur]} ${FX[rolling]} ${FX[ramp]} ${FX[vignetting]} ${FX[jpeg]} ${FX[distortion]}"
 # Every effect together (the scene variants and movers apart).
 # shellcheck disable=SC2086

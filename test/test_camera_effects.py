@@ -365,6 +365,30 @@ def test_cli_realism_renders_and_records_the_drawn_effects(tmp_path, capsys):
     assert len(open_sequence(out)) == 2
 
 
+def test_cli_named_effects_render_the_levels_of_the_table(tmp_path, capsys):
+    from initsel_ros.cli import main
+    from initsel_ros.cli.synth import EFFECT_NAMES
+
+    assert tuple(EFFECT_LEVELS) == EFFECT_NAMES  # the CLI's list is the table's
+    small = ['--frames', '2', '--width', '320', '--height', '240', '--no-progress']
+    out = tmp_path / 'strong'
+    argv = ['synth', '--out', str(out), '--effect', 'noise', '--effect', 'distortion']
+    assert main([*argv, '--strength', 'strong', '--jpeg-quality', '90', *small]) == 0
+    data = yaml.safe_load((out / 'effects.yaml').read_text())
+    want = effect_level('noise', 'strong')[0]
+    assert data['effects']['noise'] == want.noise == 4.0
+    assert data['effects']['full_well'] == want.full_well
+    assert data['effects']['jpeg_quality'] == 90  # an explicit option wins
+    assert tuple(data['distortion']) == effect_level('distortion', 'strong')[1]
+    # A scene variant picks the scene unless --scene says otherwise.
+    assert main(['synth', '--out', str(tmp_path / 'lt'), '--effect', 'low_texture', *small]) == 0
+    assert 'scene low_texture' in (tmp_path / 'lt' / 'rgb.txt').read_text()
+    argv = ['synth', '--out', str(tmp_path / 'w'), '--effect', 'low_texture', '--scene', 'wall']
+    assert main([*argv, *small]) == 0
+    assert 'scene wall' in (tmp_path / 'w' / 'rgb.txt').read_text()
+    capsys.readouterr()
+
+
 def test_bad_effect_values_are_rejected():
     with pytest.raises(ConfigError, match='line_delay'):
         Effects(line_delay=-1e-5)

@@ -5,6 +5,20 @@ from __future__ import annotations
 import argparse
 
 SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall', 'repeated')
+#: Keys of ``initsel_ros.synth.realism.EFFECT_LEVELS`` (not imported: ``--help`` stays light;
+#: a test holds the two equal).
+EFFECT_NAMES = (
+    'motion_blur',
+    'rolling_shutter',
+    'exposure_ramp',
+    'vignetting',
+    'noise',
+    'jpeg',
+    'distortion',
+    'low_texture',
+    'repeated_texture',
+    'movers',
+)
 TRAJECTORIES = ('near', 'far', 'rotation', 'forward', 'static', 'random', 'arc')
 
 
@@ -33,7 +47,12 @@ def _gain_ramp(text: str) -> tuple[float, ...]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel synth``."""
     parser.add_argument('--out', required=True, help='output TUM folder')
-    parser.add_argument('--scene', choices=SCENES, default='structure_texture')
+    parser.add_argument(
+        '--scene',
+        choices=SCENES,
+        default=None,
+        help="scene (default: the one an --effect names, else 'structure_texture')",
+    )
     parser.add_argument('--trajectory', choices=TRAJECTORIES, default='near')
     parser.add_argument(
         '--frames',
@@ -62,6 +81,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action='store_true',
         help='draw every effect and the distortion at random from --seed '
         '(ranges in docs/synth.md)',
+    )
+    effects.add_argument(
+        '--effect',
+        action='append',
+        default=[],
+        choices=EFFECT_NAMES,
+        help='a named effect at --strength (initsel_ros.synth.realism.EFFECT_LEVELS; '
+        'repeatable; the options below override its values)',
+    )
+    effects.add_argument(
+        '--strength',
+        choices=('default', 'strong'),
+        default='default',
+        help="strength of the --effect ones: 'default' (a common camera) or 'strong'",
     )
     effects.add_argument(
         '--noise',
@@ -160,15 +193,17 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from initsel_ros.synth.effects import Effects
+    from initsel_ros.synth.realism import draw_realism, effect_fields
     from initsel_ros.synth.write import render
 
-    given = {
+    named, named_distortion, named_scene = (
+        effect_fields(args.effect, args.strength) if args.effect else ({}, (), None)
+    )
+    given = named | {
         name: getattr(args, name) for name in _EFFECT_OPTIONS if getattr(args, name) is not None
     }
-    distortion = tuple(args.distortion or ())
+    distortion = tuple(args.distortion or ()) or named_distortion
     if args.realism:
-        from initsel_ros.synth.realism import draw_realism
-
         drawn = draw_realism(args.seed)
         effects = dataclasses.replace(drawn.effects, **given)
         distortion = distortion or drawn.distortion
@@ -176,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
         effects = Effects(**given)
     result = render(
         args.out,
-        args.scene,
+        args.scene or named_scene or 'structure_texture',
         args.trajectory,
         args.frames,
         args.seed,

@@ -9,6 +9,7 @@ robustness measurements.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -136,6 +137,31 @@ def draw_realism(seed: int, camera: Intrinsics | None = None) -> CameraDraw:
     return CameraDraw(Effects(**values), distortion)
 
 
+def effect_fields(
+    effects: Sequence[str], level: str
+) -> tuple[dict[str, Any], tuple[float, ...], str | None]:
+    """The :class:`Effects` fields, distortion and scene of named effects at one strength.
+
+    Args:
+        effects: keys of EFFECT_LEVELS (a single-level effect uses its default).
+        level: 'default' or 'strong'.
+
+    Returns:
+        ``(fields, distortion, scene)``; ``scene`` is None when no effect names one.
+    """
+    if level not in ('default', 'strong'):
+        raise ConfigError(f"level must be 'default' or 'strong', got {level!r}")
+    fields: dict[str, Any] = {}
+    for name in effects:
+        if name not in EFFECT_LEVELS:
+            raise ConfigError(f'unknown effect {name!r}; known: {", ".join(EFFECT_LEVELS)}')
+        levels = EFFECT_LEVELS[name]
+        fields.update(levels.get(level, levels['default']))
+    distortion = tuple(fields.pop('distortion', ()))
+    scene = fields.pop('scene', None)
+    return fields, distortion, None if scene is None else str(scene)
+
+
 def effect_level(effect: str, level: str) -> tuple[Effects, tuple[float, ...], str]:
     """``(effects, distortion, scene)`` of a named effect strength.
 
@@ -154,13 +180,15 @@ def effect_level(effect: str, level: str) -> tuple[Effects, tuple[float, ...], s
         names = [effect]
     else:
         raise ConfigError(f'unknown effect {effect!r}; known: {", ".join(EFFECT_LEVELS)}, all')
-    fields: dict[str, Any] = {}
-    for name in names:
-        levels = EFFECT_LEVELS[name]
-        fields.update(levels.get(level, levels['default']))
-    distortion = tuple(fields.pop('distortion', ()))
-    scene = str(fields.pop('scene', 'structure_texture'))
-    return Effects(**fields), distortion, scene
+    fields, distortion, scene = effect_fields(names, level)
+    return Effects(**fields), distortion, scene or 'structure_texture'
 
 
-__all__ = ['EFFECT_LEVELS', 'REALISM_RANGES', 'CameraDraw', 'draw_realism', 'effect_level']
+__all__ = [
+    'EFFECT_LEVELS',
+    'REALISM_RANGES',
+    'CameraDraw',
+    'draw_realism',
+    'effect_fields',
+    'effect_level',
+]
