@@ -594,61 +594,9 @@ def compare_models(
     return out
 
 
-def model_robustness(
-    out_dir: Path,
-    models_path: Path | None = None,
-    effects: Sequence[str] | None = None,
-    levels: Sequence[str] = LEVELS,
-    frames: tuple[int, int] | None = None,
-) -> list[dict[str, Any]]:
-    """One model file's rows of :func:`compare_models` (no baselines).
-
-    Returns:
-        One row per (effect, level) with ``pairs``, ``{F,E,H}_precision/_recall/_f1`` (after
-        the R veto), ``R_precision/_recall/_f1``, ``first_yes_good``, ``false_yes_rotation``
-        (pairs with a baseline <= 5 cm) and ``false_yes_pan`` (the pure-rotation sequence).
-    """
-    from initsel_ros.models import default_model_path
-
-    path = Path(models_path or default_model_path())
-    return compare_models(
-        out_dir, {path.stem: path}, effects, levels, frames=frames, baselines=False
-    )
-
-
-def models_markdown(
-    rows: Sequence[dict[str, Any]],
-    models_name: str = 'config/models.json',
-) -> str:
-    """The model robustness table of one model file as Markdown."""
-    head = (
-        '| effect | strength | pairs | F P / R | E P / R | H P / R | R P / R | '
-        'first yes good | false yes, baseline <= 5 cm | false yes, pure pan |'
-    )
-    lines = [
-        f'Models: `{models_name}`; precision / recall of F, E, H after the R veto.',
-        '',
-        head,
-        '|' + '---|' * 10,
-    ]
-
-    def pr(r: dict[str, Any], m: str) -> str:
-        return f'{r[f"{m}_precision"]:.2f} / {r[f"{m}_recall"]:.2f}'
-
-    for r in rows:
-        lines.append(
-            f'| {r["effect"] if r["level"] != "clean" else "none"} | {r["level"]} | '
-            f'{r["pairs"]} | {pr(r, "F")} | {pr(r, "E")} | {pr(r, "H")} | {pr(r, "R")} | '
-            f'{r["first_yes_good"]:.2f} | {r["false_yes_rotation"]:.2f} | '
-            f'{r["false_yes_pan"]:.2f} |'
-        )
-    return '\n'.join(lines) + '\n'
-
-
 # ----------------------------------------------------------------------------- comparison
 def _is_model(row: Mapping[str, Any]) -> bool:
-    kind = row.get('kind')
-    return kind == 'model' if kind else row['system'] not in BASELINES
+    return row['kind'] == 'model'
 
 
 def _num(v: Any) -> str:
