@@ -506,7 +506,7 @@ def _system_row(
         # A system that says yes on no pair has no precision (NaN, '-'), not a precision of 0.
         p = sc.precision if sc and sc.predicted > 0 else math.nan
         r = sc.recall if sc else math.nan
-        row[f'{m}_precision'], row[f'{m}_recall'], row[f'{m}_f1'] = p, r, f1_score(p, r)
+        row[f'{m}_precision'], row[f'{m}_recall'] = p, r
     row['first_yes_good'] = seq.first_yes_good
     row['false_yes_rotation'] = seq.false_yes_rotation
     pan = [v for k, v in seq.false_yes_named.items() if k.startswith('rotation')]
@@ -542,7 +542,7 @@ def compare_models(
 
     Returns:
         One row per (effect, level, system): ``effect``, ``level``, ``system``, ``kind``
-        ('model' or 'baseline'), ``pairs``, ``{F,E,H,R}_{precision,recall,f1}`` (F, E, H
+        ('model' or 'baseline'), ``pairs``, ``{F,E,H,R}_{precision,recall}`` (F, E, H
         after the R veto for the models; NaN where a system has no such method),
         ``first_yes_good``, ``false_yes_rotation`` (pairs with a baseline <= 5 cm) and
         ``false_yes_pan`` (the pure-rotation sequence) of its sequence-level system.
@@ -650,8 +650,8 @@ CSV_COLUMNS = (
 
 
 def write_comparison_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> Path:
-    """Every figure of the comparison as CSV (:data:`CSV_COLUMNS`; F1 computed from P and R
-    where a row lacks it; NaN written as an empty field)."""
+    """Every figure of the comparison as CSV (:data:`CSV_COLUMNS`, with each column's F1
+    computed from P and R by :func:`f1_score`; NaN written as an empty field)."""
 
     def cell(v: Any) -> Any:
         if isinstance(v, float):
@@ -664,9 +664,8 @@ def write_comparison_csv(rows: Sequence[Mapping[str, Any]], path: Path) -> Path:
         writer.writeheader()
         for r in rows:
             full = {
-                'kind': 'model' if _is_model(r) else 'baseline',
-                **{f'{m}_f1': f1_score(r[f'{m}_precision'], r[f'{m}_recall']) for m in COLUMNS},
                 **r,
+                **{f'{m}_f1': f1_score(r[f'{m}_precision'], r[f'{m}_recall']) for m in COLUMNS},
             }
             writer.writerow({k: cell(full.get(k, math.nan)) for k in CSV_COLUMNS})
     return path
