@@ -193,7 +193,9 @@ def test_rotation_only_residual_skips_bad_rows_and_can_stop_at_a_threshold():
     b_bad[5:8, 0] = np.inf
     assert np.isfinite(rotation_only_residual_px(a_bad, b_bad, K))
     assert np.isnan(rotation_only_residual_px(a_bad[:7], b_bad[:7], K))  # < 3 finite rows
-    # With a threshold the least-squares residual is returned when it is already below it;
-    # above it, the full search runs and gives the same value as without one.
+    # With a threshold the least-squares residual is returned when it is already below it
+    # (here 4.09 px, against 3.05 px for the robust fit); above it, the full search runs and
+    # gives the same value as without one.
     assert rotation_only_residual_px(a, b, K, enough_below_px=1e-3) == clean
-    assert rotation_only_residual_px(a, b, K, enough_below_px=1e3) >= clean
+    least_squares = rotation_only_residual_px(a, b, K, enough_below_px=1e3)
+    assert least_squares > clean + 0.5
