@@ -33,6 +33,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( RANDOM % 100 + 100 ))}
 export ROS_LOG_DIR=${ROS_LOG_DIR:-$(mktemp -d -t initsel-roslog.XXXXXX)}
 # Shared-memory segment large enough for full camera frames (see README, Transport).
+export INITSEL_ENV=1
 export FASTRTPS_DEFAULT_PROFILES_FILE=${FASTRTPS_DEFAULT_PROFILES_FILE:-$root/config/fastdds_shm.xml}
 cd "$root"
 

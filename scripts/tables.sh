@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Reproduce a README results table from a fresh clone: render what it needs, run, write the
+# Markdown the README quotes.
+#   scripts/tables.sh seedmap    [DATA_DIR] [OUT_DIR] [initsel seedmap options...]
+#   scripts/tables.sh protocol   [DATA_DIR] [OUT_DIR]
+#   scripts/tables.sh robustness [DATA_DIR] [OUT_DIR]
+# Renders are kept in DATA_DIR (default /tmp/initsel-tables) and reused; OUT_DIR (default
+# DATA_DIR/out) gets TABLE.md (+ the CSV). The script sets up and enters the project's
+# environment through scripts/run.sh when it is not already inside it.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+if [ -z "${INITSEL_ENV:-}" ]; then
+    exec "$root/scripts/run.sh" bash "$root/scripts/tables.sh" "$@"
+fi
+table=${1:?usage: scripts/tables.sh seedmap|protocol|robustness [DATA_DIR] [OUT_DIR]}
+D=${2:-/tmp/initsel-tables}
+OUT=${3:-$D/out}
+shift $(( $# > 3 ? 3 : $# ))
+mkdir -p "$D" "$OUT"
+render() {  # name, then initsel synth options; skipped when already rendered
+    local name=$1; shift
+    [ -f "$D/$name/groundtruth.txt" ] && [ -f "$D/$name/.rendered" ] && return 0
+    initsel synth --out "$D/$name" --no-progress "$@" >/dev/null
+    touch "$D/$name/.rendered"
+}
+# The test sequences of docs/learning.md (never trained on).
+test_sequences() {
+    render near_test --trajectory near --frames 1000 --seed 11
+    render rotation_test --trajectory rotation --frames 120 --seed 12
+    render static_test --trajectory static --frames 60 --seed 13
+}
+case "$table" in
+    seedmap)  # README "The seed map a SLAM front end receives" (about 2 minutes here)
+        test_sequences
+        render wall_arc_test --scene wall --trajectory arc --frames 300 --seed 21
+        render wall_forward_test --scene wall --trajectory forward --frames 300 --seed 22
+        render floor_near_test --scene floor --trajectory near --frames 300 --start 80 --seed 23
+        initsel seedmap "$D/wall_arc_test" "$D/wall_forward_test" "$D/floor_near_test" \
+            "$D/near_test" "$D/rotation_test" "$D/static_test" --out-dir "$OUT/seedmap" "$@"
+        echo "wrote $OUT/seedmap/seedmap.md" >&2
+        ;;
+    protocol)  # README "Results against the paper and the baselines" (about 1 minute here)
+        test_sequences
+        [ -f "$D/test.csv" ] || initsel dataset "$D/near_test" "$D/rotation_test" \
+            "$D/static_test" --out "$D/test.csv" --batch 30 --jobs 2 --quiet
+        initsel eval "$D/test.csv" --out-dir "$OUT/protocol" --no-plots "$@" >/dev/null
+        echo "wrote $OUT/protocol/eval.md" >&2
+        ;;
+    robustness)  # docs/robustness.md: the seed map under camera effects (about 10 minutes)
+        bash "$root/scripts/seedmap_effects.sh" "$D/effects" "$OUT/robustness" "$@"
+        echo "wrote $OUT/robustness/*/seedmap.md" >&2
+        ;;
+    *) echo "unknown table $table: seedmap, protocol or robustness" >&2; exit 2 ;;
+esac
