@@ -15,7 +15,8 @@ Each candidate's matrix is scored on the same correspondences:
   5-point RANSAC returns a minimal-sample E; F and H come refitted on their inliers), so a
   wrong K costs E residuals and F wins, and a right K makes E's two parameters fewer win.
 - **ORB-SLAM's ratio** ``R_H = S_H / (S_H + S_F)`` on symmetric transfer and epipolar errors
-  (chi-square cut-offs 5.991 and 3.841, sigma 1 px), reported for comparison.
+  (chi-square cut-offs 5.991 and 3.841, sigma 1 px; :func:`initsel_ros.orb_slam.matrix_scores`),
+  reported for comparison.
 
 The winner is the candidate with the lowest GRIC among those whose pose passed the pose check
 (enough triangulated points and parallax).
@@ -37,14 +38,12 @@ from initsel_ros.geometry import (
     sampson_fundamental,
     skew,
 )
+from initsel_ros.orb_slam import matrix_scores
 from initsel_ros.refine import refine_essential
 
 #: Manifold dimension d and parameter count k of each model (Torr's GRIC).
 MODEL_DIMENSION = {'F': 3, 'E': 3, 'H': 2}
 MODEL_PARAMETERS = {'F': 7, 'E': 5, 'H': 8}
-#: ORB-SLAM's chi-square cut-offs (95 %, 2 and 1 degrees of freedom) and score constant.
-ORB_CHI2_H = 5.991
-ORB_CHI2_F = 3.841
 
 
 def sampson_homography(H: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
@@ -82,36 +81,6 @@ def gric(errors_sq: np.ndarray, method: str, sigma_px: float = 1.0) -> float:
     r, d, k = 4, MODEL_DIMENSION[method], MODEL_PARAMETERS[method]
     rho = np.minimum(np.nan_to_num(errors_sq / sigma_px**2, nan=np.inf), 2.0 * (r - d))
     return float(rho.sum() + math.log(r) * d * n + math.log(r * n) * k)
-
-
-def _transfer_sq(H: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    x = homogeneous(p0) @ H.T
-    with np.errstate(divide='ignore', invalid='ignore'):
-        return np.sum((x[:, :2] / x[:, 2:3] - p1) ** 2, axis=1)
-
-
-def orb_scores(
-    H: np.ndarray | None,
-    F: np.ndarray | None,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    sigma_px: float = 1.0,
-) -> tuple[float, float]:
-    """ORB-SLAM's ``(S_H, S_F)``: sums of ``5.991 - chi2`` over inlying directions."""
-    inv = 1.0 / sigma_px**2
-    s_h = s_f = 0.0
-    if H is not None and abs(np.linalg.det(H)) > 1e-12:
-        for chi2 in (_transfer_sq(H, p0, p1) * inv, _transfer_sq(np.linalg.inv(H), p1, p0) * inv):
-            chi2 = np.nan_to_num(chi2, nan=np.inf)
-            s_h += float(np.sum(np.where(chi2 < ORB_CHI2_H, ORB_CHI2_H - chi2, 0.0)))
-    if F is not None:
-        x0, x1 = homogeneous(p0), homogeneous(p1)
-        for a, b, G in ((x0, x1, F), (x1, x0, F.T)):
-            lines = a @ G.T  # epipolar lines in the other image
-            num = np.einsum('ij,ij->i', b, lines) ** 2
-            chi2 = num / np.maximum(lines[:, 0] ** 2 + lines[:, 1] ** 2, 1e-300) * inv
-            s_f += float(np.sum(np.where(chi2 < ORB_CHI2_F, ORB_CHI2_H - chi2, 0.0)))
-    return s_h, s_f
 
 
 @dataclass(frozen=True)
@@ -282,7 +251,7 @@ def select_method(
     F = fundamentals.get('F', fundamentals.get('E'))
     orb_ratio = math.nan
     if H is not None and F is not None:
-        s_h, s_f = orb_scores(H, F, p0, p1, 1.0)
+        s_h, s_f = matrix_scores(H, F, p0, p1, 1.0)
         orb_ratio = s_h / (s_h + s_f) if s_h + s_f > 0 else math.nan
     passed = [s for s in scores if s.ok]
     if not passed:
