@@ -71,7 +71,7 @@ def judge(
     n_points: int,
 ) -> InitRecord:
     """Compare an initialization's translation direction with the sequence's ground truth."""
-    from initsel_ros.geometry import relative_pose, translation_chordal_error
+    from initsel_ros.metrics import relative_pose, translation_chordal_error
 
     ref, cur = seq.frames[reference_index].pose, seq.frames[frame_index].pose
     error, baseline = float('nan'), float('nan')

@@ -1,10 +1,11 @@
-"""Two-view geometry: pose recovery with F, E or H, triangulation, and error metrics.
+"""Two-view geometry: pose recovery with F, E or H, triangulation, the rotation-only fit.
 
 Conventions: pixel arrays are (N, 2); poses follow OpenCV, ``x_cur = R @ x_ref + t``, with
 the reference camera at ``[I | 0]``. Monocular translation has no scale: estimates return
 ``t`` with ``|t| = 1`` and points triangulated at that scale, in the reference camera frame.
 A failed or degenerate estimate is a value (``PoseEstimate.ok`` is False, ``reason`` says
-why), not an exception; malformed arguments raise :class:`GeometryError`.
+why), not an exception; malformed arguments raise :class:`GeometryError`. Evaluation metrics
+against ground truth (E_t, E_R, rotation error) are in :mod:`initsel_ros.metrics`.
 """
 
 from __future__ import annotations
@@ -151,14 +152,6 @@ def triangulate_pair(
         e1 = np.linalg.norm(u1[:, :2] / u1[:, 2:3] - p1, axis=1)
     reproj = np.nan_to_num(np.maximum(e0, e1), nan=np.inf)
     return Triangulation(X, in_front, parallax, reproj)
-
-
-def triangulate(
-    R: np.ndarray, t: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray
-) -> np.ndarray:
-    """Triangulated (N, 3) points in the reference camera frame (linear, OpenCV)."""
-    a, b = _check_pair(p0, p1)
-    return triangulate_pair(R, t, _check_camera_matrix(K), a, b).points
 
 
 #: H decomposition: the best solution must triangulate this many times more good points than
@@ -409,77 +402,6 @@ def sampson_fundamental(F: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.nda
     num = np.einsum('ij,ij->i', x1, Fx0) ** 2
     den = Fx0[:, 0] ** 2 + Fx0[:, 1] ** 2 + Ftx1[:, 0] ** 2 + Ftx1[:, 1] ** 2
     return num / np.maximum(den, 1e-300)
-
-
-def translation_chordal_error(t_gt: np.ndarray, t_est: np.ndarray) -> float:
-    """Normalized translational chordal distance ``|t_g/|t_g| - t_e/|t_e||``, in [0, 2].
-
-    Returns NaN when either translation is (numerically) zero: its direction is undefined,
-    as for a pure rotation.
-    """
-    g = np.asarray(t_gt, dtype=np.float64).reshape(3)
-    e = np.asarray(t_est, dtype=np.float64).reshape(3)
-    ng, ne = np.linalg.norm(g), np.linalg.norm(e)
-    if ng < 1e-9 or ne < 1e-9 or not (np.isfinite(ng) and np.isfinite(ne)):
-        return float('nan')
-    return float(np.linalg.norm(g / ng - e / ne))
-
-
-def reconstruction_error(
-    points_gt: np.ndarray, points_est: np.ndarray, scale: str = 'first_two'
-) -> float:
-    """Median scaled reconstruction error ``median_i |P_g,i - s P_e,i|``.
-
-    Args:
-        points_gt: (M, 3) ground-truth points, reference camera frame, metres.
-        points_est: (M, 3) estimated points, same order and frame, arbitrary scale.
-        scale: ``'first_two'`` (the paper: ``s = |P_g,0 - P_g,1| / |P_e,0 - P_e,1|``) or
-            ``'median'`` (robust: median over points of ``|P_g,i| / |P_e,i|``, distances
-            from the reference camera centre).
-
-    Returns:
-        The error in the ground truth's unit (metres); NaN when it is undefined (fewer
-        than two points, or a zero scale denominator).
-    """
-    g = np.asarray(points_gt, dtype=np.float64).reshape(-1, 3)
-    e = np.asarray(points_est, dtype=np.float64).reshape(-1, 3)
-    if g.shape != e.shape:
-        raise GeometryError(f'point sets differ in shape: {g.shape} vs {e.shape}')
-    if g.shape[0] < 2:
-        return float('nan')
-    if scale == 'first_two':
-        den = np.linalg.norm(e[0] - e[1])
-        if den < _EPS:
-            return float('nan')
-        s = np.linalg.norm(g[0] - g[1]) / den
-    elif scale == 'median':
-        ne = np.linalg.norm(e, axis=1)
-        ok = ne > _EPS
-        if not ok.any():
-            return float('nan')
-        s = float(np.median(np.linalg.norm(g[ok], axis=1) / ne[ok]))
-    else:
-        raise GeometryError(f"scale must be 'first_two' or 'median', got {scale!r}")
-    return float(np.median(np.linalg.norm(g - s * e, axis=1)))
-
-
-def relative_pose(T_w_ref: np.ndarray, T_w_cur: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Relative pose between two camera-to-world poses, in OpenCV's convention.
-
-    Args:
-        T_w_ref: (4, 4) reference camera to world.
-        T_w_cur: (4, 4) current camera to world.
-
-    Returns:
-        ``(R, t)`` with ``x_cur = R @ x_ref + t``; ``|t|`` is the baseline in world units.
-    """
-    A = np.asarray(T_w_ref, dtype=np.float64)
-    B = np.asarray(T_w_cur, dtype=np.float64)
-    if A.shape != (4, 4) or B.shape != (4, 4):
-        raise GeometryError('poses must be (4, 4) matrices')
-    R = B[:3, :3].T @ A[:3, :3]
-    t = B[:3, :3].T @ (A[:3, 3] - B[:3, 3])
-    return R, t
 
 
 def rotation_angle_deg(R: np.ndarray) -> float:

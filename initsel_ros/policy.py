@@ -100,7 +100,7 @@ def effective_thresholds(
 
 @dataclass(frozen=True)
 class BatchDecision:
-    """:func:`decide_batch` on N pairs at once (the evaluation's view of the live policy).
+    """:func:`decide_batch` on N pairs at once (the per-frame decision, vectorized).
 
     Attributes:
         reason: (N,) object array of :class:`Reason` (TOO_FEW_TRACKS, ROTATION,

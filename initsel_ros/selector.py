@@ -16,28 +16,24 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import raw_features
-from initsel_ros.geometry import Method, PoseEstimate, estimate_pose, rotation_only_residual_px
+from initsel_ros.geometry import Method
 from initsel_ros.image import to_gray  # re-exported: callers use selector.to_gray
-from initsel_ros.model_selection import Selection, select_method
+from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize_pair
+from initsel_ros.model_selection import Selection
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
 from initsel_ros.policy import (
     Decision,
     PolicyConfig,
     Reason,
-    check_pose,
     decide,
     effective_thresholds,
 )
-from initsel_ros.refine import Refinement, refine_two_view
+from initsel_ros.refine import Refinement
 from initsel_ros.tracking import KltTracker, TrackerConfig, Tracks
 from initsel_ros.verify import VerifyConfig, VerifyStep, check_frame
 
 log = logging.getLogger(__name__)
-
-#: After the bundle adjustment a map point must reproject within this many pixels in both
-#: images (the estimators keep points within 2.5 px before it).
-MAP_MAX_REPROJECTION_PX = 2.0
 
 
 @dataclass(frozen=True)
@@ -343,47 +339,37 @@ class Selector:
         stamp_ns: int,
         since: int,
     ) -> FrameResult:
-        """A model fired: estimate every candidate, choose by evidence, refine, maybe hold."""
+        """A model fired: run the fire path (initialize.py); hold the seed map for verification."""
         decision = result.decision
-        residual = rotation_only_residual_px(
+        policy = self.config.policy
+        fire = initialize_pair(
             ref,
             cur,
             self.intrinsics.K,
-            enough_below_px=self.config.policy.min_rotation_residual_px,
+            fire_methods(decision, self.thresholds, policy),
+            FireConfig(
+                policy=policy,
+                ransac_threshold_px=self.config.ransac_threshold_px,
+                refine=self.config.refine,
+            ),
         )
-        if not residual >= self.config.policy.min_rotation_residual_px:
+        if fire.reason is Reason.ROTATION:
+            fired = '/'.join(m.value for m in decision.candidates)
             return replace(
                 result,
                 decision=replace(
-                    decision,
-                    reason=Reason.ROTATION,
-                    detail=f'{"/".join(m.value for m in decision.candidates)} fired, but a '
-                    f'rotation alone explains the flow (median residual {residual:.2f} px < '
-                    f'{self.config.policy.min_rotation_residual_px:g} px)',
+                    decision, reason=Reason.ROTATION, detail=f'{fired} fired, but {fire.detail}'
                 ),
             )
-        selection, estimate, problem = self._choose(decision, ref, cur)
-        result = replace(result, selection=selection)
-        if estimate is None:
+        result = replace(result, selection=fire.selection)
+        if fire.reason is not Reason.INITIALIZED or fire.seed is None:
             return replace(
-                result, decision=replace(decision, reason=problem, detail=selection.summary())
+                result, decision=replace(decision, reason=fire.reason, detail=fire.detail)
             )
-        init, map_indices = self._initialization(
-            estimate, ref, cur, decision, stamp_ns, since, selection
-        )
-        if init.points.shape[0] < self.config.policy.min_points:
-            return replace(
-                result,
-                decision=replace(
-                    decision,
-                    reason=Reason.TOO_FEW_POINTS,
-                    detail=f'{init.points.shape[0]} points left after refinement; '
-                    + selection.summary(),
-                ),
-            )
-        detail = f'{init.method.value}: {selection.why}'
+        init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
+        detail = f'{init.method.value}: {fire.detail}'
         if self.config.verify.frames > 0:
-            self._candidate = _Candidate(init, np.asarray(ids)[map_indices])
+            self._candidate = _Candidate(init, np.asarray(ids)[fire.seed.indices])
             return replace(
                 result,
                 decision=replace(
@@ -397,46 +383,6 @@ class Selector:
             initialization=init,
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
-
-    def _choose(
-        self,
-        decision: Decision,
-        ref: np.ndarray,
-        cur: np.ndarray,
-    ) -> tuple[Selection, PoseEstimate | None, Reason]:
-        """Estimate with the fired methods and H, and select by GRIC among those that pass."""
-        methods = list(decision.candidates)
-        rotation = decision.probabilities.get('R', 0.0) >= self.thresholds.get('R', 0.5)
-        h_vetoed = rotation and 'H' in self.config.policy.r_veto
-        if Method.H not in methods and not h_vetoed:
-            methods.append(Method.H)  # cheap, and the criterion needs it to see a plane
-        estimates, problems, reasons = [], [], []
-        for method in methods:
-            estimate = estimate_pose(
-                method,
-                ref,
-                cur,
-                self.intrinsics.K,
-                ransac_threshold_px=self.config.ransac_threshold_px,
-            )
-            problem = check_pose(estimate, self.config.policy)
-            estimates.append(estimate)
-            reasons.append(problem)
-            problems.append(
-                ''
-                if problem is None
-                else (
-                    estimate.reason
-                    or f'{problem.value}: {estimate.n_points} points, '
-                    f'parallax {estimate.parallax_deg:.2f} deg'
-                )
-            )
-        selection = select_method(estimates, problems, ref, cur, self.intrinsics.K)
-        if selection.winner is None:
-            first = next(r for r in reasons if r is not None)
-            return selection, None, first
-        winner = next(e for e in estimates if e.method is selection.winner)
-        return selection, winner, Reason.INITIALIZED
 
     def _verify(
         self,
@@ -507,45 +453,29 @@ class Selector:
 
     def _initialization(
         self,
-        estimate: PoseEstimate,
+        seed: SeedMap,
         ref: np.ndarray,
         cur: np.ndarray,
         decision: Decision,
         stamp_ns: int,
         since: int,
-        selection: Selection,
-    ) -> tuple[Initialization, np.ndarray]:
-        """The seed map of the chosen estimate, and its points' indices into the tracks."""
-        R, t = estimate.R, estimate.t
-        points, indices = estimate.points, estimate.indices
-        refinement = None
-        if self.config.refine:
-            refinement = refine_two_view(
-                R,
-                t,
-                points,
-                ref[indices],
-                cur[indices],
-                self.intrinsics.K,
-                max_reprojection_px=MAP_MAX_REPROJECTION_PX,
-            )
-            R, t, points = refinement.R, refinement.t, refinement.points
-            indices = indices[refinement.kept]
-        depth = float(np.median(points[:, 2])) if len(points) else 0.0
+        selection: Selection | None,
+    ) -> Initialization:
+        """The published record of a seed map, scaled to a median point depth of 1."""
+        depth = float(np.median(seed.points[:, 2])) if seed.n_points else 0.0
         scale = 1.0 / depth if depth > 0 else 1.0
-        init = Initialization(
-            method=estimate.method,
-            R=R,
-            t=t * scale,
-            points=points * scale,
-            pixels_ref=np.asarray(ref, np.float32)[indices],
-            pixels_cur=np.asarray(cur, np.float32)[indices],
+        return Initialization(
+            method=seed.method,
+            R=seed.R,
+            t=seed.t * scale,
+            points=seed.points * scale,
+            pixels_ref=np.asarray(ref, np.float32)[seed.indices],
+            pixels_cur=np.asarray(cur, np.float32)[seed.indices],
             reference_stamp_ns=self._reference_stamp_ns,
             stamp_ns=int(stamp_ns),
             frames_since_reference=since,
             probabilities=dict(decision.probabilities),
-            parallax_deg=estimate.parallax_deg,
+            parallax_deg=seed.parallax_deg,
             selection=selection,
-            refinement=refinement,
+            refinement=seed.refinement,
         )
-        return init, indices

@@ -8,14 +8,8 @@ import pytest
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import GeometryError
-from initsel_ros.geometry import (
-    estimate_pose,
-    reconstruction_error,
-    relative_pose,
-    rotation_angle_deg,
-    translation_chordal_error,
-    triangulate,
-)
+from initsel_ros.geometry import estimate_pose, rotation_angle_deg, triangulate_pair
+from initsel_ros.metrics import reconstruction_error, translation_chordal_error
 
 K = Intrinsics.tum_fr3().K
 
@@ -95,43 +89,7 @@ def test_triangulate_recovers_known_points():
     rng = np.random.default_rng(13)
     X = scene(rng, 20)
     p0, p1 = views(X, R_TRUE, T_TRUE, rng, noise=0.0)
-    np.testing.assert_allclose(triangulate(R_TRUE, T_TRUE, K, p0, p1), X, atol=1e-6)
-
-
-def test_chordal_error_values():
-    assert translation_chordal_error([1, 0, 0], [2, 0, 0]) == pytest.approx(0.0)
-    assert translation_chordal_error([1, 0, 0], [-1, 0, 0]) == pytest.approx(2.0)
-    assert translation_chordal_error([1, 0, 0], [0, 3, 0]) == pytest.approx(np.sqrt(2))
-    assert np.isnan(translation_chordal_error([0, 0, 0], [1, 0, 0]))
-
-
-def test_reconstruction_error_removes_scale_with_both_rules():
-    rng = np.random.default_rng(14)
-    g = rng.uniform(1, 3, (30, 3))
-    assert reconstruction_error(g, g / 7.0, 'first_two') == pytest.approx(0.0, abs=1e-12)
-    assert reconstruction_error(g, g / 7.0, 'median') == pytest.approx(0.0, abs=1e-12)
-    e = g / 7.0
-    e[0] = e[1] + 1e-3  # a bad first pair ruins the paper's scale, not the median one
-    assert reconstruction_error(g, e, 'first_two') > 1.0
-    assert reconstruction_error(g, e, 'median') < 0.01
-    assert np.isnan(reconstruction_error(g[:1], e[:1]))
-    with pytest.raises(GeometryError, match='scale must be'):
-        reconstruction_error(g, e, 'mean')
-
-
-def test_relative_pose_of_camera_to_world_poses():
-    A = np.eye(4)
-    A[:3, :3] = rotation(0.1, 0.2, 0.3)
-    A[:3, 3] = [1.0, 2.0, 3.0]
-    B = np.eye(4)
-    B[:3, :3] = rotation(-0.2, 0.1, 0.0)
-    B[:3, 3] = [1.5, 2.0, 2.5]
-    R, t = relative_pose(A, B)
-    x_ref = np.array([0.3, -0.2, 2.0])
-    x_world = A[:3, :3] @ x_ref + A[:3, 3]
-    x_cur = B[:3, :3].T @ (x_world - B[:3, 3])
-    np.testing.assert_allclose(R @ x_ref + t, x_cur)
-    assert np.linalg.norm(t) == pytest.approx(np.linalg.norm(A[:3, 3] - B[:3, 3]))
+    np.testing.assert_allclose(triangulate_pair(R_TRUE, T_TRUE, K, p0, p1).points, X, atol=1e-6)
 
 
 def test_rotation_only_residual_separates_a_pan_from_a_baseline():

@@ -34,7 +34,7 @@ from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ModelFileError
-from initsel_ros.geometry import relative_pose, translation_chordal_error
+from initsel_ros.metrics import relative_pose, translation_chordal_error
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros.node import SelectorNode

@@ -18,7 +18,7 @@ from sensor_msgs.msg import CompressedImage, Image
 from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.geometry import relative_pose, translation_chordal_error
+from initsel_ros.metrics import relative_pose, translation_chordal_error
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros import node as node_module

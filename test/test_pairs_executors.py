@@ -22,7 +22,6 @@ from initsel_ros.learn.pairs import (
     chunk_bounds,
     klt_pairs,
     pair_row,
-    undistort_pixels,
 )
 from initsel_ros.learn.table import PairTable, write_table
 
@@ -47,8 +46,8 @@ def _reference_rows(folder: Path, config: DatasetConfig) -> list[dict]:
                 pair = Pair(
                     pair.ref_index,
                     pair.cur_index,
-                    undistort_pixels(pair.p0, intr),
-                    undistort_pixels(pair.p1, intr),
+                    intr.undistort_pixels(pair.p0),
+                    intr.undistort_pixels(pair.p1),
                 )
             labels = label_pair(
                 pair.p0,

@@ -120,9 +120,9 @@ def test_vectorized_policy_agrees_on_a_real_pair_table(near_pair_table):
     thresholds = effective_thresholds(models.thresholds, config)
     _agree(probs, thresholds, np.asarray(table['n_tracks']), config)
     # and the evaluation's rule is that policy
-    from initsel_ros.learn.evaluate import model_rule
+    from initsel_ros.learn.evaluate import decision_rule
 
-    rule = model_rule(
+    rule = decision_rule(
         'm', probs, thresholds, veto=tuple(config.r_veto), n_tracks=np.asarray(table['n_tracks'])
     )
     batch = decide_batch(probs, thresholds, np.asarray(table['n_tracks']), config)

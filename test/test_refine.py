@@ -14,9 +14,9 @@ from initsel_ros.geometry import (
     rotation_angle_deg,
     sampson_fundamental,
     skew,
-    translation_chordal_error,
-    triangulate,
+    triangulate_pair,
 )
+from initsel_ros.metrics import translation_chordal_error
 from initsel_ros.refine import refine_essential, refine_two_view, reprojection_errors
 
 
@@ -31,7 +31,7 @@ def _perturbed(R, t, seed=1):
 def test_bundle_adjustment_recovers_the_pose_from_a_perturbed_start(planar):
     p0, p1, R, t, _ = two_view(planar=planar, noise_px=0.3)
     R0, t0 = _perturbed(R, t)
-    X0 = triangulate(R0, t0, K, p0, p1)
+    X0 = triangulate_pair(R0, t0, K, p0, p1).points
     before = (translation_chordal_error(t, t0), rotation_angle_deg(R0.T @ R))
     result = refine_two_view(R0, t0, X0, p0, p1, K)
     after = (translation_chordal_error(t, result.t), rotation_angle_deg(result.R.T @ R))
@@ -48,7 +48,7 @@ def test_bundle_adjustment_drops_outliers_and_resists_them():
     p1 = p1.copy()
     p1[:20] += np.random.default_rng(4).uniform(-15, 15, (20, 2))  # 8 % gross outliers
     estimate = estimate_pose('E', p0, p1, K)
-    X = triangulate(estimate.R, estimate.t, K, p0, p1)
+    X = triangulate_pair(estimate.R, estimate.t, K, p0, p1).points
     result = refine_two_view(estimate.R, estimate.t, X, p0, p1, K, max_reprojection_px=2.0)
     # Two views cannot see an error along the epipolar line, and the adjustment splits an
     # error across it between both images: the outliers that must go are those off their

@@ -4,30 +4,13 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-import pytest
-
 from initsel_ros.learn.seedmap import (
     BatchOutcome,
-    depth_error,
     evaluate_sequences,
     summarize,
     summary_markdown,
 )
 from initsel_ros.models import default_model_path
-
-
-def test_depth_error_is_scale_free_and_measures_relative_error():
-    depth = np.full((10, 10), 2.0)
-    depth[:, 5:] = 4.0
-    pixels = np.array([[1.0, 1.0], [2.0, 3.0], [7.0, 4.0], [8.0, 8.0]])
-    exact = np.array([[0, 0, 2.0], [0, 0, 2.0], [0, 0, 4.0], [0, 0, 4.0]]) * 0.37
-    assert depth_error(exact, pixels, depth) == pytest.approx(0.0)
-    off = exact.copy()
-    off[2:, 2] *= 1.1  # the far points 10 % too far
-    assert 0.0 < depth_error(off, pixels, depth) <= 0.1
-    assert math.isnan(depth_error(exact, pixels, None))
-    assert math.isnan(depth_error(exact, pixels, np.zeros((10, 10))))
 
 
 def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence):

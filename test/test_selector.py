@@ -149,7 +149,7 @@ def _run(path, mode='once'):
 def test_default_models_initialize_on_the_rendered_near_sequence_with_the_true_direction(
     near_sequence,
 ):
-    from initsel_ros.geometry import relative_pose, translation_chordal_error
+    from initsel_ros.metrics import relative_pose, translation_chordal_error
 
     seq, results = _run(near_sequence)
     inits = [(i, r.initialization) for i, r in enumerate(results) if r.initialization]
@@ -198,12 +198,12 @@ def _first_init(path, config):
 
 
 def _pose_errors(seq, init):
-    from initsel_ros.geometry import relative_pose, rotation_angle_deg, translation_chordal_error
+    from initsel_ros.metrics import relative_pose, rotation_error_deg, translation_chordal_error
 
     ref = int(np.searchsorted(seq.stamps_ns, init.reference_stamp_ns))
     cur = int(np.searchsorted(seq.stamps_ns, init.stamp_ns))
     R_gt, t_gt = relative_pose(seq.frames[ref].pose, seq.frames[cur].pose)
-    return translation_chordal_error(t_gt, init.t), rotation_angle_deg(init.R.T @ R_gt)
+    return translation_chordal_error(t_gt, init.t), rotation_error_deg(R_gt, init.R)
 
 
 def test_a_planar_wall_initializes_with_h_and_an_accurate_pose(wall_arc_sequence):
@@ -232,11 +232,11 @@ def test_verification_holds_the_candidate_back_and_keeps_its_stamps(near_sequenc
 
 
 def test_verification_rejects_a_wrong_candidate_and_keeps_looking(near_sequence, monkeypatch):
-    import initsel_ros.selector as selector_module
+    import initsel_ros.initialize as fire_path
     from initsel_ros.datasets import open_sequence
     from initsel_ros.models import default_model_path
 
-    real = selector_module.estimate_pose
+    real = fire_path.estimate_pose
     spoiled = []
 
     def wrong_first_pose(method, p0, p1, K, **kwargs):
@@ -257,7 +257,7 @@ def test_verification_rejects_a_wrong_candidate_and_keeps_looking(near_sequence,
             return dc_replace(estimate, points=points)
         return estimate
 
-    monkeypatch.setattr(selector_module, 'estimate_pose', wrong_first_pose)
+    monkeypatch.setattr(fire_path, 'estimate_pose', wrong_first_pose)
     seq = open_sequence(near_sequence)
     config = SelectorConfig(refine=False)
     sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, config)
@@ -274,10 +274,10 @@ def test_without_verification_the_same_wrong_candidate_would_be_published(
     near_sequence,
     monkeypatch,
 ):
-    import initsel_ros.selector as selector_module
+    import initsel_ros.initialize as fire_path
     from initsel_ros.verify import VerifyConfig
 
-    real = selector_module.estimate_pose
+    real = fire_path.estimate_pose
 
     def flipped(method, p0, p1, K, **kwargs):
         estimate = real(method, p0, p1, K, **kwargs)
@@ -288,7 +288,7 @@ def test_without_verification_the_same_wrong_candidate_would_be_published(
             points[:, 2] = 2 * np.median(points[:, 2]) - points[:, 2] * 0.5
         return dc_replace(estimate, points=points)
 
-    monkeypatch.setattr(selector_module, 'estimate_pose', flipped)
+    monkeypatch.setattr(fire_path, 'estimate_pose', flipped)
     _, _, result = _first_init(
         near_sequence, SelectorConfig(refine=False, verify=VerifyConfig(frames=0))
     )

@@ -195,14 +195,18 @@ def baseline_rules(test: PairTable) -> dict[str, Rule]:
     return rules
 
 
-def model_rule(
+def decision_rule(
     name: str,
     probs: Mapping[str, np.ndarray],
     thresholds: Mapping[str, float],
     veto: Sequence[str] = ('F', 'E'),
     n_tracks: np.ndarray | None = None,
 ) -> Rule:
-    """The live policy (``policy.decide_batch``) on table rows: fire, R veto, most confident.
+    """The per-frame decision (``policy.decide_batch``) on table rows: thresholds, R veto,
+    most confident candidate.
+
+    This is the decision alone, not the fire path that follows it live (rotation test, GRIC
+    selection, refinement, verification): ``initsel seedmap`` runs the live selector for that.
 
     Args:
         n_tracks: correspondences per row (None: every row has enough).
@@ -385,8 +389,8 @@ def evaluate(
     # sequence level
     tracks = np.asarray(test['n_tracks'])
     rules = [
-        model_rule('Models (R veto on F, E)', probs, thr, n_tracks=tracks),
-        model_rule(
+        decision_rule('Models (R veto on F, E)', probs, thr, n_tracks=tracks),
+        decision_rule(
             'Models (R veto on F, E, H)', probs, thr, veto=('F', 'E', 'H'), n_tracks=tracks
         ),
     ]
@@ -721,9 +725,9 @@ __all__ = [
     'baseline_rules',
     'binary_scores',
     'candidates_markdown',
+    'decision_rule',
     'describe_models',
     'evaluate',
-    'model_rule',
     'precision_at_recall',
     'report_markdown',
     'results_csv_rows',

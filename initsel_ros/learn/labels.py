@@ -1,7 +1,9 @@
 """Ground-truth labels of a correspondence set: per-method pose errors and the R label.
 
 For each method (F 8-point, E 5-point, H DLT) the pose is estimated from the correspondences
-(:func:`initsel_ros.geometry.estimate_pose`) and compared with ground truth:
+by the fire path's estimators (:func:`initsel_ros.initialize.initialize_pair`, estimates only:
+no rotation test, selection or refinement) and compared with ground truth
+(:mod:`initsel_ros.metrics`):
 
 - ``E_t``: chordal distance between the unit ground-truth and estimated translation directions;
 - ``E_R``: median distance between ground-truth 3D points (the reference pixels back-projected
@@ -34,6 +36,13 @@ import numpy as np
 
 from initsel_ros import geometry
 from initsel_ros.errors import GeometryError, InitselError
+from initsel_ros.initialize import FireConfig, initialize_pair
+from initsel_ros.metrics import (
+    reconstruction_error,
+    relative_pose,
+    rotation_error_deg,
+    translation_chordal_error,
+)
 from initsel_ros.names import POSE_METHODS  # the methods that get a pose label, in table order
 
 LOG = logging.getLogger(__name__)
@@ -179,7 +188,7 @@ def _reconstruction_errors(gt: np.ndarray, est: np.ndarray) -> tuple[float, floa
     out = []
     for rule in (ScaleRule.FIRST_TWO, ScaleRule.MEDIAN):
         try:
-            value = float(geometry.reconstruction_error(gt, est, scale=rule.value))
+            value = float(reconstruction_error(gt, est, scale=rule.value))
         except (GeometryError, ValueError, ZeroDivisionError, FloatingPointError):
             value = math.nan
         out.append(value if math.isfinite(value) else math.nan)
@@ -187,31 +196,27 @@ def _reconstruction_errors(gt: np.ndarray, est: np.ndarray) -> tuple[float, floa
 
 
 def method_outcome(
-    method: str,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    K: np.ndarray,
+    est: geometry.PoseEstimate,
     gt_points: np.ndarray,
     gt_valid: np.ndarray,
     t_gt: np.ndarray,
-    config: LabelConfig,
     R_gt: np.ndarray | None = None,
 ) -> MethodOutcome:
-    """Estimate with ``method`` and compare with ground truth (see module docstring).
+    """Compare one method's estimate with ground truth (see module docstring).
 
-    ``R_gt`` (reference to current) gives the rotation error; NaN without it.
+    Args:
+        est: the method's estimate on the pair.
+        gt_points: (N, 3) ground-truth points of the reference pixels, metres.
+        gt_valid: (N,) where ``gt_points`` is known.
+        t_gt: (3,) ground-truth translation, reference to current.
+        R_gt: (3, 3) ground-truth rotation, reference to current; the rotation error is NaN
+            without it.
     """
-    try:
-        est = geometry.estimate_pose(
-            geometry.Method(method), p0, p1, K, ransac_threshold_px=config.ransac_threshold_px
-        )
-    except InitselError as exc:
-        return MethodOutcome(False, f'error: {exc}')
     if not est.ok:
         return MethodOutcome(False, est.reason or 'failed')
     n_points = len(est.points)
     t_norm = float(np.linalg.norm(t_gt))
-    et = float(geometry.translation_chordal_error(t_gt, est.t)) if t_norm > 1e-9 else math.nan
+    et = float(translation_chordal_error(t_gt, est.t)) if t_norm > 1e-9 else math.nan
     idx = np.asarray(est.indices, dtype=np.int64)
     keep = gt_valid[idx]
     n_gt = int(keep.sum())
@@ -219,9 +224,7 @@ def method_outcome(
         er_first, er_median = _reconstruction_errors(gt_points[idx[keep]], est.points[keep])
     else:
         er_first = er_median = math.nan
-    rot_err = (
-        geometry.rotation_angle_deg(np.asarray(R_gt).T @ est.R) if R_gt is not None else math.nan
-    )
+    rot_err = rotation_error_deg(R_gt, est.R) if R_gt is not None else math.nan
     return MethodOutcome(
         True,
         est.reason or 'ok',
@@ -234,6 +237,32 @@ def method_outcome(
         np.asarray(est.t, dtype=float).reshape(3),
         float(rot_err),
     )
+
+
+def estimate_outcomes(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    gt_points: np.ndarray,
+    gt_valid: np.ndarray,
+    t_gt: np.ndarray,
+    config: LabelConfig,
+    R_gt: np.ndarray | None = None,
+) -> dict[str, MethodOutcome]:
+    """Every labelled method estimated on the pair (the fire path's estimators) and judged."""
+    fire_config = FireConfig(
+        ransac_threshold_px=config.ransac_threshold_px,
+        rotation_test=False,
+        select=False,
+        refine=False,
+    )
+    try:
+        fire = initialize_pair(p0, p1, K, POSE_METHODS, fire_config)
+    except InitselError as exc:
+        return {m: MethodOutcome(False, f'error: {exc}') for m in POSE_METHODS}
+    return {
+        e.method.value: method_outcome(e, gt_points, gt_valid, t_gt, R_gt) for e in fire.estimates
+    }
 
 
 def ground_truth_points(
@@ -289,14 +318,11 @@ def label_pair_points(
     depth map is loaded and labels the pairs elsewhere (a worker, a cluster).
     """
     config = config or LabelConfig()
-    R_gt, t_gt = geometry.relative_pose(np.asarray(T_w_ref), np.asarray(T_w_cur))
+    R_gt, t_gt = relative_pose(np.asarray(T_w_ref), np.asarray(T_w_cur))
     t_gt = np.asarray(t_gt, dtype=float).reshape(3)
     baseline = float(np.linalg.norm(t_gt))
     rotation = float(geometry.rotation_angle_deg(R_gt))
-    outcomes = {
-        m: method_outcome(m, p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
-        for m in POSE_METHODS
-    }
+    outcomes = estimate_outcomes(p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
     return PairLabels(
         baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config, has_depth=has_depth
     )
@@ -388,6 +414,7 @@ __all__ = [
     'PairLabels',
     'ScaleRule',
     'backproject',
+    'estimate_outcomes',
     'ground_truth_points',
     'label_pair',
     'label_pair_points',

@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 
 from initsel_ros.errors import DatasetError, InitselError
-from initsel_ros.features import Scaling, pair_features
+from initsel_ros.features import Scaling, extra_features, pair_features
 from initsel_ros.learn import baselines
 from initsel_ros.learn.labels import (
     NO_DEPTH,
@@ -201,51 +201,6 @@ def orb_pairs(
         yield Pair(frames[0], index, p0, p1)
 
 
-def extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height: int) -> np.ndarray:
-    """Extra cheap, resolution-free features (names in :data:`table.EXTRA_NAMES`).
-
-    Args:
-        p0, p1: ((N, 2) array)
-            Reference and current pixels.
-        width, height: (int)
-            Image size, pixels.
-
-    Returns:
-        (7,) float64:
-            Disparity percentiles 10/50/90 over the image diagonal; occupancy and normalized
-            entropy of the reference points over a 4x4 grid; RMS residuals (over the diagonal) of
-            least-squares affine and homography fits p0 -> p1 (small for pure rotation and planes).
-    """
-    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
-    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
-    n = len(p0)
-    out = np.full(len(EXTRA_NAMES), np.nan)
-    if n == 0:
-        return out
-    diag = math.hypot(width, height)
-    d = np.hypot(*(p1 - p0).T)
-    out[0:3] = np.percentile(d, (10, 50, 90)) / diag
-    gx = np.clip((p0[:, 0] * (4.0 / width)).astype(np.int64), 0, 3)
-    gy = np.clip((p0[:, 1] * (4.0 / height)).astype(np.int64), 0, 3)
-    counts = np.bincount(gy * 4 + gx, minlength=16)
-    out[3] = np.count_nonzero(counts) / 16.0
-    prob = counts[counts > 0] / n
-    out[4] = float(-(prob * np.log(prob)).sum() / math.log(16))
-    if n >= 3:
-        q0, q1 = p0 / diag, p1 / diag
-        A = np.column_stack((q0, np.ones(n)))
-        sol, *_ = np.linalg.lstsq(A, q1, rcond=None)
-        out[5] = math.sqrt(float(np.mean(np.sum((q1 - A @ sol) ** 2, axis=1))))
-    if n >= 4:
-        H, _ = cv2.findHomography(p0.reshape(-1, 1, 2), p1.reshape(-1, 1, 2), 0)
-        if H is not None:
-            proj = cv2.perspectiveTransform(p0.reshape(-1, 1, 2), H).reshape(-1, 2)
-            err = np.sum((proj - p1) ** 2, axis=1)
-            if np.all(np.isfinite(err)):
-                out[6] = math.sqrt(float(np.mean(err))) / diag
-    return out
-
-
 def pair_row(
     sequence_name: str,
     batch: int,
@@ -280,7 +235,7 @@ def pair_row(
     free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
     row.update(zip(paper_feature_columns(), map(float, paper), strict=True))
     row.update(zip(free_feature_columns(), map(float, free), strict=True))
-    extra = extra_features(p0, p1, width, height)
+    extra = extra_features(p0, p1, width, height, EXTRA_NAMES)
     row.update(zip(EXTRA_NAMES, map(float, extra), strict=True))
     disp = np.hypot(*(np.asarray(p1, float) - np.asarray(p0, float)).T)
     row['disp_mean_px'] = float(disp.mean())
@@ -349,11 +304,6 @@ def _open(
         kitti = kind in ('kitti', 'kitti_root')  # --sequence concerns KITTI sources only
         _SEQUENCES[key] = open_sequence(path, sequence=sequence if kitti else None, **options)
     return _SEQUENCES[key]
-
-
-def undistort_pixels(pixels: np.ndarray, intrinsics: Any) -> np.ndarray:
-    """(N, 2) pixels without the lens distortion of ``intrinsics`` (as the node does)."""
-    return intrinsics.undistort_pixels(pixels)
 
 
 @dataclass(frozen=True)
@@ -438,8 +388,8 @@ def track_sequence_batch(
             pair = Pair(
                 pair.ref_index,
                 pair.cur_index,
-                undistort_pixels(pair.p0, intr),
-                undistort_pixels(pair.p1, intr),
+                intr.undistort_pixels(pair.p0),
+                intr.undistort_pixels(pair.p1),
             )
         gt_points, gt_valid = ground_truth_points(pair.p0, K, depth, depth_pixels)
         stamps = (ref_stamp, float(sequence.frames[pair.cur_index].stamp))
@@ -825,7 +775,6 @@ __all__ = [
     'build_table',
     'chunk_bounds',
     'explain_no_pairs',
-    'extra_features',
     'klt_pairs',
     'label_inputs',
     'label_sequence_batch',
@@ -834,5 +783,4 @@ __all__ = [
     'pair_row',
     'track_sequence_batch',
     'track_task',
-    'undistort_pixels',
 ]

@@ -5,9 +5,9 @@ Two measurements on sequences rendered for the purpose (``initsel_ros.synth``):
 ``tracker``: for each brightness condition (clean, auto-exposure ramps) and each
 :class:`~initsel_ros.tracking.Photometric` mode, KLT tracks over 30-frame batches are compared
 with the rendered ground truth (track error: the reference pixel moved with its depth and the
-true relative pose), and the seed map of an E 5-point pose
-(:func:`initsel_ros.geometry.estimate_pose`) with the true pose (E_t, rotation error, median
-depth error) on every pair with a baseline of at least 5 cm.
+true relative pose), and the seed map of an E 5-point pose (the fire path's estimator,
+:func:`initsel_ros.initialize.initialize_pair`) with the true pose (E_t, rotation error,
+median depth error) on every pair with a baseline of at least 5 cm.
 
 ``models``: for each effect of :data:`initsel_ros.synth.realism.EFFECT_LEVELS` at the clean,
 default and strong strengths, a near-like sequence (and a pure-rotation one) is rendered,
@@ -42,8 +42,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from initsel_ros import geometry
 from initsel_ros.camera import Intrinsics
+from initsel_ros.initialize import FireConfig, initialize_pair
+from initsel_ros.metrics import relative_pose, rotation_error_deg, translation_chordal_error
 from initsel_ros.tracking import KltTracker, Photometric, TrackerConfig
 
 LOG = logging.getLogger(__name__)
@@ -79,21 +80,11 @@ TRACKER_SEQUENCES: dict[str, dict[str, Any]] = {
     'forward': {'trajectory': 'forward'},
 }
 MIN_BASELINE_M = 0.05
+#: The fire path's estimators alone (no rotation test, selection or refinement).
+ESTIMATES_ONLY = FireConfig(rotation_test=False, select=False, refine=False)
 
 
 # ----------------------------------------------------------------------------- ground truth
-def _undistort(pts: np.ndarray, camera: Intrinsics) -> np.ndarray:
-    if not camera.has_distortion or len(pts) == 0:
-        return np.asarray(pts, np.float64).reshape(-1, 2)
-    out = cv2.undistortPoints(
-        np.asarray(pts, np.float64).reshape(-1, 1, 2),
-        camera.K,
-        np.array(camera.distortion),
-        P=camera.K,
-    )
-    return out.reshape(-1, 2)
-
-
 def true_positions(
     p0: np.ndarray, depth: np.ndarray, camera: Intrinsics, T_ref: np.ndarray, T_cur: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -106,12 +97,12 @@ def true_positions(
     h, w = depth.shape
     xy = np.rint(p0).astype(np.int64)
     z = depth[np.clip(xy[:, 1], 0, h - 1), np.clip(xy[:, 0], 0, w - 1)].astype(np.float64)
-    und = _undistort(p0, camera)
+    und = camera.undistort_pixels(p0).astype(np.float64)
     rays = np.column_stack(
         [(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy], np.ones(len(und))]
     )
     X = rays * z[:, None]
-    R, t = geometry.relative_pose(T_ref, T_cur)
+    R, t = relative_pose(T_ref, T_cur)
     Xc = X @ R.T + t
     dist = np.array(camera.distortion) if camera.has_distortion else None
     proj, _ = cv2.projectPoints(Xc.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), camera.K, dist)
@@ -144,13 +135,13 @@ def _seed_map(
 ) -> tuple[float, float, float, int]:
     """E 5-point pose of a pair against the truth: (E_t, rotation error deg, depth error,
     points); NaN when the estimate fails."""
-    u0, u1 = _undistort(p0, camera), _undistort(p1, camera)
-    est = geometry.estimate_pose('E', u0, u1, camera.K)
+    u0, u1 = camera.undistort_pixels(p0), camera.undistort_pixels(p1)
+    est = initialize_pair(u0, u1, camera.K, ('E',), ESTIMATES_ONLY).estimates[0]
     if not est.ok:
         return math.nan, math.nan, math.nan, 0
-    R_gt, t_gt = geometry.relative_pose(T_ref, T_cur)
-    et = geometry.translation_chordal_error(t_gt, est.t)
-    rot = geometry.rotation_angle_deg(est.R.T @ R_gt)
+    R_gt, t_gt = relative_pose(T_ref, T_cur)
+    et = translation_chordal_error(t_gt, est.t)
+    rot = rotation_error_deg(R_gt, est.R)
     idx = est.indices[valid[est.indices]]
     if len(idx) < 2:
         return et, rot, math.nan, est.n_points
@@ -188,7 +179,7 @@ def track_sequence(
             T_cur = sequence.frames[j].pose
             truth, X_gt, valid = true_positions(tracks.ref, depth, camera, T_ref, T_cur)
             err = np.linalg.norm(tracks.cur - truth, axis=1)[valid]
-            baseline = float(np.linalg.norm(geometry.relative_pose(T_ref, T_cur)[1]))
+            baseline = float(np.linalg.norm(relative_pose(T_ref, T_cur)[1]))
             seed = (math.nan, math.nan, math.nan, 0)
             if baseline >= MIN_BASELINE_M:
                 seed = _seed_map(tracks.ref, tracks.cur, X_gt, valid, camera, T_ref, T_cur)
@@ -354,78 +345,16 @@ TEST_SEQUENCE = {'trajectory': 'near', 'start': 80, 'frames': 150}
 ROTATION_SEQUENCE = {'trajectory': 'rotation', 'frames': 60}
 
 
-class _Rectified:
-    """A sequence seen through the selector's eyes: KLT on the (distorted) frames, points
-    undistorted afterwards, depth given in the undistorted (pinhole) image."""
-
-    def __init__(self, sequence: Any) -> None:
-        self._seq = sequence
-        cam = sequence.intrinsics
-        self.camera = cam
-        self.intrinsics = Intrinsics(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height)
-        self.frames, self.name = sequence.frames, sequence.name
-        self._maps = None
-        if cam.has_distortion:
-            self._maps = cv2.initUndistortRectifyMap(
-                cam.K, np.array(cam.distortion), None, cam.K, (cam.width, cam.height), cv2.CV_32FC1
-            )
-
-    def __len__(self) -> int:
-        return len(self._seq)
-
-    def gray(self, i: int) -> np.ndarray:
-        return self._seq.gray(i)
-
-    def depth(self, i: int) -> np.ndarray | None:
-        depth = self._seq.depth(i)
-        if depth is None or self._maps is None:
-            return depth
-        return cv2.remap(depth, *self._maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
-
-    def undistort(self, pts: np.ndarray) -> np.ndarray:
-        return _undistort(pts, self.camera).astype(np.float32)
-
-
 def label_sequence(sequence: Any, config: Any = None) -> list[dict[str, Any]]:
-    """Table rows of every 30-frame batch of a sequence, as ``initsel dataset`` labels them,
-    with the tracked points undistorted first (as the selector does)."""
-    from initsel_ros.learn.labels import label_pair
-    from initsel_ros.learn.pairs import (
-        DatasetConfig,
-        Pair,
-        Source,
-        batch_ranges,
-        klt_pairs,
-        pair_row,
-    )
+    """Table rows of every 30-frame batch of a sequence, exactly as ``initsel dataset`` labels
+    them (:func:`initsel_ros.learn.pairs.label_sequence_batch`: tracked points undistorted
+    first, as the selector does, and depth read where the distorted reference pixel lies)."""
+    from initsel_ros.learn.pairs import DatasetConfig, batch_ranges, label_sequence_batch
 
     config = config or DatasetConfig(batch=30, jobs=1)
-    view = _Rectified(sequence)
-    K = view.intrinsics.K
-    size = (view.intrinsics.width, view.intrinsics.height)
     rows = []
-    for b, frames in enumerate(batch_ranges(len(view), config.batch, config.stride)):
-        ref = frames[0]
-        depth = view.depth(ref)
-        if depth is None:
-            continue
-        for pair in klt_pairs(view, frames, config.tracker):
-            if len(pair.p0) < config.min_tracks:
-                continue
-            und = Pair(
-                pair.ref_index, pair.cur_index, view.undistort(pair.p0), view.undistort(pair.p1)
-            )
-            labels = label_pair(
-                und.p0,
-                und.p1,
-                K,
-                depth,
-                view.frames[ref].pose,
-                view.frames[pair.cur_index].pose,
-                config.label,
-            )
-            stamps = (float(view.frames[ref].stamp), float(view.frames[pair.cur_index].stamp))
-            rows.append(pair_row(view.name, b, und, stamps, size, K, labels, Source.KLT, config))
+    for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
+        rows += label_sequence_batch(sequence, b, frames, config)
     return rows
 
 

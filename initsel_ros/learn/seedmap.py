@@ -34,13 +34,9 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.geometry import (
-    estimate_pose,
-    relative_pose,
-    rotation_angle_deg,
-    translation_chordal_error,
-    triangulate_pair,
-)
+from initsel_ros.geometry import triangulate_pair
+from initsel_ros.image import to_gray
+from initsel_ros.initialize import FireConfig, initialize_pair, seed_map
 from initsel_ros.learn.baselines import (
     ORB_MIN_PARALLAX_DEG,
     ORB_MIN_POINTS,
@@ -49,9 +45,14 @@ from initsel_ros.learn.baselines import (
     orbslam_scores,
     vins_relative_pose,
 )
+from initsel_ros.metrics import (
+    depth_error,
+    relative_pose,
+    rotation_error_deg,
+    translation_chordal_error,
+)
 from initsel_ros.models import ModelSet
 from initsel_ros.names import POSE_METHODS
-from initsel_ros.refine import refine_two_view
 from initsel_ros.selector import Selector, SelectorConfig
 from initsel_ros.tracking import KltTracker
 
@@ -106,28 +107,6 @@ class BatchOutcome:
     e_t_h: float = math.nan
 
 
-def depth_error(points: np.ndarray, pixels_ref: np.ndarray, depth: np.ndarray | None) -> float:
-    """Median relative depth error of map points after one scale, against a depth map.
-
-    Args:
-        points: (M, 3) map points, reference camera frame (any scale).
-        pixels_ref: (M, 2) their pixels in the reference image.
-        depth: (H, W) reference depth, metres (0 or NaN = unknown); None gives NaN.
-    """
-    if depth is None or len(points) == 0:
-        return math.nan
-    h, w = depth.shape
-    u = np.clip(np.rint(pixels_ref[:, 0]).astype(int), 0, w - 1)
-    v = np.clip(np.rint(pixels_ref[:, 1]).astype(int), 0, h - 1)
-    z_gt = depth[v, u].astype(np.float64)
-    z = points[:, 2]
-    ok = np.isfinite(z_gt) & (z_gt > 0) & (z > 0)
-    if ok.sum() < 3:
-        return math.nan
-    s = float(np.median(z_gt[ok] / z[ok]))
-    return float(np.median(np.abs(s * z[ok] - z_gt[ok]) / z_gt[ok]))
-
-
 def _pose_errors(
     T_ref: np.ndarray,
     T_cur: np.ndarray,
@@ -137,19 +116,20 @@ def _pose_errors(
     R_gt, t_gt = relative_pose(T_ref, T_cur)
     return (
         translation_chordal_error(t_gt, t),
-        rotation_angle_deg(np.asarray(R).T @ R_gt),
+        rotation_error_deg(R_gt, R),
         float(np.linalg.norm(t_gt)),
     )
 
 
-def _refined_pose(method: str, p0: np.ndarray, p1: np.ndarray, K: np.ndarray, refine: bool):
-    est = estimate_pose(method, p0, p1, K)
-    if not est.ok:
-        return None
-    if not refine:
-        return est.R, est.t, est.points, est.indices
-    ref = refine_two_view(est.R, est.t, est.points, p0[est.indices], p1[est.indices], K)
-    return ref.R, ref.t, ref.points, est.indices[ref.kept]
+#: The fire path's estimates alone: no rotation test, no selection, no refinement (the
+#: baselines and the per-method comparison run their own rules on them).
+ESTIMATES_ONLY = FireConfig(rotation_test=False, select=False, refine=False)
+
+
+def _estimate(method: str, p0: np.ndarray, p1: np.ndarray, K: np.ndarray):
+    """One method's estimate through the core fire path (None when it failed)."""
+    estimate = initialize_pair(p0, p1, K, (method,), ESTIMATES_ONLY).estimates[0]
+    return estimate if estimate.ok else None
 
 
 class _Batch:
@@ -167,8 +147,7 @@ class _Batch:
         self.planar = any(m in self.name.lower() for m in PLANAR_MARKERS)
 
     def gray(self, k: int) -> np.ndarray:
-        img = self.images[k]
-        return cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+        return to_gray(self.images[k])
 
     def undistort(self, pts: np.ndarray) -> np.ndarray:
         return self.intrinsics.undistort_pixels(pts).astype(np.float64)
@@ -254,14 +233,15 @@ def _compare_methods(
     """E_t of each method (estimated and refined as the selector would) on the same pair."""
     p0, p1 = _tracks_until(batch, config, ref, cur)
     K = batch.intrinsics.K
+    fire = initialize_pair(p0, p1, K, POSE_METHODS, ESTIMATES_ONLY)
     errors = {}
-    for m in POSE_METHODS:
-        pose = _refined_pose(m, p0, p1, K, config.refine)
-        errors[m] = (
-            math.nan
-            if pose is None
-            else _pose_errors(batch.poses[ref], batch.poses[cur], pose[0], pose[1])[0]
-        )
+    for estimate in fire.estimates:
+        m = estimate.method.value
+        if not estimate.ok:
+            errors[m] = math.nan
+            continue
+        seed = seed_map(estimate, p0, p1, K, refine=config.refine)
+        errors[m] = _pose_errors(batch.poses[ref], batch.poses[cur], seed.R, seed.t)[0]
     finite = {m: e for m, e in errors.items() if math.isfinite(e)}
     best = min(finite, key=finite.get) if finite else ''
     chosen_ok = bool(finite) and out.e_t <= min(finite.values()) + tolerance
@@ -280,8 +260,8 @@ def _orb_attempt(p0, p1, K, version: OrbSlamVersion):
     if not math.isfinite(scores.ratio):
         return None
     method = 'H' if scores.ratio > version.ratio_threshold else 'F'
-    est = estimate_pose(method, p0, p1, K)
-    if est.ok and est.n_points >= ORB_MIN_POINTS and est.parallax_deg >= ORB_MIN_PARALLAX_DEG:
+    est = _estimate(method, p0, p1, K)
+    if est and est.n_points >= ORB_MIN_POINTS and est.parallax_deg >= ORB_MIN_PARALLAX_DEG:
         return method, est.R, est.t, est.points, p0[est.indices]
     return None
 
@@ -301,8 +281,8 @@ def _butt_attempt(p0, p1, K):
     if not h_good[0]:
         return None
     method = 'F' if f_good[0] else 'H'
-    est = estimate_pose(method, p0, p1, K)
-    if not est.ok:
+    est = _estimate(method, p0, p1, K)
+    if est is None:
         return None
     return method, est.R, est.t, est.points, p0[est.indices]
 

@@ -1,0 +1,249 @@
+"""The fire path: once a model fired, which method, which pose and which seed map.
+
+One pure function, :func:`initialize_pair`, runs every step a pair goes through at fire time,
+for the live selector and for the offline tools alike (labels, seed-map judging, robustness):
+
+1. the rotation test: a flow that one rotation explains has no baseline, whatever the
+   estimators make of it (``geometry.rotation_only_residual_px``);
+2. the estimates of the candidate methods (``geometry.estimate_pose``);
+3. the pose check of each (``policy.check_pose``);
+4. the choice among those that pass, by GRIC (``model_selection.select_method``);
+5. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``).
+
+Each step can be switched off (labels need the estimates only). The result carries every
+method's estimate and check, not only the winner's. Verification over the next frames is not
+part of it: it needs those frames, and stays in the selector.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from initsel_ros.geometry import Method, PoseEstimate, estimate_pose, rotation_only_residual_px
+from initsel_ros.model_selection import Selection, select_method
+from initsel_ros.policy import Decision, PolicyConfig, Reason, check_pose
+from initsel_ros.refine import Refinement, refine_two_view
+
+#: After the bundle adjustment a map point must reproject within this many pixels in both
+#: images (the estimators keep points within 2.5 px before it).
+MAP_MAX_REPROJECTION_PX = 2.0
+
+
+@dataclass(frozen=True)
+class FireConfig:
+    """Settings of :func:`initialize_pair`.
+
+    Attributes:
+        policy: the pose check (``min_points``, ``min_parallax_deg``) and the rotation
+            test's threshold (``min_rotation_residual_px``).
+        ransac_threshold_px: RANSAC inlier threshold of the estimators, pixels.
+        rotation_test: run the rotation test first (a rotation stops the path).
+        select: choose a winner by GRIC among the estimates that pass the pose check.
+        refine: bundle-adjust the winner's seed map.
+        map_max_reprojection_px: after refinement, points reprojecting worse than this in
+            either image leave the map, pixels.
+    """
+
+    policy: PolicyConfig = field(default_factory=PolicyConfig)
+    ransac_threshold_px: float = 1.0
+    rotation_test: bool = True
+    select: bool = True
+    refine: bool = True
+    map_max_reprojection_px: float = MAP_MAX_REPROJECTION_PX
+
+
+@dataclass(frozen=True)
+class SeedMap:
+    """The pose and first map points of one estimate (refined or not).
+
+    Attributes:
+        method: the method of the estimate.
+        R: (3, 3) rotation, reference to current camera.
+        t: (3,) unit translation, reference to current camera.
+        points: (M, 3) float64 points in the reference camera frame, at the scale ``|t| = 1``.
+        indices: (M,) int64 indices of the points' correspondences in the input arrays.
+        parallax_deg: median parallax of the estimate's points, degrees.
+        refinement: the bundle adjustment's result (None when not refined).
+    """
+
+    method: Method
+    R: np.ndarray
+    t: np.ndarray
+    points: np.ndarray
+    indices: np.ndarray
+    parallax_deg: float
+    refinement: Refinement | None = None
+
+    @property
+    def n_points(self) -> int:
+        """Map points kept."""
+        return int(self.points.shape[0])
+
+
+@dataclass(frozen=True)
+class FireResult:
+    """Everything the fire path found on one pair.
+
+    Attributes:
+        reason: INITIALIZED when a seed map came out; ROTATION when the rotation test
+            stopped the path; the first failing method's pose-check reason (POSE_FAILED,
+            TOO_FEW_POINTS, LOW_PARALLAX) when no candidate passed, or TOO_FEW_POINTS when
+            the refined map kept too few points; INITIALIZED with no seed when selection was
+            off and at least one estimate passed.
+        detail: one line on why, for the status and the log.
+        rotation_residual_px: the rotation test's median residual, pixels (NaN when off).
+        estimates: every method's estimate, in the order tried (empty after a rotation).
+        checks: per estimate, :func:`policy.check_pose`'s reason, or None when it passed.
+        selection: the GRIC choice (None when selection was off or never reached).
+        seed: the winner's seed map (None when there is none).
+    """
+
+    reason: Reason
+    detail: str = ''
+    rotation_residual_px: float = math.nan
+    estimates: tuple[PoseEstimate, ...] = ()
+    checks: tuple[Reason | None, ...] = ()
+    selection: Selection | None = None
+    seed: SeedMap | None = None
+
+    def estimate(self, method: Method | str) -> PoseEstimate | None:
+        """The estimate of ``method``, or None when it was not tried."""
+        method = Method(method)
+        return next((e for e in self.estimates if e.method is method), None)
+
+
+def fire_methods(
+    decision: Decision, thresholds: Mapping[str, float], policy: PolicyConfig
+) -> tuple[Method, ...]:
+    """The methods a positive decision tries: its candidates, plus H unless R vetoes H.
+
+    H is cheap, and GRIC needs it to see a plane.
+    """
+    methods = list(decision.candidates)
+    rotation = decision.probabilities.get('R', 0.0) >= thresholds.get('R', 0.5)
+    h_vetoed = rotation and 'H' in policy.r_veto
+    if Method.H not in methods and not h_vetoed:
+        methods.append(Method.H)
+    return tuple(methods)
+
+
+def seed_map(
+    estimate: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    *,
+    refine: bool = True,
+    max_reprojection_px: float = MAP_MAX_REPROJECTION_PX,
+) -> SeedMap:
+    """The seed map of an estimate, bundle-adjusted when ``refine``.
+
+    Args:
+        estimate: a pose estimate with points (``estimate.ok``).
+        ref: (N, 2) reference pixels the estimate was made from (undistorted).
+        cur: (N, 2) current pixels.
+        K: (3, 3) camera matrix.
+        refine: run :func:`refine.refine_two_view` and drop the points it rejects.
+        max_reprojection_px: the refinement's rejection threshold, pixels.
+    """
+    R, t, points, indices = estimate.R, estimate.t, estimate.points, estimate.indices
+    refinement = None
+    if refine:
+        refinement = refine_two_view(
+            R, t, points, ref[indices], cur[indices], K, max_reprojection_px=max_reprojection_px
+        )
+        R, t, points = refinement.R, refinement.t, refinement.points
+        indices = indices[refinement.kept]
+    return SeedMap(estimate.method, R, t, points, indices, estimate.parallax_deg, refinement)
+
+
+def _problem_text(estimate: PoseEstimate, problem: Reason | None) -> str:
+    """What the selection reports of a candidate: '' when it passed, else why not."""
+    if problem is None:
+        return ''
+    return estimate.reason or (
+        f'{problem.value}: {estimate.n_points} points, parallax {estimate.parallax_deg:.2f} deg'
+    )
+
+
+def initialize_pair(
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    methods: Sequence[Method | str],
+    config: FireConfig | None = None,
+) -> FireResult:
+    """Run the fire path on one pair of correspondence sets (see the module docstring).
+
+    Args:
+        ref: (N, 2) reference pixels (undistorted).
+        cur: (N, 2) current pixels, row i matching row i of ``ref``.
+        K: (3, 3) camera matrix.
+        methods: the methods to estimate, in order (see :func:`fire_methods`).
+        config: which steps run, and their settings.
+
+    Returns:
+        A :class:`FireResult`; a rotation, a failed estimate or too few points is a reason,
+        not an exception.
+    """
+    config = config or FireConfig()
+    policy = config.policy
+    residual = math.nan
+    if config.rotation_test:
+        threshold = policy.min_rotation_residual_px
+        residual = rotation_only_residual_px(ref, cur, K, enough_below_px=threshold)
+        if not residual >= threshold:
+            return FireResult(
+                Reason.ROTATION,
+                f'a rotation alone explains the flow (median residual {residual:.2f} px < '
+                f'{threshold:g} px)',
+                residual,
+            )
+    estimates = tuple(
+        estimate_pose(Method(m), ref, cur, K, ransac_threshold_px=config.ransac_threshold_px)
+        for m in methods
+    )
+    checks = tuple(check_pose(e, policy) for e in estimates)
+    passed = [e for e, c in zip(estimates, checks, strict=True) if c is None]
+    first_problem = next((c for c in checks if c is not None), Reason.POSE_FAILED)
+    if not config.select:
+        reason = Reason.INITIALIZED if passed else first_problem
+        return FireResult(reason, '', residual, estimates, checks)
+    problems = [_problem_text(e, c) for e, c in zip(estimates, checks, strict=True)]
+    selection = select_method(estimates, problems, ref, cur, K)
+    if selection.winner is None:
+        return FireResult(
+            first_problem, selection.summary(), residual, estimates, checks, selection
+        )
+    winner = next(e for e in estimates if e.method is selection.winner)
+    seed = seed_map(
+        winner,
+        ref,
+        cur,
+        K,
+        refine=config.refine,
+        max_reprojection_px=config.map_max_reprojection_px,
+    )
+    if seed.n_points < policy.min_points:
+        detail = f'{seed.n_points} points left after refinement; ' + selection.summary()
+        return FireResult(
+            Reason.TOO_FEW_POINTS, detail, residual, estimates, checks, selection, seed
+        )
+    return FireResult(
+        Reason.INITIALIZED, selection.why, residual, estimates, checks, selection, seed
+    )
+
+
+__all__ = [
+    'MAP_MAX_REPROJECTION_PX',
+    'FireConfig',
+    'FireResult',
+    'SeedMap',
+    'fire_methods',
+    'initialize_pair',
+    'seed_map',
+]
