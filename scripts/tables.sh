@@ -5,7 +5,7 @@
 #   scripts/tables.sh protocol   [DATA_DIR] [OUT_DIR]
 #   scripts/tables.sh robustness [DATA_DIR] [OUT_DIR]
 # Renders are kept in DATA_DIR (default /tmp/initsel-tables) and reused; OUT_DIR (default
-# DATA_DIR/out) gets TABLE.md (+ the CSV). The script sets up and enters the project's
+# DATA_DIR/out) gets TABLE/*.md (+ CSVs). The script sets up and enters the project's
 # environment through scripts/run.sh when it is not already inside it.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -41,9 +41,11 @@ case "$table" in
         ;;
     protocol)  # README "Results against the paper and the baselines" (about 1 minute here)
         test_sequences
-        [ -f "$D/test.csv" ] || initsel dataset "$D/near_test" "$D/rotation_test" \
-            "$D/static_test" --out "$D/test.csv" --batch 30 --jobs 2 --quiet
-        initsel eval "$D/test.csv" --out-dir "$OUT/protocol" --no-plots "$@" >/dev/null
+        # the pair table depends on the code (labels, features): made afresh in OUT each time
+        mkdir -p "$OUT/protocol"
+        initsel dataset "$D/near_test" "$D/rotation_test" "$D/static_test" \
+            --out "$OUT/protocol/test.csv" --batch 30 --jobs 2 --quiet
+        initsel eval "$OUT/protocol/test.csv" --out-dir "$OUT/protocol" --no-plots "$@" >/dev/null
         echo "wrote $OUT/protocol/eval.md" >&2
         ;;
     robustness)  # docs/robustness.md: the seed map under camera effects (about 10 minutes)
