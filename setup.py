@@ -27,6 +27,8 @@ setup(
         'numpy>=1.24',
         'opencv-python-headless>=4.8',
         'scikit-learn>=1.3',
+        'scipy>=1.11',
+        'tqdm>=4.60',
         'PyYAML>=6',
         'rosbags>=0.10',
         'setuptools',

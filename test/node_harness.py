@@ -86,7 +86,7 @@ def play(
 
 def double_model_file(tmp_path) -> str:
     """A test-double model file: constant probabilities, nothing ever fires."""
-    from test_selector import constant_models
+    from model_fixtures import constant_models
 
     path = tmp_path / 'constant_models.json'
     constant_models().save(path)

@@ -13,9 +13,9 @@ import pytest
 from initsel_ros.datasets import EurocSequence, KittiSequence, open_sequence
 from initsel_ros.datasets.euroc import write_euroc
 from initsel_ros.datasets.kitti import write_kitti
-from initsel_ros.datasets.poses import pose_matrix
 from initsel_ros.datasets.tum import TumSequence
 from initsel_ros.errors import DatasetError
+from initsel_ros.transforms import pose_matrix
 
 DISTORTION = (-0.12, 0.03, 0.001, -0.0008)
 FIRST_NS = 1_403_636_579_763_555_584  # a EuRoC MH_01 stamp

@@ -7,9 +7,9 @@ import pytest
 pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
+from image_fixtures import shifted, texture
 from node_harness import double_model_file
 from ros_helpers import DOMAIN_ID, configure_this_process
-from test_tracking import shifted, texture
 
 from initsel_ros.errors import InitselError
 from initsel_ros.policy import Reason

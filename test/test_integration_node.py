@@ -17,6 +17,7 @@ pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from image_fixtures import shifted, texture
 from node_harness import (
     TIMEOUT_S,
     as_sequence,
@@ -30,7 +31,6 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from ros_helpers import DOMAIN_ID
 from sensor_msgs.msg import Image
 from std_srvs.srv import Trigger
-from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ModelFileError

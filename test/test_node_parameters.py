@@ -10,11 +10,11 @@ import pytest
 pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
+from image_fixtures import shifted, texture
 from node_harness import as_sequence, double_model_file, harnesses, play, ros_context
 from rcl_interfaces.srv import DescribeParameters
 from rclpy.parameter import Parameter
 from ros_helpers import DOMAIN_ID
-from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError
@@ -247,7 +247,7 @@ def test_params_files_are_found_in_every_ros_args_section():
 def test_selector_update_config_rebuilds_the_tracker_only_when_its_settings_change():
     import dataclasses
 
-    from test_selector import constant_models
+    from model_fixtures import constant_models
 
     from initsel_ros.selector import SelectorConfig
 
@@ -270,7 +270,7 @@ def test_selector_update_config_rebuilds_the_tracker_only_when_its_settings_chan
 
 
 def test_selector_set_intrinsics_resets_the_reference_only_for_another_camera():
-    from test_selector import constant_models
+    from model_fixtures import constant_models
 
     tum = Intrinsics.tum_fr3()
     selector = Selector(constant_models(), tum)

@@ -12,10 +12,10 @@ pytest.importorskip('sensor_msgs.msg')
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
+from image_fixtures import shifted, texture
 from node_harness import as_sequence, double_model_file, harnesses, play, ros_context
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
-from test_tracking import shifted, texture
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.metrics import relative_pose, translation_chordal_error

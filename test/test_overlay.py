@@ -162,8 +162,8 @@ def test_frame_overlay_draws_the_initializing_pairs_after_a_continuous_reset():
 
 
 def test_a_selector_result_carries_the_tracks_and_thresholds_it_used():
-    from test_selector import constant_models
-    from test_tracking import shifted, texture
+    from image_fixtures import shifted, texture
+    from model_fixtures import constant_models
 
     from initsel_ros.camera import Intrinsics
     from initsel_ros.selector import Selector

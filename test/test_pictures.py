@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
-from test_selector import constant_models
+from model_fixtures import constant_models
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets import Frame, Sequence, open_sequence

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from initsel_ros.datasets.poses import (
-    interpolate_poses,
+from initsel_ros.datasets.poses import interpolate_poses
+from initsel_ros.errors import GeometryError
+from initsel_ros.transforms import (
     matrix_to_pose,
     matrix_to_quaternion,
     pose_matrix,
     quaternion_to_matrix,
     slerp,
 )
-from initsel_ros.errors import GeometryError
 
 
 def _random_quaternions(rng: np.random.Generator, n: int) -> np.ndarray:

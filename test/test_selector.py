@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from test_tracking import shifted, texture
+from image_fixtures import shifted, texture
+from model_fixtures import constant_models
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
-from initsel_ros.features import N_FEATURES
-from initsel_ros.models import METHODS, LogisticModel, ModelSet
+from initsel_ros.models import ModelSet
 from initsel_ros.policy import PolicyConfig, Reason
 from initsel_ros.selector import Selector, SelectorConfig, to_gray
 
@@ -22,15 +20,6 @@ def ns(seconds: float) -> int:
 
 
 CAMERA = Intrinsics.tum_fr3()
-
-
-def constant_models(**probabilities: float) -> ModelSet:
-    """Models that ignore the features and always answer ``probabilities`` (test double)."""
-    models = {}
-    for m in METHODS:
-        p = probabilities.get(m, 0.01)
-        models[m] = LogisticModel(m, np.zeros(N_FEATURES), math.log(p / (1 - p)), 0.5)
-    return ModelSet(models)
 
 
 def test_first_frame_becomes_the_reference_and_later_frames_carry_reasons():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from test_ros_boundary import ros_blocker, without_ros_environment
+from boundary_fixtures import ros_blocker, without_ros_environment
 
 from initsel_ros.stamps import StampIssue, StampMonitor
 

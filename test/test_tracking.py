@@ -5,24 +5,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from image_fixtures import shifted, texture
 
 from initsel_ros.errors import ImageConversionError
 from initsel_ros.tracking import KltTracker, TrackerConfig, detect_features
-
-
-def texture(seed: int = 0, shape=(480, 640)) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    coarse = rng.uniform(0, 255, (shape[0] // 8, shape[1] // 8)).astype(np.float32)
-    img = cv2.resize(coarse, shape[::-1], interpolation=cv2.INTER_CUBIC)
-    img += rng.normal(0, 4, shape).astype(np.float32)
-    return np.clip(cv2.GaussianBlur(img, (3, 3), 0.8), 0, 255).astype(np.uint8)
-
-
-def shifted(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    M = np.float32([[1, 0, dx], [0, 1, dy]])
-    return cv2.warpAffine(
-        img, M, img.shape[::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
-    )
 
 
 def test_detection_respects_the_budget_and_spreads_over_the_grid():

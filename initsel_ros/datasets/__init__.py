@@ -14,14 +14,7 @@ from typing import Any
 
 from initsel_ros.datasets.euroc import EurocSequence, is_euroc_folder
 from initsel_ros.datasets.kitti import KittiSequence, is_kitti_root, is_kitti_sequence
-from initsel_ros.datasets.poses import (
-    interpolate_pose_matrices,
-    interpolate_poses,
-    matrix_to_pose,
-    matrix_to_quaternion,
-    pose_matrix,
-    quaternion_to_matrix,
-)
+from initsel_ros.datasets.poses import interpolate_pose_matrices, interpolate_poses
 from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.tum import TumSequence, is_tum_folder, read_trajectory
 from initsel_ros.errors import DatasetError
@@ -109,11 +102,7 @@ __all__ = [
     'is_kitti_root',
     'is_kitti_sequence',
     'is_tum_folder',
-    'matrix_to_pose',
-    'matrix_to_quaternion',
     'open_sequence',
-    'pose_matrix',
-    'quaternion_to_matrix',
     'read_trajectory',
     'sequence_kind',
 ]

@@ -1,7 +1,8 @@
-"""Quaternions, pose matrices and trajectory interpolation (numpy only).
+"""Trajectory interpolation of ground-truth poses.
 
 Conventions: quaternions are ``(x, y, z, w)`` as in TUM's ``groundtruth.txt``; poses are
-camera-to-world (4, 4) matrices ``T_w_c`` with positions in metres and times in seconds.
+camera-to-world (4, 4) matrices ``T_w_c`` with positions in metres and times in seconds. The
+conversions themselves are in :mod:`initsel_ros.transforms`.
 """
 
 from __future__ import annotations
@@ -9,166 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from initsel_ros.errors import GeometryError
+from initsel_ros.transforms import normalize_quaternions, pose_matrix, slerp
 
 #: Default largest gap (seconds) between the two ground-truth samples bracketing a query time.
 DEFAULT_MAX_GAP = 0.1
-
-
-def normalize_quaternions(q: np.ndarray) -> np.ndarray:
-    """Unit quaternions; (..., 4) in, (..., 4) float64 out. Raises GeometryError on zero norm."""
-    q = np.asarray(q, dtype=np.float64)
-    if q.shape[-1] != 4:
-        raise GeometryError(f'quaternions must have shape (..., 4), got {q.shape}')
-    norm = np.linalg.norm(q, axis=-1, keepdims=True)
-    if np.any(norm < 1e-12):
-        raise GeometryError('quaternion with zero norm')
-    return q / norm
-
-
-def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices from quaternions.
-
-    Args:
-        q: (4,) or (N, 4) quaternions ``(x, y, z, w)``; normalized here.
-
-    Returns:
-        (3, 3) or (N, 3, 3) float64 rotation matrices.
-    """
-    q = normalize_quaternions(q)
-    x, y, z, w = np.moveaxis(q, -1, 0)
-    R = np.stack(
-        [
-            1 - 2 * (y * y + z * z),
-            2 * (x * y - z * w),
-            2 * (x * z + y * w),
-            2 * (x * y + z * w),
-            1 - 2 * (x * x + z * z),
-            2 * (y * z - x * w),
-            2 * (x * z - y * w),
-            2 * (y * z + x * w),
-            1 - 2 * (x * x + y * y),
-        ],
-        axis=-1,
-    )
-    return R.reshape((*q.shape[:-1], 3, 3))
-
-
-def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
-    """Quaternions ``(x, y, z, w)`` with ``w >= 0`` from rotation matrices.
-
-    Args:
-        R: (3, 3) or (N, 3, 3) rotation matrices.
-
-    Returns:
-        (4,) or (N, 4) float64 unit quaternions.
-    """
-    R = np.asarray(R, dtype=np.float64)
-    if R.shape[-2:] != (3, 3):
-        raise GeometryError(f'rotation matrices must have shape (..., 3, 3), got {R.shape}')
-    batch = R.reshape(-1, 3, 3)
-    m = batch
-    trace = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
-    # Four candidate formulas; pick per matrix the one with the largest pivot (stable).
-    cand = np.stack(
-        [
-            np.stack(
-                [
-                    m[:, 2, 1] - m[:, 1, 2],
-                    m[:, 0, 2] - m[:, 2, 0],
-                    m[:, 1, 0] - m[:, 0, 1],
-                    1 + trace,
-                ],
-                axis=-1,
-            ),
-            np.stack(
-                [
-                    1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2],
-                    m[:, 0, 1] + m[:, 1, 0],
-                    m[:, 0, 2] + m[:, 2, 0],
-                    m[:, 2, 1] - m[:, 1, 2],
-                ],
-                axis=-1,
-            ),
-            np.stack(
-                [
-                    m[:, 0, 1] + m[:, 1, 0],
-                    1 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2],
-                    m[:, 1, 2] + m[:, 2, 1],
-                    m[:, 0, 2] - m[:, 2, 0],
-                ],
-                axis=-1,
-            ),
-            np.stack(
-                [
-                    m[:, 0, 2] + m[:, 2, 0],
-                    m[:, 1, 2] + m[:, 2, 1],
-                    1 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1],
-                    m[:, 1, 0] - m[:, 0, 1],
-                ],
-                axis=-1,
-            ),
-        ],
-        axis=1,
-    )  # (N, 4 candidates, 4)
-    pivots = np.stack(
-        [
-            1 + trace,
-            1 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2],
-            1 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2],
-            1 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1],
-        ],
-        axis=-1,
-    )
-    best = np.argmax(pivots, axis=-1)
-    q = cand[np.arange(len(batch)), best]
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    q = np.where(q[:, 3:4] < 0, -q, q)
-    return q.reshape((*R.shape[:-2], 4))
-
-
-def pose_matrix(t: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Camera-to-world (4, 4) matrix from a position (3,) metres and a quaternion (4,) xyzw.
-
-    Also vectorized: (N, 3) and (N, 4) give (N, 4, 4).
-    """
-    t = np.asarray(t, dtype=np.float64)
-    R = quaternion_to_matrix(q)
-    T = np.zeros((*R.shape[:-2], 4, 4))
-    T[..., :3, :3] = R
-    T[..., :3, 3] = t
-    T[..., 3, 3] = 1.0
-    return T
-
-
-def matrix_to_pose(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of :func:`pose_matrix`: ``(t (.., 3), q (.., 4) xyzw)``."""
-    T = np.asarray(T, dtype=np.float64)
-    return T[..., :3, 3].copy(), matrix_to_quaternion(T[..., :3, :3])
-
-
-def slerp(q0: np.ndarray, q1: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Spherical linear interpolation, vectorized.
-
-    Args:
-        q0, q1: (N, 4) unit quaternions xyzw.
-        alpha: (N,) fractions in [0, 1].
-
-    Returns:
-        (N, 4) unit quaternions.
-    """
-    q0 = normalize_quaternions(q0)
-    q1 = normalize_quaternions(q1)
-    alpha = np.asarray(alpha, dtype=np.float64)[:, None]
-    dot = np.sum(q0 * q1, axis=-1, keepdims=True)
-    q1 = np.where(dot < 0, -q1, q1)  # shortest path
-    dot = np.abs(dot).clip(max=1.0)
-    theta = np.arccos(dot)
-    sin_theta = np.sin(theta)
-    small = sin_theta < 1e-9
-    safe = np.where(small, 1.0, sin_theta)
-    w0 = np.where(small, 1 - alpha, np.sin((1 - alpha) * theta) / safe)
-    w1 = np.where(small, alpha, np.sin(alpha * theta) / safe)
-    return normalize_quaternions(w0 * q0 + w1 * q1)
 
 
 def interpolate_poses(
@@ -261,10 +106,4 @@ __all__ = [
     'DEFAULT_MAX_GAP',
     'interpolate_pose_matrices',
     'interpolate_poses',
-    'matrix_to_pose',
-    'matrix_to_quaternion',
-    'normalize_quaternions',
-    'pose_matrix',
-    'quaternion_to_matrix',
-    'slerp',
 ]

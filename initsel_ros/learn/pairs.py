@@ -18,7 +18,6 @@ from __future__ import annotations
 import logging
 import math
 import multiprocessing
-import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -29,6 +28,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from tqdm import tqdm
 
 from initsel_ros.errors import DatasetError, InitselError
 from initsel_ros.features import Scaling, extra_features, pair_features
@@ -464,34 +464,6 @@ def _init_worker() -> None:
     cv2.setNumThreads(1)
 
 
-class Progress:
-    """A one-line progress bar on stderr."""
-
-    def __init__(self, total: int, enabled: bool = True, stream: Any = None) -> None:
-        self.total = total
-        self.enabled = enabled
-        self.stream = stream or sys.stderr
-        self.start = time.perf_counter()
-        self._last = 0.0
-
-    def update(self, done: int, pairs: int, force: bool = False) -> None:
-        """Redraw (at most every 0.2 s unless ``force``)."""
-        now = time.perf_counter()
-        if not self.enabled or (not force and now - self._last < 0.2):
-            return
-        self._last = now
-        elapsed = max(now - self.start, 1e-9)
-        width = 30
-        filled = int(width * done / max(self.total, 1))
-        bar = '#' * filled + '-' * (width - filled)
-        self.stream.write(
-            f'\r[{bar}] {done}/{self.total} batches, {pairs} pairs, {pairs / elapsed:.0f} pairs/s'
-        )
-        if force:
-            self.stream.write('\n')
-        self.stream.flush()
-
-
 @dataclass(frozen=True)
 class BuildStats:
     """What :func:`build_table` did."""
@@ -692,14 +664,16 @@ def build_table(
         names.append(sequence.name)
         for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
             tasks.append(BatchTask(path, b, tuple(frames), config))
-    bar = Progress(len(tasks), enabled=progress)
+    # disable=None: quiet when stderr is not a terminal (logs, CI)
+    bar = tqdm(total=len(tasks), unit='batch', disable=None if progress else True)
     plans = [_Plan(task) for task in tasks]
     counts = {'batches': 0, 'pairs': 0}
 
     def on_done(plan: _Plan) -> None:
         counts['batches'] += 1
         counts['pairs'] += sum(len(rows) for rows in plan.chunks.values())
-        bar.update(counts['batches'], counts['pairs'])
+        bar.update(1)
+        bar.set_postfix(pairs=counts['pairs'], refresh=False)
 
     try:
         executor = Executor(config.executor)
@@ -716,7 +690,7 @@ def build_table(
         _run_in_process(plans, on_done)
     else:
         _run_in_pool(plans, config, on_done)
-    bar.update(len(tasks), counts['pairs'], force=True)
+    bar.close()
     ordered = [row for plan in plans for row in plan.rows()]
     stats = BuildStats(tuple(names), len(tasks), len(ordered), time.perf_counter() - start)
     LOG.info(
@@ -768,7 +742,6 @@ __all__ = [
     'Executor',
     'Pair',
     'PairInput',
-    'Progress',
     'Source',
     'TrackedBatch',
     'batch_ranges',

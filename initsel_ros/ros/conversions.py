@@ -18,7 +18,6 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2, Poi
 from std_msgs.msg import Header
 
 from initsel_ros.camera import Intrinsics, check_distortion
-from initsel_ros.datasets.poses import matrix_to_quaternion, quaternion_to_matrix
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.image import (
     ENCODINGS,
@@ -31,6 +30,7 @@ from initsel_ros.image import (
     to_8bit,
     to_cv,
 )
+from initsel_ros.transforms import matrix_to_quaternion, quaternion_to_matrix
 
 #: Point cloud fields published on ``init/points``: all float32, little-endian, in this order.
 POINT_FIELDS: tuple[str, ...] = ('x', 'y', 'z', 'u0', 'v0', 'u1', 'v1')

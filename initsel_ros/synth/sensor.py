@@ -20,7 +20,6 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets.poses import matrix_to_pose, pose_matrix, slerp
 from initsel_ros.synth.effects import (
     Effects,
     NoiseBank,
@@ -32,6 +31,7 @@ from initsel_ros.synth.effects import (
 from initsel_ros.synth.movers import Mover, scene_at
 from initsel_ros.synth.render import NEAR_PLANE, Distorter, render_frame
 from initsel_ros.synth.scene import Scene
+from initsel_ros.transforms import matrix_to_pose, pose_matrix, slerp
 
 #: Largest image motion between two sub-frames of an exposure, pixels.
 SUBFRAME_STEP_PX = 0.75

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from initsel_ros.datasets.poses import pose_matrix
 from initsel_ros.datasets.tum import read_trajectory
 from initsel_ros.errors import ConfigError
 from initsel_ros.synth.scene import NEAR_CONVERGENCE, scene_target
+from initsel_ros.transforms import pose_matrix
 
 DATA_DIR = Path(__file__).resolve().parent / 'data'
 NEAR_FILE = DATA_DIR / 'structure_texture_near.txt'

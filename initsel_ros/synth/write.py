@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import shutil
-import sys
 import time
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -13,9 +12,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from tqdm import tqdm
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets.poses import matrix_to_pose
 from initsel_ros.datasets.tum import DEPTH_SCALE, write_listing, write_trajectory
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.synth.effects import Effects
@@ -23,6 +22,7 @@ from initsel_ros.synth.movers import make_movers
 from initsel_ros.synth.scene import build_scene
 from initsel_ros.synth.sensor import PoseTrack, SensorRenderer
 from initsel_ros.synth.trajectories import make_trajectory
+from initsel_ros.transforms import matrix_to_pose
 
 _LOG = logging.getLogger(__name__)
 
@@ -53,29 +53,6 @@ class SynthResult:
     def fps(self) -> float:
         """Frames per second, rendering plus PNG writing."""
         return self.frames / self.seconds if self.seconds > 0 else float('inf')
-
-
-class _Progress:
-    """A one-line progress bar on stderr."""
-
-    def __init__(self, total: int, enabled: bool) -> None:
-        self.total, self.enabled, self.start = total, enabled, time.perf_counter()
-        self.last = 0.0
-
-    def update(self, done: int) -> None:
-        now = time.perf_counter()
-        if not self.enabled or (now - self.last < 0.2 and done < self.total):
-            return
-        self.last = now
-        width = 30
-        filled = int(width * done / max(self.total, 1))
-        fps = done / max(now - self.start, 1e-9)
-        sys.stderr.write(
-            f'\r[{"#" * filled}{"." * (width - filled)}] {done}/{self.total} {fps:5.1f} frames/s'
-        )
-        if done >= self.total:
-            sys.stderr.write('\n')
-        sys.stderr.flush()
 
 
 def _camera(
@@ -186,7 +163,8 @@ def render(
         if not cv2.imwrite(str(path), img, params):
             raise DatasetError(f'{path}: cannot write image')
 
-    bar = _Progress(len(stamps), progress)
+    # disable=None: quiet when stderr is not a terminal (logs, CI)
+    bar = tqdm(total=len(stamps), unit='frame', disable=None if progress else True)
     t_start = time.perf_counter()
     pending: deque[Future[None]] = deque()
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -201,9 +179,10 @@ def render(
             )
             while len(pending) > 4 * max(1, workers):
                 pending.popleft().result()
-            bar.update(i + 1)
+            bar.update(1)
         for f in pending:
             f.result()
+    bar.close()
     seconds = time.perf_counter() - t_start
 
     write_listing(
