@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from initsel_ros.datasets import Frame, open_sequence
-from initsel_ros.datasets.stamps import parse_seconds_ns, split_ns
+from initsel_ros.datasets.timestamps import parse_seconds_ns, split_ns
 from initsel_ros.datasets.tum import TumSequence
 from initsel_ros.errors import DatasetError
 

@@ -31,7 +31,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_pose_matrices
 from initsel_ros.datasets.sequence import Frame, Sequence, without_alpha
-from initsel_ros.datasets.stamps import ns_to_seconds, split_ns, stamp_ns
+from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.transforms import matrix_to_pose

@@ -30,7 +30,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
-from initsel_ros.datasets.stamps import ns_to_seconds
+from initsel_ros.datasets.timestamps import ns_to_seconds
 from initsel_ros.datasets.tum import read_text
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.transforms import matrix_to_pose, pose_matrix

@@ -25,7 +25,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
-from initsel_ros.datasets.stamps import ns_to_seconds, parse_seconds_ns
+from initsel_ros.datasets.timestamps import ns_to_seconds, parse_seconds_ns
 from initsel_ros.errors import ConfigError, DatasetError
 
 _LOG = logging.getLogger(__name__)
