@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from initsel_ros.cli import SUBCOMMANDS, SubcommandImportError, build_parser, main
+from initsel_ros.cli.options import named_model_paths
 
 #: Modules that ``--help`` must not import: OpenCV, the learning stack, ROS.
 HEAVY = ('cv2', 'sklearn', 'rclpy', 'scipy', 'matplotlib')
@@ -132,3 +133,14 @@ def test_readme_pictures_default_folder_is_relative_to_the_working_directory(
     assert main(['pictures']) == 0
     assert seen['out'] == (tmp_path / 'docs' / 'images').resolve()
     assert Path(pictures.__file__).resolve().parent.parent not in seen['out'].parents
+
+
+def test_models_arguments_take_names_or_file_stems():
+    got = named_model_paths(['shipped=config/models.json', '/tmp/effects_mix.json'])
+    assert got == {
+        'shipped': Path('config/models.json'),
+        'effects_mix': Path('/tmp/effects_mix.json'),
+    }
+    assert list(named_model_paths(None)) == ['shipped']
+    with pytest.raises(ValueError):
+        named_model_paths(['a=x.json', 'a=y.json'])

@@ -107,8 +107,9 @@ def test_the_pair_table_stores_the_live_extra_features():
     from geometry_fixtures import K, two_view
 
     from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
+    from initsel_ros.learn.correspondences import Pair, Source
     from initsel_ros.learn.labels import label_pair
-    from initsel_ros.learn.pairs import DatasetConfig, Pair, Source, pair_row
+    from initsel_ros.learn.pairs import DatasetConfig, pair_row
 
     p0, p1, R, t, _ = two_view(planar=False, n=120)
     T_cur = np.eye(4)

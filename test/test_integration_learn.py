@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from initsel_ros.cli import main
-from initsel_ros.learn.pairs import DatasetConfig, build_table
+from initsel_ros.learn.build import build_table
+from initsel_ros.learn.pairs import DatasetConfig
 from initsel_ros.learn.table import read_table
 from initsel_ros.models import ModelSet
 

@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from initsel_ros.learn.pairs import DatasetConfig, Source, batch_ranges, build_table
+from initsel_ros.learn.build import build_table
+from initsel_ros.learn.correspondences import Source
+from initsel_ros.learn.pairs import DatasetConfig, batch_ranges
 
 REAL = Path('/work/shared/data/tum_fr3_structure_texture_near')
 

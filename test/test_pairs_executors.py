@@ -13,16 +13,10 @@ import cv2
 import pytest
 
 from initsel_ros.errors import DatasetError
+from initsel_ros.learn.build import build_table
+from initsel_ros.learn.correspondences import Pair, klt_pairs
 from initsel_ros.learn.labels import label_pair
-from initsel_ros.learn.pairs import (
-    DatasetConfig,
-    Pair,
-    batch_ranges,
-    build_table,
-    chunk_bounds,
-    klt_pairs,
-    pair_row,
-)
+from initsel_ros.learn.pairs import DatasetConfig, batch_ranges, chunk_bounds, pair_row
 from initsel_ros.learn.table import PairTable, write_table
 
 

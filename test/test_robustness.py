@@ -8,6 +8,7 @@ import pytest
 
 from initsel_ros.datasets import open_sequence
 from initsel_ros.learn import robustness as rb
+from initsel_ros.learn.robustness import tracker
 from initsel_ros.synth import Effects, render
 from initsel_ros.tracking import KltTracker, TrackerConfig
 
@@ -41,9 +42,11 @@ def test_true_positions_follow_the_tracks_of_a_distorted_sequence(distorted_near
 
 
 def test_track_sequence_measures_seed_maps_against_the_true_pose(near_sequence):
-    results, remaps = rb.track_sequence(rb._Cached(open_sequence(near_sequence)), TrackerConfig())
+    results, remaps = rb.track_sequence(
+        tracker._Cached(open_sequence(near_sequence)), TrackerConfig()
+    )
     assert remaps == 0  # no brightness change: the tracker never remaps
-    summary = rb._summary(results)
+    summary = tracker._summary(results)
     assert summary['pairs'] > 10 and summary['et_median'] < 0.1
     assert summary['track_err_px'] < 0.5 and summary['depth_err_median'] < 0.05
     assert '| clean | gain_bias |' in rb.tracker_markdown(
@@ -178,17 +181,6 @@ def test_compare_models_scores_two_files_and_the_baselines_on_the_same_pairs(tmp
     assert [str(a[k]) for k in same] == [str(b[k]) for k in same]  # NaN-tolerant equality
     name, _ = rb.choose_model(rows)
     assert name == 'shipped'  # no effect rows: the reference keeps its place
-
-
-def test_models_arguments_take_names_or_file_stems():
-    got = rb.parse_model_args(['shipped=config/models.json', '/tmp/effects_mix.json'])
-    assert got == {
-        'shipped': rb.Path('config/models.json'),
-        'effects_mix': rb.Path('/tmp/effects_mix.json'),
-    }
-    assert list(rb.parse_model_args(None)) == ['shipped']
-    with pytest.raises(ValueError):
-        rb.parse_model_args(['a=x.json', 'a=y.json'])
 
 
 def test_a_model_silent_on_clean_pairs_loses_recall_not_precision():

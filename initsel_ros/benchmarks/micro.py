@@ -252,7 +252,8 @@ class DatasetResult:
 def dataset_speed(folder: Path, jobs: int, batch: int = 30, repeat: int = 1) -> DatasetResult:
     """Build the pair table of one sequence, ``repeat`` times over, with ``jobs`` processes
     (learn.pairs; the repeats amortize the workers' start-up as a longer dataset would)."""
-    from initsel_ros.learn.pairs import DatasetConfig, build_table
+    from initsel_ros.learn.build import build_table
+    from initsel_ros.learn.pairs import DatasetConfig
 
     stats: list[Any] = []
     start = time.perf_counter()

@@ -108,14 +108,10 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from initsel_ros.errors import DatasetError
+    from initsel_ros.learn.build import BuildStats, build_table, explain_no_pairs
+    from initsel_ros.learn.correspondences import Source
     from initsel_ros.learn.labels import NO_DEPTH, LabelConfig, ScaleRule
-    from initsel_ros.learn.pairs import (
-        BuildStats,
-        DatasetConfig,
-        Source,
-        build_table,
-        explain_no_pairs,
-    )
+    from initsel_ros.learn.pairs import DatasetConfig
     from initsel_ros.learn.table import write_table
     from initsel_ros.tracking import TrackerConfig
 

@@ -1,0 +1,60 @@
+"""Options shared by several ``initsel`` subcommands, defined once."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+
+
+def add_models_option(parser: argparse.ArgumentParser) -> None:
+    """``--models PATH``: one model file (default: the packaged config/models.json)."""
+    parser.add_argument(
+        '--models',
+        type=Path,
+        default=None,
+        metavar='PATH',
+        help='model file (default: the packaged config/models.json)',
+    )
+
+
+def add_named_models_option(parser: argparse.ArgumentParser) -> None:
+    """``--models [NAME=]PATH``, repeatable: several model files compared in one run."""
+    parser.add_argument(
+        '--models',
+        action='append',
+        default=None,
+        metavar='[NAME=]PATH',
+        help='model file, repeatable; a bare PATH is named by its file stem '
+        '(default: shipped=the packaged config/models.json)',
+    )
+
+
+def model_path(value: Path | None) -> Path:
+    """The ``--models`` file, or the packaged one."""
+    from initsel_ros.models import default_model_path
+
+    return Path(value) if value is not None else Path(default_model_path())
+
+
+def named_model_paths(values: Sequence[str] | None) -> dict[str, Path]:
+    """``--models [NAME=]PATH`` values as name -> path (a bare PATH is named by its stem);
+    none: ``{'shipped': the packaged config/models.json}``.
+
+    Raises:
+        ValueError: two files with the same name.
+    """
+    if not values:
+        return {'shipped': model_path(None)}
+    out: dict[str, Path] = {}
+    for value in values:
+        name, sep, path = value.partition('=')
+        if not sep:
+            name, path = Path(value).stem, value
+        if name in out:
+            raise ValueError(f'model name {name!r} given twice (use NAME=PATH)')
+        out[name] = Path(path)
+    return out
+
+
+__all__ = ['add_models_option', 'add_named_models_option', 'model_path', 'named_model_paths']
