@@ -35,8 +35,10 @@ Non-finite extra features (e.g. no homography fit) count as 0, as in training.
 from __future__ import annotations
 
 import json
+import math
 import os
 import uuid
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,10 +52,10 @@ from initsel_ros.features import (
     EXTRA_FEATURE_NAMES,
     FEATURE_NAMES,
     N_FEATURES,
+    InputPlan,
     Scaling,
-    extra_features,
-    raw_features,
-    scale_features,
+    input_plan,
+    model_inputs,
 )
 from initsel_ros.modelio import (
     MAX_FILE_BYTES,
@@ -65,7 +67,7 @@ from initsel_ros.modelio import (
     read_bounded,
     unit_number,
 )
-from initsel_ros.trees import FlatTrees, TreeEnsembleModel
+from initsel_ros.trees import TABLE_DEPTH, FlatTrees, LeafTable, TreeEnsembleModel
 from initsel_ros.trees import prepare as prepare_tree_inputs
 
 METHODS: tuple[str, ...] = ('F', 'E', 'H', 'R')
@@ -247,6 +249,16 @@ class ModelSet:
         object.__setattr__(self, '_flat', FlatTrees.build(all_trees, columns) if trees else None)
         object.__setattr__(self, '_owner', np.array(owner, dtype=np.int64))
         object.__setattr__(self, '_tree_bias', np.array(tree_bias))
+        # One input vector: trees of depth <= 3 (the shipped files) as leaf tables, one step.
+        shallow = bool(trees) and all(self.models[names[i]].depth <= TABLE_DEPTH for i in trees)
+        starts = np.flatnonzero(np.diff(owner, prepend=-1)) if shallow else ()
+        object.__setattr__(
+            self, '_table', LeafTable.build(all_trees, columns, starts) if shallow else None
+        )
+        object.__setattr__(self, '_tree_slots', list(zip(trees, tree_bias, strict=True)))
+        object.__setattr__(self, '_logistic_slots', logistic)
+        object.__setattr__(self, '_sanitize', bool(extra) or bool(trees))
+        object.__setattr__(self, '_plans', {})  # InputPlan by image size
 
     @property
     def thresholds(self) -> dict[str, float]:
@@ -268,32 +280,35 @@ class ModelSet:
         """Kind of each model: 'logistic' or 'trees'."""
         return {m: model.kind for m, model in self.models.items()}
 
-    def input_vector(
-        self,
-        p0: np.ndarray,
-        p1: np.ndarray,
-        width: int,
-        height: int,
-        raw: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """The input vector of one correspondence set (see :attr:`input_names`).
+    def input_plan(self, width: int, height: int) -> InputPlan:
+        """The constants of this set's input vector at an image size (cached)."""
+        plans: dict[tuple[int, int], InputPlan] = self._plans  # type: ignore[attr-defined]
+        plan = plans.get((width, height))
+        if plan is None:
+            plan = plans[width, height] = input_plan(width, height, self.scaling, self._extra)  # type: ignore[attr-defined]
+        return plan
+
+    def input_values(
+        self, p0: np.ndarray, p1: np.ndarray, width: int, height: int
+    ) -> tuple[list[float], float]:
+        """The input vector of one correspondence set as floats, and its mean disparity.
 
         Args:
             p0: (N, 2) reference pixels.
             p1: (N, 2) current pixels.
             width: image width, pixels.
             height: image height, pixels.
-            raw: ``raw_features(p0, p1)`` when the caller already has it.
 
         Returns:
-            (len(input_names),) float64; extra features only computed when a model needs them.
+            (values in :attr:`input_names` order, NaN where an extra feature is undefined;
+            mean disparity, pixels). The extra features are computed only when a model reads
+            them (:func:`features.model_inputs`).
         """
-        x = scale_features(
-            raw_features(p0, p1) if raw is None else raw, width, height, self.scaling
-        )
-        if not self._extra:  # type: ignore[attr-defined]
-            return x
-        return np.concatenate((x, extra_features(p0, p1, width, height, self._extra)))  # type: ignore[attr-defined]
+        return model_inputs(p0, p1, self.input_plan(width, height))
+
+    def input_vector(self, p0: np.ndarray, p1: np.ndarray, width: int, height: int) -> np.ndarray:
+        """:meth:`input_values` as a (len(input_names),) float64 array."""
+        return np.array(self.input_values(p0, p1, width, height)[0], dtype=np.float64)
 
     def _logits(self, X: np.ndarray) -> np.ndarray:
         """(N, models) logits of prepared rows, in ``self.models`` order."""
@@ -324,20 +339,38 @@ class ModelSet:
 
     def predict_proba(self, x: np.ndarray) -> dict[str, float]:
         """Probabilities of one input vector (``input_names`` order), by model name."""
-        x = self._check_inputs(x)
-        if self._flat is None:  # only logistic models: one mat-vec
-            z = self._W @ x + self._b  # type: ignore[attr-defined]
-        else:
-            z = np.empty(len(self._names))  # type: ignore[attr-defined]
-            if len(self._logistic):  # type: ignore[attr-defined]
-                z[self._logistic] = self._W @ x + self._b  # type: ignore[attr-defined]
-            xt = x.astype(np.float32).astype(np.float64)  # finite already: see _check_inputs
-            leaves = self._flat.leaf_values(xt)  # type: ignore[attr-defined]
-            z[self._trees] = self._tree_bias + np.bincount(  # type: ignore[attr-defined]
-                self._owner, weights=leaves, minlength=len(self._trees)
-            )  # type: ignore[attr-defined]
-        p = 1.0 / (1.0 + np.exp(-np.clip(z, -500.0, 500.0)))
-        return dict(zip(self._names, p.tolist(), strict=True))  # type: ignore[attr-defined]
+        return self._probabilities(self._check_inputs(x).tolist())
+
+    def predict_values(self, values: Sequence[float]) -> dict[str, float]:
+        """:meth:`predict_proba` of an input vector given as floats (:meth:`input_values`):
+        the per-frame path, with no array conversion before the models."""
+        if len(values) != len(self._inputs):  # type: ignore[attr-defined]
+            self._check_inputs(np.asarray(values, dtype=np.float64))  # raises, saying why
+        if self._sanitize and not math.isfinite(sum(values)):  # type: ignore[attr-defined]
+            values = [v if math.isfinite(v) else 0.0 for v in values]
+        return self._probabilities(values)
+
+    def _probabilities(self, values: Sequence[float]) -> dict[str, float]:
+        """Probabilities of finite inputs (non-finite ones already 0 where they count as 0)."""
+        logits = [0.0] * len(self._names)  # type: ignore[attr-defined]
+        if self._table is not None:  # type: ignore[attr-defined]
+            sums = self._table.sums(np.array(values, dtype=np.float32)).tolist()  # type: ignore[attr-defined]
+            for (i, bias), total in zip(self._tree_slots, sums, strict=True):  # type: ignore[attr-defined]
+                logits[i] = bias + total
+        elif self._flat is not None:  # type: ignore[attr-defined]
+            x32 = np.array(values, dtype=np.float32).astype(np.float64)
+            leaves = self._flat.leaf_values(x32)  # type: ignore[attr-defined]
+            sums = np.bincount(self._owner, weights=leaves, minlength=len(self._tree_slots))  # type: ignore[attr-defined]
+            for (i, bias), total in zip(self._tree_slots, sums.tolist(), strict=True):  # type: ignore[attr-defined]
+                logits[i] = bias + total
+        if self._logistic_slots:  # type: ignore[attr-defined]
+            z = self._W @ np.array(values, dtype=np.float64) + self._b  # type: ignore[attr-defined]
+            for i, zi in zip(self._logistic_slots, z.tolist(), strict=True):  # type: ignore[attr-defined]
+                logits[i] = zi
+        return {
+            name: 1.0 / (1.0 + math.exp(-min(max(z, -500.0), 500.0)))
+            for name, z in zip(self._names, logits, strict=True)  # type: ignore[attr-defined]
+        }
 
     def predict_proba_batch(self, X: np.ndarray) -> dict[str, np.ndarray]:
         """Probabilities of (N, D) input rows, by model name, each (N,)."""

@@ -200,29 +200,47 @@ def decide(
         TOO_FEW_TRACKS, ROTATION or NO_MODEL_FIRED when negative, and INITIALIZED
         (pending the pose check) when positive.
     """
-    common = {
-        'probabilities': dict(probabilities),
-        'n_tracks': int(n_tracks),
-        'mean_disparity': float(mean_disparity),
-    }
+    probabilities = dict(probabilities)
+    n_tracks = int(n_tracks)
+    mean_disparity = float(mean_disparity)
     if n_tracks < config.min_tracks:
-        detail = f'{n_tracks} < {config.min_tracks}'
-        return Decision(Reason.TOO_FEW_TRACKS, detail=detail, **common)
-    fired = tuple(m for m in PREFERENCE if probabilities.get(m, 0.0) >= thresholds.get(m, 0.5))
+        return Decision(
+            Reason.TOO_FEW_TRACKS,
+            probabilities,
+            n_tracks=n_tracks,
+            mean_disparity=mean_disparity,
+            detail=f'{n_tracks} < {config.min_tracks}',
+        )
+    # Margin above the threshold of each model that fired, in PREFERENCE order.
+    fired = [
+        (m, p - t)
+        for m in PREFERENCE
+        if (p := probabilities.get(m, 0.0)) >= (t := thresholds.get(m, 0.5))
+    ]
     rotation = probabilities.get('R', 0.0) >= thresholds.get('R', 0.5)
-    vetoed = tuple(m for m in fired if rotation and m in config.r_veto)
-    remaining = [m for m in fired if m not in vetoed]
-    margin = {m: probabilities[m] - thresholds.get(m, 0.5) for m in remaining}
-    candidates = tuple(
-        Method(m) for m in sorted(remaining, key=lambda m: (-margin[m], PREFERENCE.index(m)))
-    )
+    vetoed = tuple(m for m, _ in fired if m in config.r_veto) if rotation else ()
+    remaining = [f for f in fired if f[0] not in vetoed]
+    if len(remaining) > 1:  # most confident first; sort is stable, so ties keep PREFERENCE
+        remaining.sort(key=lambda f: -f[1])
+    candidates = tuple(_METHODS[m] for m, _ in remaining)
     if candidates:
         reason = Reason.INITIALIZED
     elif rotation:
         reason = Reason.ROTATION
     else:
         reason = Reason.NO_MODEL_FIRED
-    return Decision(reason, fired=fired, vetoed=vetoed, candidates=candidates, **common)
+    return Decision(
+        reason,
+        probabilities,
+        tuple(m for m, _ in fired),
+        vetoed,
+        candidates,
+        n_tracks,
+        mean_disparity,
+    )
+
+
+_METHODS = {m: Method(m) for m in PREFERENCE}
 
 
 def check_pose_batch(

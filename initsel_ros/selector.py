@@ -15,7 +15,6 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
-from initsel_ros.features import raw_features
 from initsel_ros.geometry import Method
 from initsel_ros.image import to_gray  # re-exported: callers use selector.to_gray
 from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize_pair
@@ -178,9 +177,8 @@ def decide_pair(
         width: image width, pixels.
         height: image height, pixels.
     """
-    raw = raw_features(ref, cur)
-    probabilities = models.predict_proba(models.input_vector(ref, cur, width, height, raw))
-    return decide(probabilities, thresholds, len(ref), float(raw[1]), policy)
+    values, mean_disparity = models.input_values(ref, cur, width, height)
+    return decide(models.predict_values(values), thresholds, len(ref), mean_disparity, policy)
 
 
 class Selector:

@@ -16,7 +16,10 @@ features are rounded to float32 before the comparisons; non-finite inputs count 
 training imputes).
 
 Evaluation is vectorized over all trees at once: the nodes of every tree live in flat arrays
-where a leaf points to itself, so ``depth`` steps of fancy indexing reach every leaf.
+where a leaf points to itself, so ``depth`` steps of fancy indexing reach every leaf
+(:class:`FlatTrees`, any depth, many rows at once). For one input vector and trees at most
+:data:`TABLE_DEPTH` deep (the shipped files), :class:`LeafTable` does it in one step: every
+comparison of every tree at once, then one table look-up per tree.
 """
 
 from __future__ import annotations
@@ -163,6 +166,88 @@ class FlatTrees:
         return self.value[node]
 
 
+#: Trees at most this deep can be scored by :class:`LeafTable`.
+TABLE_DEPTH = 3
+_SLOTS = 8  # comparisons per tree in a LeafTable: the 7 inner nodes of a full depth-3 tree + 1
+_CODES = 128  # leaf-table entries per tree: one per pattern of the 7 comparisons
+
+
+def float32_splits(split: np.ndarray) -> np.ndarray:
+    """The largest float32 at or below each split, so that for float32 x,
+    ``x > float32_splits(s)`` (in float32) is exactly ``x > s`` (in float64)."""
+    split = np.asarray(split, dtype=np.float64)
+    out = split.astype(np.float32)
+    above = out.astype(np.float64) > split
+    out[above] = np.nextafter(out[above], np.float32(-np.inf))
+    return out
+
+
+@dataclass(frozen=True)
+class LeafTable:
+    """Trees at most :data:`TABLE_DEPTH` deep, scored on one input vector in one step.
+
+    Each tree becomes a full depth-3 tree in heap order (node k's children are 2k + 1 and
+    2k + 2; a leaf above depth 3 is padded with comparisons that always go left, copying its
+    value to every leaf below it) with 8 comparison slots: the 7 inner nodes and one that is
+    always false. All slots of all trees compare at once, ``np.packbits`` turns each tree's 8
+    results into one byte, and that byte indexes the tree's 128-entry table of the leaf it
+    leads to. Comparisons are in float32 against :func:`float32_splits`, so the result equals
+    scikit-learn's (float32 input, float64 split) and :class:`FlatTrees`'.
+    """
+
+    feature: np.ndarray  # (T * 8,) intp input column of each slot
+    split: np.ndarray  # (T * 8,) float32, +inf in unused slots
+    table: np.ndarray  # (T * 128,) float64 leaf value of each tree and comparison pattern
+    base: np.ndarray  # (T,) int64, 128 * tree index
+    starts: np.ndarray  # (G,) intp first tree of each group (np.add.reduceat)
+
+    @classmethod
+    def build(
+        cls, trees: Sequence[Tree], columns: Sequence[np.ndarray], starts: Sequence[int]
+    ) -> LeafTable:
+        """Tables for ``trees`` (each at most TABLE_DEPTH deep); ``columns[i][j]`` is the input
+        column of tree i's feature j; ``starts`` the first tree of each group, ascending."""
+        n = len(trees)
+        feature = np.zeros((n, _SLOTS), dtype=np.intp)
+        split = np.full((n, _SLOTS), np.inf)
+        table = np.zeros((n, _CODES))
+        patterns = np.arange(_CODES)
+        for t, (tree, cols) in enumerate(zip(trees, columns, strict=True)):
+            if tree.depth > TABLE_DEPTH:
+                raise ValueError(f'tree {t} is {tree.depth} deep; a LeafTable takes at most 3')
+            leaves = np.zeros(2**TABLE_DEPTH)
+            stack = [(0, 0, 0)]  # (node, heap slot, depth)
+            while stack:
+                node, slot, depth = stack.pop()
+                if depth == TABLE_DEPTH:
+                    leaves[slot - (2**TABLE_DEPTH - 1)] = tree.value[node]
+                    continue
+                if tree.feature[node] >= 0:
+                    feature[t, slot] = cols[tree.feature[node]]
+                    split[t, slot] = tree.split[node]
+                    kids = (tree.left[node], tree.right[node])
+                else:  # a leaf above the last level: both sides lead to it (slot stays +inf)
+                    kids = (node, node)
+                stack += [(kids[0], 2 * slot + 1, depth + 1), (kids[1], 2 * slot + 2, depth + 1)]
+            slot = np.zeros(_CODES, dtype=np.int64)  # walk all 128 patterns at once
+            for _ in range(TABLE_DEPTH):
+                slot = 2 * slot + 1 + ((patterns >> slot) & 1)
+            table[t] = leaves[slot - (2**TABLE_DEPTH - 1)]
+        return cls(
+            feature.ravel(),
+            float32_splits(split.ravel()),
+            table.ravel(),
+            np.arange(n, dtype=np.int64) * _CODES,
+            np.asarray(starts, dtype=np.intp),
+        )
+
+    def sums(self, x32: np.ndarray) -> np.ndarray:
+        """(G,) sum of the leaf values of each group's trees for one float32 input vector
+        (finite; see :func:`prepare` for what the trees expect)."""
+        code = np.packbits(x32[self.feature] > self.split, bitorder='little')
+        return np.add.reduceat(self.table[code + self.base], self.starts)
+
+
 def prepare(X: np.ndarray) -> np.ndarray:
     """Inputs as the trees compare them: non-finite -> 0, then rounded to float32."""
     X = np.asarray(X, dtype=np.float64)
@@ -259,8 +344,11 @@ __all__ = [
     'MAX_DEPTH',
     'MAX_NODES_PER_TREE',
     'MAX_TREES',
+    'TABLE_DEPTH',
     'FlatTrees',
+    'LeafTable',
     'Tree',
     'TreeEnsembleModel',
+    'float32_splits',
     'prepare',
 ]

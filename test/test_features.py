@@ -124,6 +124,125 @@ def test_the_pair_table_stores_the_live_extra_features():
     np.testing.assert_array_equal([row[name] for name in EXTRA_FEATURE_NAMES], live)
 
 
+def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height: int):
+    """The extra features by their textbook definitions (np.percentile, a lstsq affine fit,
+    cv2.findHomography's least-squares homography refined by Levenberg-Marquardt)."""
+    import math
+
+    import cv2
+
+    p0 = np.asarray(p0, dtype=np.float64)
+    p1 = np.asarray(p1, dtype=np.float64)
+    n, diag = len(p0), math.hypot(width, height)
+    out = np.full(7, np.nan)
+    if n == 0:
+        return out
+    out[0:3] = np.percentile(np.hypot(*(p1 - p0).T), (10, 50, 90)) / diag
+    gx = np.clip((p0[:, 0] * (4 / width)).astype(int), 0, 3)
+    gy = np.clip((p0[:, 1] * (4 / height)).astype(int), 0, 3)
+    counts = np.bincount(gy * 4 + gx, minlength=16)
+    prob = counts[counts > 0] / n
+    out[3], out[4] = np.count_nonzero(counts) / 16, -(prob * np.log(prob)).sum() / math.log(16)
+    if n >= 3:
+        A = np.column_stack((p0, np.ones(n)))
+        sol, *_ = np.linalg.lstsq(A, p1, rcond=None)
+        out[5] = math.sqrt(np.mean(np.sum((p1 - A @ sol) ** 2, axis=1))) / diag
+    if n >= 4:
+        H, _ = cv2.findHomography(p0.reshape(-1, 1, 2), p1.reshape(-1, 1, 2), 0)
+        if H is not None and H.shape == (3, 3):
+            proj = cv2.perspectiveTransform(p0.reshape(-1, 1, 2), H).reshape(-1, 2)
+            out[6] = math.sqrt(np.mean(np.sum((proj - p1) ** 2, axis=1))) / diag
+    return out
+
+
+def _perspective_tracks(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Integer reference corners (as the tracker detects them) and a current view of a plane
+    tilted away from the camera plus parallax noise, float32."""
+    p0 = np.floor(rng.uniform(0, 1, (n, 2)) * [640, 480]).astype(np.float32)
+    H = np.array([[1.03, 0.02, 8.0], [-0.01, 0.97, -5.0], [2e-4, -1e-4, 1.0]])
+    q = np.c_[p0, np.ones(n)] @ H.T
+    p1 = q[:, :2] / q[:, 2:] + rng.normal(0, 1.5, (n, 2))
+    return p0, p1.astype(np.float32)
+
+
+@pytest.mark.parametrize('n', [0, 1, 2, 3, 4, 5, 9, 60, 300])
+def test_extra_features_equal_their_textbook_definitions(n):
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
+
+    for make in (_tracks, _perspective_tracks):
+        p0, p1 = make(np.random.default_rng(n), n)
+        live = extra_features(p0, p1, 640, 480)
+        ref = _reference_extra_features(p0, p1, 640, 480)
+        assert live.shape == (len(EXTRA_FEATURE_NAMES),)
+        np.testing.assert_array_equal(np.isnan(live), np.isnan(ref))
+        np.testing.assert_array_equal(live[:4], ref[:4])  # percentiles, occupancy: bit-equal
+        np.testing.assert_allclose(live[4:6], ref[4:6], rtol=1e-9, atol=1e-12, equal_nan=True)
+        # The homography residual: one Gauss-Newton step from the DLT, against OpenCV's
+        # Levenberg-Marquardt (cv2 works in float32 inside, hence the tolerance for 4 points).
+        np.testing.assert_allclose(live[6], ref[6], rtol=1e-4, atol=1e-9, equal_nan=True)
+
+
+def test_grid_cells_split_integer_corners_as_the_truncated_product_does():
+    from initsel_ros.features import extra_features
+
+    # x = 160 is the first pixel of column 1 at width 640; 159.99998 (float32) is still column 0
+    p0 = np.array([[159.99998, 10.0], [160.0, 10.0], [320.0, 119.99999], [320.0, 120.0]])
+    occupancy, entropy = extra_features(
+        p0, p0 + 1, 640, 480, ('x_grid_occupancy', 'x_grid_entropy')
+    )
+    assert occupancy == 4 / 16  # cells (0, 0), (1, 0), (2, 0), (2, 1)
+    assert entropy == pytest.approx(1.0 / 2.0)  # four equal cells: log 4 / log 16
+    # At these sizes j * size / 4 times 4 / size rounds below j for some j (y = 25.75 at
+    # height 103 is in row 0): every quarter pixel falls where the truncated product puts it.
+    for width, height in ((107, 103), (150, 117), (1241, 376)):
+        xs, ys = np.meshgrid(np.arange(-2, width + 2, 0.25), np.arange(-2, height + 2, 0.25))
+        p0 = np.c_[xs.ravel(), ys.ravel()].astype(np.float64)
+        names = ('x_grid_occupancy', 'x_grid_entropy')
+        got = extra_features(p0, p0, width, height, names)
+        ref = _reference_extra_features(p0, p0, width, height)[3:5]
+        assert got[0] == ref[0] and got[1] == pytest.approx(ref[1], rel=1e-12)
+        one_column = p0[p0[:, 0] == width / 4]  # a column of points on a cell edge
+        got = extra_features(one_column, one_column, width, height, names)
+        ref = _reference_extra_features(one_column, one_column, width, height)[3:5]
+        assert got[0] == ref[0] and got[1] == pytest.approx(ref[1], rel=1e-12, abs=1e-15)
+
+
+def test_raw_features_equal_the_straightforward_numpy_computation():
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 17, 300):
+        p0, p1 = _perspective_tracks(rng, n)
+        q0, q1 = p0.astype(np.float64), p1.astype(np.float64)
+        d = q1 - q0
+        disparity = np.hypot(d[:, 0], d[:, 1])
+        rows = np.c_[q0, q1].T
+        expected = np.concatenate(
+            (
+                [n, disparity.mean(), disparity.std()],
+                np.c_[rows.min(axis=1), rows.max(axis=1)].ravel(),
+                rows.max(axis=1) - rows.min(axis=1),
+                direction_bins(p0, p1),
+            )
+        )
+        f = raw_features(p0, p1)
+        np.testing.assert_array_equal(f[[0, *range(3, 23)]], expected[[0, *range(3, 23)]])
+        np.testing.assert_allclose(f[1:3], expected[1:3], rtol=1e-14)
+
+
+def test_model_inputs_are_the_scaled_features_then_the_extra_ones():
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features, input_plan, model_inputs
+
+    p0, p1 = _perspective_tracks(np.random.default_rng(8), 120)
+    names = ('x_homography_residual', 'x_grid_entropy')
+    values, mean = model_inputs(p0, p1, input_plan(640, 480, Scaling.PAPER, names))
+    assert len(values) == 23 + len(names)
+    assert values[:23] == pair_features(p0, p1, 640, 480, Scaling.PAPER).tolist()
+    assert values[23:] == extra_features(p0, p1, 640, 480, names).tolist()
+    assert mean == raw_features(p0, p1)[1]
+    with pytest.raises(GeometryError, match='unknown extra features'):
+        input_plan(640, 480, Scaling.PAPER, ('x_magic',))
+    assert set(EXTRA_FEATURE_NAMES) >= set(names)
+
+
 def test_extra_features_are_computed_for_the_names_asked_in_their_order():
     from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
 

@@ -106,27 +106,30 @@ def test_a_tree_model_file_round_trips_compactly(tmp_path):
 
 
 def test_input_vector_computes_extra_features_only_when_a_model_reads_them(monkeypatch):
-    import initsel_ros.models as models_module
+    import initsel_ros.features as features_module
+    from initsel_ros.features import extra_features
 
     calls = []
-    real = models_module.extra_features
+    for name in ('_fit_residuals', '_linear_quantiles'):
+        real = getattr(features_module, name)
 
-    def spy(p0, p1, width, height, names):
-        calls.append(names)
-        return real(p0, p1, width, height, names)
+        def spy(*args, _real=real, _name=name):
+            calls.append(_name)
+            return _real(*args)
 
-    monkeypatch.setattr(models_module, 'extra_features', spy)
+        monkeypatch.setattr(features_module, name, spy)
     rng = np.random.default_rng(5)
     p0 = rng.uniform(0, 400, (60, 2))
     p1 = p0 + rng.normal(0, 2, p0.shape)
     logistic_only = ModelSet({m: LogisticModel(m, np.ones(N_FEATURES), 0.0) for m in METHODS})
     assert logistic_only.input_vector(p0, p1, 640, 480).shape == (N_FEATURES,)
+    assert logistic_only.input_plan(640, 480).extra == ()
     assert calls == []
     ms = ModelSet(_tree_models())
     x = ms.input_vector(p0, p1, 640, 480)
-    assert calls == [('x_disp_p50', 'x_grid_entropy', 'x_homography_residual')]
+    assert sorted(calls) == ['_fit_residuals', '_linear_quantiles']
     assert x.shape == (N_FEATURES + 3,)
-    np.testing.assert_array_equal(x[N_FEATURES:], real(p0, p1, 640, 480, ms.extra_names))
+    np.testing.assert_array_equal(x[N_FEATURES:], extra_features(p0, p1, 640, 480, ms.extra_names))
 
 
 def test_decide_pair_feeds_the_extra_features_to_the_models():
@@ -235,3 +238,48 @@ def test_version_1_files_and_the_shipped_file_still_load(tmp_path):
     assert set(shipped.extra_names) <= set(EXTRA_FEATURE_NAMES)
     x = np.zeros(len(shipped.input_names))
     assert set(shipped.predict_proba(x)) == set(METHODS)
+
+
+def test_the_leaf_table_scores_every_row_as_the_flat_trees_do():
+    from initsel_ros.trees import FlatTrees, LeafTable, float32_splits, prepare
+
+    X, y = _data(400, 6, seed=3)
+    trees = []
+    for depth in (1, 2, 3):  # shallow trees have leaves above depth 3: padded in the table
+        fitted, _ = fit_trees(X, y, TreeConfig(12, depth, 0.3), ClassWeight.BALANCED, depth)
+        trees += fitted
+    columns = [np.arange(6)] * len(trees)
+    starts = [0, 12, 24]
+    table = LeafTable.build(trees, columns, starts)
+    flat = FlatTrees.build(trees, columns)
+    owner = np.repeat([0, 1, 2], 12)
+    splits = np.concatenate([t.split[t.feature >= 0] for t in trees])
+    rows = np.vstack(
+        (
+            _data(200, 6, seed=4)[0],
+            np.tile(splits[:, None], (1, 6))[:60],  # inputs exactly on a split
+            np.tile(np.nextafter(splits, np.inf)[:, None], (1, 6))[:60],  # just above it
+        )
+    )
+    for x in prepare(rows):
+        expected = np.bincount(owner, weights=flat.leaf_values(x), minlength=3)
+        np.testing.assert_allclose(table.sums(x.astype(np.float32)), expected, atol=1e-12)
+    # float32 x > float32_splits(s) exactly when float32 x > s, on both sides of each split
+    s = splits[:50]
+    for x32 in (s.astype(np.float32), np.nextafter(s.astype(np.float32), np.float32(np.inf))):
+        np.testing.assert_array_equal(x32 > float32_splits(s), x32.astype(np.float64) > s)
+
+
+def test_model_sets_with_deep_trees_score_one_vector_without_the_table():
+    X, y = _data(300, N_FEATURES, seed=5)
+    deep, deep_bias = fit_trees(X, y, TreeConfig(8, 5, 0.2), ClassWeight.NONE, 0)
+    shallow, shallow_bias = fit_trees(X, y, TreeConfig(8, 3, 0.2), ClassWeight.NONE, 0)
+    for trees, bias, tabled in ((deep, deep_bias, False), (shallow, shallow_bias, True)):
+        models = {m: TreeEnsembleModel(m, FEATURE_NAMES, tuple(trees), bias) for m in METHODS}
+        ms = ModelSet(models)
+        assert (ms._table is not None) is tabled
+        batch = ms.predict_proba_batch(X[:40])
+        for i in range(40):
+            one = ms.predict_values(X[i].tolist())
+            for m in METHODS:
+                assert one[m] == pytest.approx(batch[m][i], abs=1e-12)

@@ -48,45 +48,45 @@ def time_decision(models: Any, pairs: Pairs, repeat: int, width: int, height: in
 def time_decision_parts(
     models: Any, pairs: Pairs, repeat: int, width: int, height: int
 ) -> list[Timing]:
-    """The decision split into features, model scores and policy."""
-    from initsel_ros.features import extra_features, pair_features, raw_features
+    """The decision split into model inputs, model scores and policy, each on its own inputs
+    (as ``selector.decide_pair`` runs them), and the paper's 23 features alone."""
+    from initsel_ros.features import raw_features
     from initsel_ros.policy import PolicyConfig, decide, effective_thresholds
 
     config = PolicyConfig()
     thresholds = effective_thresholds(models.thresholds, config)
-    x = models.input_vector(*pairs[0], width, height)
-    probs = models.predict_proba(x)
-    p0, p1 = pairs[0]
-    mean = float(raw_features(p0, p1)[1])
-    parts = [
+    inputs = [models.input_values(p0, p1, width, height) for p0, p1 in pairs]
+    probs = [models.predict_values(values) for values, _ in inputs]
+    extra = f' + {len(models.extra_names)} extra features, one pass' if models.extra_names else ''
+    return [
         Timing(
-            '  23 features',
+            f'  model inputs: 23 features{extra}',
             time_calls(
-                lambda i: pair_features(*pairs[i % len(pairs)], width, height, models.scaling),
+                lambda i: models.input_values(*pairs[i % len(pairs)], width, height), repeat
+            ),
+        ),
+        Timing(
+            '    the 23 features alone',
+            time_calls(lambda i: raw_features(*pairs[i % len(pairs)]), repeat),
+        ),
+        Timing(
+            '  four models',
+            time_calls(lambda i: models.predict_values(inputs[i % len(pairs)][0]), repeat),
+        ),
+        Timing(
+            '  policy',
+            time_calls(
+                lambda i: decide(
+                    probs[i % len(pairs)],
+                    thresholds,
+                    len(pairs[i % len(pairs)][0]),
+                    inputs[i % len(pairs)][1],
+                    config,
+                ),
                 repeat,
             ),
         ),
     ]
-    if models.extra_names:  # only when a model of the file reads them
-        parts.append(
-            Timing(
-                f'  {len(models.extra_names)} extra features',
-                time_calls(
-                    lambda i: extra_features(
-                        *pairs[i % len(pairs)], width, height, models.extra_names
-                    ),
-                    repeat,
-                ),
-            )
-        )
-    parts.append(Timing('  four models', time_calls(lambda i: models.predict_proba(x), repeat)))
-    parts.append(
-        Timing(
-            '  policy',
-            time_calls(lambda i: decide(probs, thresholds, len(p0), mean, config), repeat),
-        )
-    )
-    return parts
 
 
 def time_orbslam(pairs: Pairs, repeat: int, iterations: int = 200) -> Timing:
