@@ -24,6 +24,7 @@ The pair table (``initsel dataset``) stores the same values, computed the same w
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Iterable
 from enum import Enum
 from functools import lru_cache
@@ -421,11 +422,12 @@ def model_inputs(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[
         disparity, pixels.
     """
     raw, extra = _measure(p0, p1, plan)
-    n_bins = raw[15:]
-    norm = max(math.sqrt(sum(c * c for c in n_bins)), 1.0)  # counts: a non-zero norm is >= 1
-    values = [v / d for v, d in zip(raw[:15], plan._divisors, strict=True)]
-    values += [c / norm for c in n_bins]
-    return values + extra, raw[1]
+    bins = raw[15:]
+    norm = max(math.sqrt(sum(map(operator.mul, bins, bins))), 1.0)  # a non-zero norm is >= 1
+    values = list(map(operator.truediv, raw[:15], plan._divisors))
+    values += [c / norm for c in bins]
+    values += extra
+    return values, raw[1]
 
 
 def extra_features(
@@ -515,9 +517,10 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
                 + plan._grid_y4.searchsorted(rows[1], 'right'),
                 minlength=_GRID_CELLS * _GRID_CELLS,
             ).tolist()
-            occupied = [c for c in cells if c]
-            values[3] = len(occupied) / float(_GRID_CELLS * _GRID_CELLS)
-            values[4] = (math.log(n) - sum(c * math.log(c) for c in occupied) / n) / _LOG_GRID
+            # entropy = -sum (c / n) log(c / n) = log n - sum c log c / n
+            c_log_c = sum(map(_c_log_c, cells)) if n < len(_C_LOG_C) else _sum_c_log_c(cells)
+            values[3] = (len(cells) - cells.count(0)) / float(len(cells))
+            values[4] = (math.log(n) - c_log_c / n) / _LOG_GRID
         if (plan._affine and n >= 3) or (plan._homography and n >= 4):
             affine, homography = _fit_residuals(p0, p1, rows, lo, hi, plan._homography)
             values[5] = affine / diag
@@ -525,23 +528,42 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
     return raw, [values[i] for i in plan._pick]
 
 
+def _sum_c_log_c(counts: list[int]) -> float:
+    return sum(c * math.log(c) for c in counts if c)
+
+
+#: c log c for the cell counts of up to 4095 points, looked up rather than computed.
+_C_LOG_C = [0.0, *(c * math.log(c) for c in range(1, 4096))]
+_c_log_c = _C_LOG_C.__getitem__
+
+
 def _linear_quantiles(ordered: np.ndarray, qs: tuple[float, ...]) -> list[float]:
     """``np.percentile(x, 100 * q)`` for each q of the sorted values ``ordered``: the same
     arithmetic (numpy's linear method), on two looked-up neighbours per q."""
-    n = len(ordered)
-    virtual = [(n - 1) * q for q in qs]
-    below = [min(math.floor(v), n - 1) for v in virtual]
-    pairs = ordered.take([k for i in below for k in (i, min(i + 1, n - 1))]).tolist()
+    index, weight = _quantile_positions(len(ordered), qs)
+    v = ordered.take(index).tolist()
     out = []
-    for k, (v, i) in enumerate(zip(virtual, below, strict=True)):
-        a, b = pairs[2 * k], pairs[2 * k + 1]
-        if v >= n - 1:
-            out.append(pairs[2 * k])
-            continue
-        t = v - i
+    for k, t in enumerate(weight):
+        a, b = v[2 * k], v[2 * k + 1]
         diff = b - a
-        out.append(b - diff * (1 - t) if t >= 0.5 else a + diff * t)
+        out.append(b - diff * (1 - t) if t >= 0.5 else a + diff * t)  # t = 0 at the top
     return out
+
+
+@lru_cache(maxsize=1024)
+def _quantile_positions(n: int, qs: tuple[float, ...]) -> tuple[list[int], list[float]]:
+    """Neighbour indices (2 per q) and interpolation weights of numpy's linear quantiles."""
+    index, weight = [], []
+    for q in qs:
+        virtual = (n - 1) * q
+        if virtual >= n - 1:  # numpy takes the last value
+            index += [n - 1, n - 1]
+            weight.append(0.0)
+            continue
+        below = math.floor(virtual)
+        index += [below, below + 1]
+        weight.append(virtual - below)
+    return index, weight
 
 
 def _fit_residuals(
