@@ -28,8 +28,10 @@ features, so version-1 files (23-feature logistic models) load unchanged.
 
 A model says yes when its probability is at or above ``threshold``. The set reads one input
 vector (:attr:`ModelSet.input_names`): the 23 paper features, then the extra features that some
-model needs; :meth:`ModelSet.input_vector` computes it, the extra features only when needed.
-Non-finite extra features (e.g. no homography fit) count as 0, as in training.
+model needs; :meth:`ModelSet.input_vector` computes it, the extra features only when needed
+(:meth:`ModelSet.input_values` and :meth:`ModelSet.predict_values`: the same on lists of floats,
+the per-frame path). Non-finite extra features (e.g. no homography fit) count as 0, as in
+training.
 """
 
 from __future__ import annotations
