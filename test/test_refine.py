@@ -78,3 +78,144 @@ def test_essential_refit_lowers_the_error_of_the_minimal_sample_solution():
     R1, t1 = refine_essential(R0, t0, p0, p1, K)
     assert translation_chordal_error(t, t1) < translation_chordal_error(t, t0)
     assert rotation_angle_deg(R1.T @ R) < rotation_angle_deg(R0.T @ R)
+
+
+def _problem(n=40, seed=7):
+    """A small two-view problem at a perturbed state: (R, t, Q, K, q0, q1)."""
+    from initsel_ros.refine import _rotation
+
+    p0, p1, R, t, X = two_view(planar=False, n=n, noise_px=0.5, seed=seed)
+    rng = np.random.default_rng(seed)
+    p1 = p1.copy()
+    p1[:4] += rng.uniform(-8, 8, (4, 2))  # a few outliers: weights below 1
+    R0 = _rotation(rng.normal(0, 0.01, 3)) @ R
+    t0 = t + rng.normal(0, 0.05, 3)
+    t0 /= np.linalg.norm(t0)
+    X0 = X * rng.uniform(0.9, 1.1, (n, 1))
+    Q = np.vstack([X0[:, 0] / X0[:, 2], X0[:, 1] / X0[:, 2], 1 / X0[:, 2]])
+    return R0, t0, Q, K, p0.T.copy(), p1.T.copy()
+
+
+def _robust_cost(R, t, Q, K, q0, q1):
+    from initsel_ros.refine import _linearize, _tangent_basis
+
+    return _linearize(R, t, _tangent_basis(t), Q, K, q0, q1, 1.0).cost
+
+
+def test_two_view_gradient_is_the_robust_costs_by_finite_differences():
+    from initsel_ros.refine import _linearize, _pose_step, _tangent_basis
+
+    R, t, Q, K_, q0, q1 = _problem()
+    lin = _linearize(R, t, _tangent_basis(t), Q, K_, q0, q1, 1.0)
+    h = 1e-6
+    for k in range(5):
+        step = np.zeros(5)
+        step[k] = h
+        up = _robust_cost(*_pose_step(R, t, step), Q, K_, q0, q1)
+        down = _robust_cost(*_pose_step(R, t, -step), Q, K_, q0, q1)
+        assert (up - down) / (2 * h) == pytest.approx(lin.g_pose[k], rel=1e-4, abs=1e-6)
+    for i, j in [(0, 0), (1, 5), (2, 9), (2, 1)]:  # point parameters, outliers included
+        dQ = np.zeros_like(Q)
+        dQ[i, j] = h
+        up = _robust_cost(R, t, Q + dQ, K_, q0, q1)
+        down = _robust_cost(R, t, Q - dQ, K_, q0, q1)
+        assert (up - down) / (2 * h) == pytest.approx(lin.g_points[i, j], rel=1e-4, abs=1e-6)
+
+
+def test_schur_step_solves_the_full_damped_normal_equations():
+    from initsel_ros.refine import _damped_step, _inverse_3x3, _linearize, _tangent_basis
+
+    R, t, Q, K_, q0, q1 = _problem(n=12)
+    lin = _linearize(R, t, _tangent_basis(t), Q, K_, q0, q1, 1.0)
+    n = Q.shape[1]
+    H = np.zeros((5 + 3 * n, 5 + 3 * n))
+    H[:5, :5] = lin.U
+    for j in range(n):
+        block = slice(5 + 3 * j, 8 + 3 * j)
+        H[block, block] = lin.V[:, :, j]
+        H[:5, block] = lin.W[:, :, j]
+        H[block, :5] = lin.W[:, :, j].T
+    g = np.concatenate([lin.g_pose, lin.g_points.T.ravel()])
+    damping = 1e-2
+    dense = np.linalg.solve(H + damping * np.diag(np.diag(H)), -g)
+    dp, dq = _damped_step(lin, damping)
+    np.testing.assert_allclose(dp, dense[:5], rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(dq.T.ravel(), dense[5:], rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(
+        np.moveaxis(_inverse_3x3(lin.V), -1, 0),
+        np.linalg.inv(np.moveaxis(lin.V, -1, 0)),
+        rtol=1e-9,
+    )
+
+
+def test_bundle_adjustment_reaches_the_robust_minimum_a_general_solver_finds():
+    from scipy.optimize import least_squares
+
+    from initsel_ros.refine import _rotation, _tangent_basis
+
+    p0, p1, R, t, _ = two_view(planar=False, n=30, noise_px=0.5, seed=11)
+    p1 = p1.copy()
+    p1[:3] += np.random.default_rng(12).uniform(-10, 10, (3, 2))
+    R0, t0 = _perturbed(R, t, seed=13)
+    X0 = triangulate_pair(R0, t0, K, p0, p1).points
+    ours = refine_two_view(R0, t0, X0, p0, p1, K, max_reprojection_px=np.inf)
+    assert ours.converged and ours.iterations <= 15 and ours.kept.all()
+    basis = _tangent_basis(t0)
+
+    def unpack(x):
+        tk = t0 + basis @ x[3:5]
+        return _rotation(x[:3]) @ R0, tk / np.linalg.norm(tk), x[5:].reshape(-1, 3)
+
+    def residuals(x):
+        u0, u1 = pixels(*unpack(x))
+        return np.concatenate([(u0 - p0).ravel(), (u1 - p1).ravel()])
+
+    # the same robust cost, minimized by scipy's trust-region solver to tight tolerances
+    reference = least_squares(
+        residuals,
+        np.concatenate([np.zeros(5), X0.ravel()]),
+        loss='soft_l1',
+        f_scale=1.0,
+        x_scale='jac',
+        ftol=1e-12,
+        xtol=1e-12,
+        max_nfev=500,
+    )
+    R_ref, t_ref, X_ref = unpack(reference.x)
+
+    def cost(R_, t_, X_):
+        u0, u1 = pixels(R_, t_, X_)
+        e = np.concatenate([(u0 - p0).ravel(), (u1 - p1).ravel()])
+        return float(np.sum(np.sqrt(1 + e**2) - 1))
+
+    assert translation_chordal_error(t_ref, ours.t) < 2e-3
+    assert rotation_angle_deg(R_ref.T @ ours.R) < 5e-3
+    # it stops once a step gains less than 1e-4 of the cost: within a few such steps
+    assert cost(ours.R, ours.t, ours.points) <= cost(R_ref, t_ref, X_ref) * (1 + 1e-3)
+
+
+def pixels(R_, t_, X):
+    """Pixels of points X (N, 3) in the reference and in the current image."""
+    u0 = X @ K.T
+    u1 = (X @ R_.T + t_) @ K.T
+    return u0[:, :2] / u0[:, 2:], u1[:, :2] / u1[:, 2:]
+
+
+def test_essential_jacobian_matches_finite_differences():
+    from initsel_ros.geometry import homogeneous
+    from initsel_ros.refine import _pose_step, _sampson_residuals, essential_jacobian
+
+    p0, p1, R, t, _ = two_view(planar=False, n=50, noise_px=0.5, seed=5)
+    R0, t0 = _perturbed(R, t, seed=6)
+    x0, x1, K_inv = homogeneous(p0), homogeneous(p1), np.linalg.inv(K)
+    r, J = essential_jacobian(R0, t0, x0, x1, K_inv)
+    h = 1e-7
+    for k in range(5):
+        step = np.zeros(5)
+        step[k] = h
+        up = _sampson_residuals(*_pose_step(R0, t0, step), x0, x1, K_inv)[0]
+        down = _sampson_residuals(*_pose_step(R0, t0, -step), x0, x1, K_inv)[0]
+        np.testing.assert_allclose((up - down) / (2 * h), J[:, k], rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(
+        r**2, sampson_fundamental(fundamental_from_essential(skew(t0) @ R0, K), p0, p1), rtol=1e-9
+    )
