@@ -18,7 +18,6 @@ from enum import Enum
 
 import cv2
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from initsel_ros.errors import ImageConversionError
 
@@ -28,11 +27,14 @@ class Photometric(str, Enum):
 
     - ``none``: plain KLT on the frames.
     - ``gain_bias``: after a first KLT pass, a gain and a bias ``prev ~ a * cur + b`` are fitted
-      (least squares with outlier rejection) to the mean intensities of the tracked patches
-      (patches with saturated or black pixels left out); when they change the frame's
-      brightness by more than ``photometric_min_change`` grey levels, the frame is mapped by
-      them and tracked again from the first pass. Each frame is so kept at the reference's
-      brightness; frames without a brightness change are tracked exactly as with ``none``.
+      (a line with outlier rejection) to the mean intensities of the patches of about
+      ``photometric_points`` tracks (patches with saturated or black pixels left out; the
+      previous frame's are kept from its own fit when it was not mapped); when they change the
+      frame's brightness by more than ``photometric_min_change`` grey levels, the frame is
+      mapped by them and tracked again, starting from the first pass's result on
+      ``refine_levels`` pyramid levels. Each frame is so kept at the reference's brightness;
+      frames without a brightness change are tracked exactly as with ``none`` (and a first
+      look at the means' mean and spread skips the robust fit on them).
     - ``zncc``: both frames are locally normalized (zero mean, unit variance over the KLT
       window) before tracking, which removes any local gain and bias.
     """
@@ -62,6 +64,11 @@ class TrackerConfig:
         photometric_min_change: ``gain_bias`` maps a frame anew only when the fitted gain and
             bias change the mean intensity of the tracked patches (5-95 % of them) by more
             than this, grey levels.
+        photometric_points: ``gain_bias`` fits to about this many tracks (every k-th by id,
+            all when fewer are left), not to all of them.
+        refine_levels: pyramid levels above the base of the passes ``gain_bias`` tracks again
+            after a remap (from the first pass's result: what is left to find is that pass's
+            error, not the motion).
     """
 
     max_features: int = 300
@@ -77,6 +84,8 @@ class TrackerConfig:
     lk_epsilon_px: float = 0.03
     photometric: Photometric = Photometric.GAIN_BIAS
     photometric_min_change: float = 1.0
+    refine_levels: int = 1
+    photometric_points: int = 100
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'photometric', Photometric(self.photometric))
@@ -167,6 +176,9 @@ class KltTracker:
         self._gain_bias = (1.0, 0.0)
         #: frames that ``gain_bias`` mapped to a new brightness (since construction)
         self.photometric_remaps = 0
+        # patch means, unclipped flags and which were read, of the previous frame at the
+        # current points, when the last step read them there (gain_bias)
+        self._prev_patches: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def has_reference(self) -> bool:
@@ -195,6 +207,7 @@ class KltTracker:
         pts = detect_features(gray, self.config)
         self._prev = _zncc(gray, self.config.window_px) if self._zncc else gray
         self._gain_bias = (1.0, 0.0)
+        self._prev_patches = None
         self._ref = pts
         self._cur = pts.copy()
         self._ids = np.arange(len(pts), dtype=np.int64)
@@ -233,30 +246,52 @@ class KltTracker:
         self,
         prev: np.ndarray,
         gray: np.ndarray,
-        guess: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Forward-backward KLT of the current points: (next points (N, 2), keep (N,))."""
+        guess: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Forward-backward KLT of the current points.
+
+        Args:
+            prev: the previous frame; gray: the frame to track into.
+            guess: ``(forward, backward)`` (N, 2) results of an earlier pass, to start both
+                directions from, on ``refine_levels`` pyramid levels above the base instead of
+                ``pyramid_levels``: the displacement left is that pass's error.
+
+        Returns:
+            ``(next points (N, 2), keep (N,), backward points (N, 2))``.
+        """
         cfg = self.config
-        lk = {
-            'winSize': (cfg.window_px, cfg.window_px),
-            'maxLevel': cfg.pyramid_levels,
-            'criteria': self._criteria,
-        }
+        lk = {'winSize': (cfg.window_px, cfg.window_px), 'criteria': self._criteria}
         prev_pts = self._cur.reshape(-1, 1, 2)
         if guess is None:
-            nxt, status, _ = cv2.calcOpticalFlowPyrLK(prev, gray, prev_pts, None, **lk)
+            nxt, status, _ = cv2.calcOpticalFlowPyrLK(
+                prev, gray, prev_pts, None, maxLevel=cfg.pyramid_levels, **lk
+            )
+            back, status_back, _ = cv2.calcOpticalFlowPyrLK(
+                gray, prev, nxt, None, maxLevel=cfg.pyramid_levels, **lk
+            )
         else:
+            levels = min(cfg.refine_levels, cfg.pyramid_levels)
             nxt, status, _ = cv2.calcOpticalFlowPyrLK(
                 prev,
                 gray,
                 prev_pts,
-                guess.reshape(-1, 1, 2).copy(),
+                guess[0].reshape(-1, 1, 2).copy(),
                 flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+                maxLevel=levels,
                 **lk,
             )
-        back, status_back, _ = cv2.calcOpticalFlowPyrLK(gray, prev, nxt, None, **lk)
+            back, status_back, _ = cv2.calcOpticalFlowPyrLK(
+                gray,
+                prev,
+                nxt,
+                guess[1].reshape(-1, 1, 2).copy(),
+                flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+                maxLevel=levels,
+                **lk,
+            )
         nxt = nxt.reshape(-1, 2)
-        fb = np.linalg.norm(back.reshape(-1, 2) - self._cur, axis=1)
+        back = back.reshape(-1, 2)
+        fb = np.linalg.norm(back - self._cur, axis=1)
         h, w = gray.shape
         keep = (
             (status.ravel() == 1)
@@ -267,7 +302,7 @@ class KltTracker:
             & (nxt[:, 1] >= 0)
             & (nxt[:, 1] <= h - 1)
         )
-        return nxt, keep
+        return nxt, keep, back
 
     def _step(self, gray: np.ndarray) -> np.ndarray:
         """Track into ``gray``; returns the frame to keep as the previous one."""
@@ -275,40 +310,94 @@ class KltTracker:
         prev = self._prev
         assert prev is not None
         if cfg.photometric is not Photometric.GAIN_BIAS:
-            nxt, keep = self._lk(prev, gray)
+            nxt, keep, _ = self._lk(prev, gray)
         else:
-            # predict with the last mapping (brightness changes smoothly), fit the new one to
-            # the raw frame, and track again if it differs
-            a, b = self._gain_bias
-            mapped = gray if (a, b) == (1.0, 0.0) else _map(gray, a, b)
-            nxt, keep = self._lk(prev, mapped)
-            # the first tracks are pulled by the brightness change itself: refit on the
-            # tracks found with the new mapping until it settles
-            tolerance = cfg.photometric_min_change
-            for _ in range(_GAIN_BIAS_ROUNDS):
-                if keep.sum() < _MIN_PHOTOMETRIC_POINTS:
-                    break
-                fit = fit_gain_bias(prev, gray, self._cur[keep], nxt[keep], cfg.window_px)
-                if fit is None:
-                    break
-                a_new, b_new, means = fit
-                span = np.percentile(means, (5, 95))  # robust ends of the patch intensities
-                change = np.max(np.abs((a_new - a) * span + (b_new - b)))
-                if change <= tolerance:
-                    break
-                if tolerance == cfg.photometric_min_change:
-                    self.photometric_remaps += 1
-                tolerance = _GAIN_BIAS_SETTLED
-                a, b = a_new, b_new
-                mapped = _map(gray, a, b)
-                nxt, keep = self._lk(prev, mapped, guess=nxt)
-            self._gain_bias = (a, b)
-            self.last_gain_bias = (a, b)
-            gray = mapped
+            nxt, keep, gray = self._step_gain_bias(prev, gray)
         self._ref = self._ref[keep]
         self._cur = nxt[keep].astype(np.float32)
         self._ids = self._ids[keep]
         return gray
+
+    def _step_gain_bias(
+        self, prev: np.ndarray, gray: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Track with gain and bias compensation: (next points, keep, the mapped frame).
+
+        The frame is predicted with the last mapping (brightness changes smoothly) and
+        tracked; the mapping is fitted to the raw frame at the tracks found (the previous
+        frame's patch means are read once), and only when it changes a patch mean by more
+        than ``photometric_min_change`` is the frame mapped anew and tracked again, from the
+        first pass's result on ``refine_levels`` levels, until the mapping settles.
+        """
+        cfg = self.config
+        k = cfg.window_px
+        a, b = self._gain_bias
+        mapped = gray if (a, b) == (1.0, 0.0) else _map(gray, a, b)
+        nxt, keep, back = self._lk(prev, mapped)
+        # an even subset of the tracks, by id, so that it is the same from frame to frame
+        stride = max(1, len(self._ids) // max(cfg.photometric_points, 1))
+        sample = self._ids % stride == 0
+        m_prev, ok_prev, read = self._prev_patches or (
+            np.zeros(len(sample)),
+            np.zeros(len(sample), dtype=bool),
+            np.zeros(len(sample), dtype=bool),
+        )
+        missing = sample & ~read  # read last frame, at these very points, when it was raw
+        if missing.any():
+            m_read, ok_read = _patch_means_at(prev, self._cur, missing, k)
+            m_prev = np.where(missing, m_read, m_prev)
+            ok_prev = np.where(missing, ok_read, ok_prev)
+        self._prev_patches = None
+        tolerance = cfg.photometric_min_change
+        remapped = False
+        m_cur, ok_cur = m_prev, np.zeros_like(ok_prev)
+        for _ in range(_GAIN_BIAS_ROUNDS):
+            m_cur, ok_cur = _patch_means_at(gray, nxt, keep & sample, k)
+            use = ok_prev & ok_cur
+            if use.sum() < _MIN_PHOTOMETRIC_POINTS:
+                break
+            if not remapped and _plainly_unchanged(m_prev[use], m_cur[use], a, b, tolerance):
+                break
+            fit = _fit_patch_means(m_prev, m_cur, use)
+            if fit is None:
+                break
+            a_new, b_new, means = fit
+            span = _order_statistics(means, (0.05, 0.95))  # robust ends of the intensities
+            change = np.max(np.abs((a_new - a) * span + (b_new - b)))
+            if change <= tolerance:
+                break
+            if not remapped:
+                self.photometric_remaps += 1
+            remapped = True
+            tolerance = _GAIN_BIAS_SETTLED
+            a, b = a_new, b_new
+            mapped = _map(gray, a, b)
+            nxt, keep, back = self._lk(prev, mapped, guess=(nxt, back))
+        if mapped is gray and not remapped:
+            # the next frame's previous frame is this raw one and its points are these: keep
+            # what was read (read again otherwise: points moved, or the frame was mapped)
+            self._prev_patches = (m_cur[keep], ok_cur[keep], (keep & sample)[keep])
+        self._gain_bias = (a, b)
+        self.last_gain_bias = (a, b)
+        return nxt, keep, mapped
+
+
+def _patch_means_at(
+    img: np.ndarray, pts: np.ndarray, wanted: np.ndarray, window_px: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`patch_means` of the ``wanted`` points ((N,) bool) whose window lies inside the
+    frame; the others get mean 0 and are marked clipped (left out of the fit)."""
+    means = np.zeros(len(pts))
+    unclipped = np.zeros(len(pts), dtype=bool)
+    index = np.flatnonzero(wanted)
+    if index.size:
+        xy = np.rint(pts[index]).astype(np.int64)
+        inside = _inside(xy[:, 0], xy[:, 1], img.shape, window_px)
+        index, xy = index[inside], xy[inside]
+        patches = _inside_patches(img, xy[:, 0], xy[:, 1], window_px)
+        means[index] = _patch_mean(patches.sum(axis=1, dtype=np.int64), window_px)
+        unclipped[index] = _unclipped(patches)
+    return means, unclipped
 
 
 def _map(gray: np.ndarray, a: float, b: float) -> np.ndarray:
@@ -350,20 +439,89 @@ def fit_gain_bias(
     """
     m_prev, ok_prev = patch_means(prev, p_prev, window_px)
     m_cur, ok_cur = patch_means(cur, p_cur, window_px)
-    use = ok_prev & ok_cur
+    return _fit_patch_means(m_prev, m_cur, ok_prev & ok_cur, iterations)
+
+
+def _fit_patch_means(
+    m_prev: np.ndarray, m_cur: np.ndarray, use: np.ndarray, iterations: int = 3
+) -> tuple[float, float, np.ndarray] | None:
+    """:func:`fit_gain_bias` on patch means already read ((N,) each; ``use``: unclipped)."""
+    x_all, y_all = m_cur[use], m_prev[use]
+    inliers = np.ones(len(x_all), dtype=bool)
+    a = b = 0.0
     for _ in range(max(1, iterations)):
-        if use.sum() < _MIN_PHOTOMETRIC_POINTS or np.ptp(m_cur[use]) < 10:
+        x, y = x_all[inliers], y_all[inliers]
+        count = len(x)
+        if count < _MIN_PHOTOMETRIC_POINTS or np.ptp(x) < 10:
             return None
         # reduced major axis: both means are noisy (the current points are a first estimate)
-        x, y = m_cur[use], m_prev[use]
-        a = math.copysign(float(y.std() / max(x.std(), 1e-9)), float(np.cov(x, y)[0, 1]))
-        b = float(y.mean() - a * x.mean())
-        residual = m_prev - (a * m_cur + b)
-        scale = 1.4826 * np.median(np.abs(residual[use])) + 1e-3
-        use = use & (np.abs(residual) <= 3 * scale)
-    if not (0.2 < a < 5.0) or use.sum() < _MIN_PHOTOMETRIC_POINTS:
+        mean_x, mean_y = float(x.sum()) / count, float(y.sum()) / count
+        dx, dy = x - mean_x, y - mean_y
+        sxx, syy, sxy = float(dx @ dx), float(dy @ dy), float(dx @ dy)
+        a = math.copysign(math.sqrt(syy / max(sxx, 1e-18)), sxy)
+        b = mean_y - a * mean_x
+        residual = np.abs(y_all - (a * x_all + b))
+        scale = 1.4826 * float(_order_statistics(residual[inliers], (0.5,))[0]) + 1e-3
+        inliers &= residual <= 3 * scale
+    if not (0.2 < a < 5.0) or inliers.sum() < _MIN_PHOTOMETRIC_POINTS:
         return None
-    return float(a), float(b), m_cur[use]
+    return float(a), float(b), x_all[inliers]
+
+
+def _plainly_unchanged(
+    m_prev: np.ndarray, m_cur: np.ndarray, a: float, b: float, tolerance: float
+) -> bool:
+    """The mapping ``prev ~ a cur + b`` still holds by the means' first two moments.
+
+    Any gain and bias change shows in the mean of ``prev - (a cur + b)`` or in the spread of
+    ``prev`` against ``a`` times that of ``cur``; when the change they imply at the ends of the
+    intensities (1.645 standard deviations: the 5-95 % range of a normal spread) is below
+    half ``tolerance``, the robust fit is not needed (it would find no change either;
+    outliers only make this test more cautious).
+    """
+    count = len(m_cur)
+    mean_cur, mean_prev = float(m_cur.sum()) / count, float(m_prev.sum()) / count
+    d_cur, d_prev = m_cur - mean_cur, m_prev - mean_prev
+    spread = abs(
+        math.sqrt(float(d_prev @ d_prev) / count) - a * math.sqrt(float(d_cur @ d_cur) / count)
+    )
+    shift = abs(mean_prev - (a * mean_cur + b))
+    return shift + 1.645 * spread < 0.5 * tolerance
+
+
+def _order_statistics(values: np.ndarray, fractions: tuple[float, ...]) -> np.ndarray:
+    """The values of rank ``round(f (N - 1))`` for each fraction f: quantiles without
+    interpolation, from one partial sort (np.median and np.percentile cost ten times more on
+    a few hundred values)."""
+    ranks = [round(f * (len(values) - 1)) for f in fractions]
+    return np.partition(values, ranks)[ranks]
+
+
+#: A patch with a pixel at or above the first, or at or below the second, is clipped.
+_SATURATED, _BLACK = 250, 5
+
+
+def _unclipped(patches: np.ndarray) -> np.ndarray:
+    """(N,) bool: no pixel of the (N, k * k) uint8 patches is saturated or black."""
+    return (patches.max(axis=1) < _SATURATED) & (patches.min(axis=1) > _BLACK)
+
+
+def _inside(x: np.ndarray, y: np.ndarray, shape: tuple[int, ...], k: int) -> np.ndarray:
+    """(N,) bool: the k x k windows centred (as OpenCV centres them) on the integer pixels
+    ``(x, y)`` lie inside an image of ``shape``."""
+    h, w = shape[:2]
+    before, after = k // 2, k - 1 - k // 2
+    return (x >= before) & (x + after < w) & (y >= before) & (y + after < h)
+
+
+def _inside_patches(img: np.ndarray, x: np.ndarray, y: np.ndarray, k: int) -> np.ndarray:
+    """(N, k * k) uint8 pixels of the k x k windows at the integer pixels ``(x, y)``, every
+    window inside the image: one gather from the flat frame."""
+    w = img.shape[1]
+    before = k // 2
+    offsets = (np.arange(k)[:, None] * w + np.arange(k)).ravel()
+    base = (y - before) * w + (x - before)
+    return np.ravel(img).take(base[:, None] + offsets)
 
 
 def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
@@ -371,8 +529,8 @@ def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.nd
 
     The values of ``cv2.blur`` (float32, reflected border) and of the ``cv2.dilate`` /
     ``cv2.erode`` test (no pixel >= 250 or <= 5 inside the image) at the rounded, clamped
-    points, bit for bit, but read from the patches alone: filtering the whole frame for a few
-    hundred points cost more than the rest of the gain and bias fit.
+    points, bit for bit, but read from the patches alone: no operation touches the whole
+    frame (filtering or padding it cost more than the rest of the gain and bias fit).
 
     Args:
         img: (H, W) uint8 frame.
@@ -392,21 +550,36 @@ def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.nd
         mean = cv2.blur(img.astype(np.float32), size)
         hi = cv2.dilate(img, np.ones(size, np.uint8))
         lo = cv2.erode(img, np.ones(size, np.uint8))
-        return mean[y, x].astype(np.float64), (hi[y, x] < 250) & (lo[y, x] > 5)
-    # windows centred on the points (OpenCV's default anchor) of the frame padded as blur pads
-    # it (reflect 101) and of the clipped-pixel mask padded with zeros (dilate and erode
-    # ignore the border)
-    before, after = k // 2, k - 1 - k // 2
-    padded = cv2.copyMakeBorder(img, before, after, before, after, cv2.BORDER_REFLECT_101)
-    patches = sliding_window_view(padded, (k, k))[y, x]
-    # integer sums are exact; OpenCV scales them in double and stores float32
-    sums = patches.sum(axis=(1, 2), dtype=np.int64).astype(np.float64)
-    means = (sums * (1.0 / (k * k))).astype(np.float32).astype(np.float64)
-    clipped = ((img >= 250) | (img <= 5)).view(np.uint8)
-    clipped = cv2.copyMakeBorder(
-        clipped, before, after, before, after, cv2.BORDER_CONSTANT, value=0
-    )
-    return means, ~sliding_window_view(clipped, (k, k))[y, x].any(axis=(1, 2))
+        return mean[y, x].astype(np.float64), (hi[y, x] < _SATURATED) & (lo[y, x] > _BLACK)
+    sums = np.empty(len(x), dtype=np.int64)
+    unclipped = np.empty(len(x), dtype=bool)
+    inside = _inside(x, y, img.shape, k)
+    if inside.any():
+        patches = _inside_patches(img, x[inside], y[inside], k)
+        sums[inside] = patches.sum(axis=1, dtype=np.int64)
+        unclipped[inside] = _unclipped(patches)
+    border = ~inside
+    if border.any():
+        # the frame reflected as blur pads it (reflect 101); the clipped test sees only the
+        # pixels inside the frame (dilate and erode ignore the border)
+        before = k // 2
+        offsets = np.arange(-before, k - before)
+        rows, cols = y[border, None] + offsets, x[border, None] + offsets  # (B, k)
+        valid = ((rows >= 0) & (rows < h))[:, :, None] & ((cols >= 0) & (cols < w))[:, None, :]
+        rows = np.abs(rows)
+        rows = np.where(rows > h - 1, 2 * (h - 1) - rows, rows)
+        cols = np.abs(cols)
+        cols = np.where(cols > w - 1, 2 * (w - 1) - cols, cols)
+        patches = img[rows[:, :, None], cols[:, None, :]].reshape(len(rows), -1)
+        sums[border] = patches.sum(axis=1, dtype=np.int64)
+        unclipped[border] = _unclipped(np.where(valid.reshape(len(rows), -1), patches, 128))
+    return _patch_mean(sums, k), unclipped
+
+
+def _patch_mean(sums: np.ndarray, k: int) -> np.ndarray:
+    """Means of k x k patches from their exact integer sums, as OpenCV's blur rounds them
+    (scaled in double, stored as float32)."""
+    return (sums.astype(np.float64) * (1.0 / (k * k))).astype(np.float32).astype(np.float64)
 
 
 def _zncc(gray: np.ndarray, window_px: int) -> np.ndarray:

@@ -141,3 +141,47 @@ def test_patch_means_equal_the_whole_frame_filters_bit_for_bit(window):
 def test_unknown_photometric_mode_is_rejected():
     with pytest.raises(ValueError, match='bogus'):
         TrackerConfig(photometric='bogus')
+
+
+def test_gain_bias_keeps_the_previous_frames_patch_means_only_as_they_are():
+    from initsel_ros.tracking import patch_means
+
+    img = (texture(4).astype(np.float32) * 0.45 + 30).astype(np.uint8)
+    tracker = KltTracker(TrackerConfig(max_features=300, photometric_points=100))
+    tracker.reset(img)
+    for k in range(1, 4):  # constant brightness: each frame's means are kept for the next
+        tracker.track(shifted(img, 2.0 * k, -1.0 * k))
+        means, unclipped, read = tracker._prev_patches
+        assert len(means) == tracker.n_tracks and 80 <= read.sum() <= 110
+        usable = read & unclipped  # the others were clipped or too near the border
+        assert usable.sum() >= 0.8 * read.sum()
+        fresh, fresh_unclipped = patch_means(tracker._prev, tracker._cur[usable], 17)
+        np.testing.assert_array_equal(means[usable], fresh)
+        assert fresh_unclipped.all()
+        border = np.any((tracker._cur < 8) | (tracker._cur > [631, 471]), axis=1)
+        refused = read & ~unclipped
+        assert np.all(border[refused] | ~patch_means(tracker._prev, tracker._cur, 17)[1][refused])
+    tracker.track(_exposed(shifted(img, 8.0, -4.0), 1.3))  # remapped: read anew next time
+    assert tracker.photometric_remaps == 1 and tracker._prev_patches is None
+
+
+def test_the_quick_look_tells_a_brightness_change_from_none():
+    from initsel_ros.tracking import _plainly_unchanged
+
+    rng = np.random.default_rng(3)
+    cur = rng.uniform(40, 200, 100)
+    prev = cur + rng.normal(0, 0.5, 100)  # tracking noise only
+    assert _plainly_unchanged(prev, cur, 1.0, 0.0, 1.0)
+    assert not _plainly_unchanged(prev + 1.0, cur, 1.0, 0.0, 1.0)  # a bias of 1 grey level
+    assert not _plainly_unchanged(1.02 * (prev - 120) + 120, cur, 1.0, 0.0, 1.0)  # gain 2 %
+    assert _plainly_unchanged(1.1 * prev + 3, cur, 1.1, 3.0, 1.0)  # the mapping in force
+
+
+def test_order_statistics_are_quantiles_without_interpolation():
+    from initsel_ros.tracking import _order_statistics
+
+    values = np.random.default_rng(2).normal(size=101)
+    np.testing.assert_array_equal(
+        _order_statistics(values, (0.05, 0.5, 0.95)),
+        np.percentile(values, (5, 50, 95), method='nearest'),
+    )
