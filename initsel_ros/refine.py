@@ -23,6 +23,7 @@ Levenberg-Marquardt on its Sampson errors, with their analytic Jacobian.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -61,19 +62,25 @@ class Refinement:
     converged: bool
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two (3,) vectors (np.cross costs ten times more on single vectors)."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
-
-
 def _tangent_basis(t: np.ndarray) -> np.ndarray:
-    """(3, 2) orthonormal basis of the plane orthogonal to the unit vector t."""
-    helper = np.eye(3)[int(np.argmin(np.abs(t)))]
-    b1 = _cross(t, helper)
-    b1 /= np.linalg.norm(b1)
-    return np.stack([b1, _cross(t, b1)], axis=1)
+    """(3, 2) orthonormal basis of the plane orthogonal to the unit vector t.
+
+    ``b1 = t x e_k / |t x e_k|`` for the axis ``e_k`` least aligned with t, ``b2 = t x b1``;
+    in plain floats (the solvers call it at every step, and numpy's overhead on a single
+    vector is most of the cost).
+    """
+    x, y, z = (float(v) for v in t)
+    ax, ay, az = abs(x), abs(y), abs(z)
+    if ax <= ay and ax <= az:  # t x e_x
+        u = (0.0, z, -y)
+    elif ay <= az:  # t x e_y
+        u = (-z, 0.0, x)
+    else:  # t x e_z
+        u = (y, -x, 0.0)
+    norm = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    u0, u1, u2 = u[0] / norm, u[1] / norm, u[2] / norm
+    v0, v1, v2 = y * u2 - z * u1, z * u0 - x * u2, x * u1 - y * u0
+    return np.array([[u0, v0], [u1, v1], [u2, v2]])
 
 
 def _rotation(rvec: np.ndarray) -> np.ndarray:
