@@ -40,6 +40,8 @@ def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path,
             '20',
             '--rates',
             '60',
+            '--core-frames',
+            '20',
             '--memory-frames',
             '150',
             '--skip',
@@ -51,7 +53,9 @@ def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path,
     assert status == 0
     printed = capsys.readouterr().out
     assert '| decision: model inputs + 4 models + policy |' in printed
-    assert 'ORB-SLAM H/F selection' in printed and 'per-frame path' in printed
+    assert 'ORB-SLAM H/F selection' in printed
+    for row in ('fire time', 'per-frame path', 'plain KLT floor', 'one core'):
+        assert f'| {row} |' in printed
     figures = json.loads(out.read_text())
     assert figures['machine']['cores'] >= 1
     assert figures['correspondences']['median_tracks'] > 100
@@ -70,6 +74,14 @@ def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path,
         2 * frames,
         2 * frames + 1,
     )
+    fire = figures['decision']['fire']
+    if fire:  # the 30 frames may hold no pair whose winner is refined
+        assert fire['pairs'] >= 1 and fire['total']['n'] == 20  # the baselines' repeat
+        assert set(fire['median_e_t']) >= {'before', 'Schur LM', 'scipy least_squares (trf, lsmr)'}
+    assert figures['frame']['plain_klt_floor']['n'] == figures['frame']['decision_only']['n']
+    core = figures['one_core']
+    assert core['pinned']['pinned'] and not core['unpinned']['pinned']
+    assert core['pinned']['published'] == 20 and core['pinned']['cpu_seconds'] > 0
     assert figures['memory']['frames'] == 150
     (node,) = figures['node']
     # Best-effort image QoS: on a busy machine frames may be lost before the node sees them.

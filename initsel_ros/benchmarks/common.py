@@ -234,13 +234,87 @@ def correspondence_sets(
     return out
 
 
+@dataclass(frozen=True)
+class FirePair:
+    """A pair the selector would initialize on: KLT tracks and the ground-truth motion.
+
+    Attributes:
+        ref, cur: frame indices.
+        p0, p1: (N, 2) float64 pixels in the reference and current frame.
+        R_gt: (3, 3) ground-truth rotation, reference to current.
+        t_gt: (3,) ground-truth translation, reference to current, metres.
+    """
+
+    ref: int
+    cur: int
+    p0: np.ndarray
+    p1: np.ndarray
+    R_gt: np.ndarray
+    t_gt: np.ndarray
+
+
+#: Frames between the reference and the current frame of the fire-time pairs, and between
+#: successive references. On the near trajectory the camera first turns: the rotation test
+#: passes 15-60 frames after a reference, where the selector fires.
+FIRE_SPANS = tuple(range(15, 61, 5))
+FIRE_REFERENCE_STEP = 7
+
+
+def fire_pairs(
+    seq: Any, n_pairs: int, max_features: int = TRACKS, min_tracks: int = 50
+) -> list[FirePair]:
+    """Distinct pairs of ``seq`` whose fire path ends in a refined winner.
+
+    References every :data:`FIRE_REFERENCE_STEP` frames, current frames :data:`FIRE_SPANS`
+    later (KLT as the selector tracks); a pair is kept when
+    :func:`~initsel_ros.initialize.initialize_pair` with F, E and H (refinement off) passes
+    the rotation test and leaves a winner: the pairs the bundle adjustment runs on.
+
+    Returns:
+        Up to ``n_pairs`` pairs, in frame order (fewer when the sequence has fewer).
+    """
+    from initsel_ros.geometry import Method
+    from initsel_ros.initialize import FireConfig, initialize_pair
+    from initsel_ros.metrics import relative_pose
+    from initsel_ros.policy import Reason
+    from initsel_ros.tracking import KltTracker, TrackerConfig
+
+    K = seq.intrinsics.K
+    poses = seq.poses()
+    unrefined = FireConfig(refine=False)
+    tracker = KltTracker(TrackerConfig(max_features=max_features))
+    out: list[FirePair] = []
+    n = len(seq)
+    for ref in range(0, max(n - min(FIRE_SPANS), 0), FIRE_REFERENCE_STEP):
+        tracker.reset(seq.gray(ref))
+        for cur in range(ref + 1, min(ref + max(FIRE_SPANS), n - 1) + 1):
+            tracks = tracker.track(seq.gray(cur))
+            if len(tracks) < min_tracks:
+                break
+            if cur - ref not in FIRE_SPANS or not np.isfinite(poses[[ref, cur]]).all():
+                continue
+            p0, p1 = tracks.ref.astype(np.float64), tracks.cur.astype(np.float64)
+            fire = initialize_pair(p0, p1, K, (Method.F, Method.E, Method.H), unrefined)
+            if fire.reason is not Reason.INITIALIZED:
+                continue
+            R_gt, t_gt = relative_pose(poses[ref], poses[cur])
+            out.append(FirePair(ref, cur, p0, p1, R_gt, t_gt))
+            if len(out) >= n_pairs:
+                return out
+    return out
+
+
 __all__ = [
+    'FIRE_REFERENCE_STEP',
+    'FIRE_SPANS',
     'HEIGHT',
     'TRACKS',
     'WIDTH',
+    'FirePair',
     'Timing',
     'bench_models',
     'correspondence_sets',
+    'fire_pairs',
     'random_models',
     'render_bench_sequence',
     'rss_bytes',

@@ -125,61 +125,125 @@ def time_estimators(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
     return out
 
 
-def time_fire(pairs: Pairs, K: np.ndarray, repeat: int) -> list[Timing]:
-    """The once-per-initialization work: rotation guard, F, E, H estimates, GRIC selection,
-    bundle adjustment.
+@dataclass(frozen=True)
+class FireTimes:
+    """The fire path timed on pairs whose winner is refined, and the solvers compared.
 
-    Parts are timed on the same pairs: the rotation guard (and, as its in-run baseline, its
-    least-squares fit alone), the three estimates, the selection (with the E refit), and the
-    two-view bundle adjustment of the winner.
+    Attributes:
+        pairs: distinct pairs timed.
+        total: :func:`~initsel_ros.initialize.initialize_pair` with F, E and H, per call.
+        parts: its steps, each timed alone on the same pairs (:data:`FIRE_PARTS`); the
+            rotation guard's least-squares fit alone is not a step of the total.
+        solvers: the bundle adjustment by the general solvers on the same pairs
+            (:mod:`initsel_ros.benchmarks.solvers`), name -> timing (Ceres only when pyceres
+            is installed).
+        e_t: median E_t over the pairs: ``'before'`` refinement, then after it by each
+            solver (``'Schur LM'`` and the names of ``solvers``).
     """
+
+    pairs: int
+    total: Timing
+    parts: list[Timing]
+    solvers: dict[str, Timing]
+    e_t: dict[str, float]
+
+    @property
+    def guard_share(self) -> float:
+        """The rotation guard's median over the fire time's median."""
+        return self.parts[0].median / self.total.median
+
+
+#: Names of the fire path's steps, in :attr:`FireTimes.parts` order.
+FIRE_PARTS = (
+    'rotation guard (least-median fit)',
+    'its least-squares fit alone (the cost on a plain pan; not in the total)',
+    'F + E + H estimates',
+    'GRIC selection (with the E refit)',
+    'E refit (refine_essential)',
+    'bundle adjustment of the winner (Schur-complement LM)',
+)
+
+
+def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
+    """The once-per-initialization work on ``pairs`` (:func:`~initsel_ros.benchmarks.common.
+    fire_pairs`): ``initialize_pair`` with F, E and H, ``repeat`` calls cycling over them, and
+    each of its steps alone as often.
+
+    The bundle adjustment is also run by scipy's ``least_squares`` and by Ceres (when pyceres
+    is installed) on the same estimates, twice per pair, and the median E_t of the winners is
+    measured before refinement and after each solver.
+    """
+    from initsel_ros.benchmarks.solvers import ceres_available, ceres_two_view, scipy_two_view
     from initsel_ros.geometry import Method, estimate_pose, rotation_only_residual_px
+    from initsel_ros.initialize import FireConfig, initialize_pair
+    from initsel_ros.metrics import translation_chordal_error
     from initsel_ros.model_selection import select_method
-    from initsel_ros.refine import refine_two_view
+    from initsel_ros.policy import check_pose
+    from initsel_ros.refine import refine_essential, refine_two_view
+
+    config = FireConfig()
+    policy = config.policy
+    methods = (Method.F, Method.E, Method.H)
+    m = len(pairs)
+    fired = [initialize_pair(p.p0, p.p1, K, methods, config) for p in pairs]
+    winners = [next(e for e in f.estimates if e.method is f.selection.winner) for f in fired]
+
+    def total(i: int) -> Any:
+        pair = pairs[i % m]
+        return initialize_pair(pair.p0, pair.p1, K, methods, config)
+
+    def guard(i: int, enough: float = policy.min_rotation_residual_px) -> float:
+        return rotation_only_residual_px(
+            pairs[i % m].p0, pairs[i % m].p1, K, enough_below_px=enough
+        )
 
     def estimates(i: int) -> list[Any]:
-        p0, p1 = pairs[i % len(pairs)]
-        return [estimate_pose(m, p0, p1, K) for m in (Method.F, Method.E, Method.H)]
-
-    cached = [estimates(i) for i in range(len(pairs))]
+        ests = [estimate_pose(method, pairs[i % m].p0, pairs[i % m].p1, K) for method in methods]
+        return [check_pose(e, policy) for e in ests]
 
     def select(i: int) -> Any:
-        p0, p1 = pairs[i % len(pairs)]
-        ests = cached[i % len(pairs)]
-        return select_method(ests, ['' if e.ok else e.reason for e in ests], p0, p1, K)
+        f = fired[i % m]
+        problems = ['' if c is None else 'failed' for c in f.checks]
+        return select_method(f.estimates, problems, pairs[i % m].p0, pairs[i % m].p1, K)
 
-    selections = [select(i) for i in range(len(pairs))]
+    def e_refit(i: int) -> Any:
+        est, pair = fired[i % m].estimate(Method.E), pairs[i % m]
+        if est is not None and est.ok:
+            refine_essential(est.R, est.t, pair.p0[est.inliers], pair.p1[est.inliers], K)
 
-    def refine(i: int) -> None:
-        p0, p1 = pairs[i % len(pairs)]
-        winner = selections[i % len(pairs)].winner
-        est = next((e for e in cached[i % len(pairs)] if e.method is winner and e.ok), None)
-        if est is not None:
-            refine_two_view(est.R, est.t, est.points, p0[est.indices], p1[est.indices], K)
+    def adjust(solver: Any, i: int) -> Any:
+        w, pair = winners[i % m], pairs[i % m]
+        return solver(w.R, w.t, w.points, pair.p0[w.indices], pair.p1[w.indices], K)
 
-    def guard(i: int) -> float:
-        return rotation_only_residual_px(*pairs[i % len(pairs)], K)
-
-    def guard_least_squares(i: int) -> float:  # the search skipped: the pre-issue-13 cost
-        return rotation_only_residual_px(*pairs[i % len(pairs)], K, enough_below_px=np.inf)
-
-    guard_time = Timing('  rotation guard (least-median fit)', time_calls(guard, repeat, warmup=1))
-    guard_baseline = Timing(
-        '    its least-squares fit alone (the cost on a plain pan)',
-        time_calls(guard_least_squares, repeat, warmup=1),
-    )
     parts = [
-        guard_time,
-        Timing('  F + E + H estimates', time_calls(estimates, repeat, warmup=1)),
-        Timing('  GRIC selection (with the E refit)', time_calls(select, repeat, warmup=1)),
-        Timing('  two-view bundle adjustment of the winner', time_calls(refine, repeat, warmup=1)),
+        Timing(FIRE_PARTS[0], time_calls(guard, repeat, warmup=1)),
+        Timing(FIRE_PARTS[1], time_calls(lambda i: guard(i, np.inf), repeat, warmup=1)),
+        Timing(FIRE_PARTS[2], time_calls(estimates, repeat, warmup=1)),
+        Timing(FIRE_PARTS[3], time_calls(select, repeat, warmup=1)),
+        Timing(FIRE_PARTS[4], time_calls(e_refit, repeat, warmup=1)),
+        Timing(FIRE_PARTS[5], time_calls(lambda i: adjust(refine_two_view, i), repeat, warmup=1)),
     ]
-    total = Timing(
-        'fire time: rotation guard + estimates + selection + bundle adjustment '
-        '(once per initialization)',
-        np.sum([p.seconds for p in parts], axis=0),
-    )
-    return [total, guard_time, guard_baseline, *parts[1:]]
+    fire_time = Timing('fire time', time_calls(total, repeat, warmup=1))
+    before = [translation_chordal_error(p.t_gt, w.t) for p, w in zip(pairs, winners, strict=True)]
+    e_t = {'before': float(np.median(before))}
+    named = [('Schur LM', refine_two_view), ('scipy least_squares (trf, lsmr)', scipy_two_view)]
+    if ceres_available():
+        named.append(('Ceres (pyceres, dense Schur, a Python cost per point)', ceres_two_view))
+    solvers: dict[str, Timing] = {}
+    for name, solver in named:
+        results = [adjust(solver, i) for i in range(m)]
+        e_t[name] = float(
+            np.median(
+                [
+                    translation_chordal_error(p.t_gt, r.t)
+                    for p, r in zip(pairs, results, strict=True)
+                ]
+            )
+        )
+        if name != 'Schur LM':
+            seconds = time_calls(lambda i, s=solver: adjust(s, i), 2 * m, warmup=0)
+            solvers[name] = Timing(name, seconds)
+    return FireTimes(m, fire_time, parts, solvers, e_t)
 
 
 @dataclass(frozen=True)
@@ -268,7 +332,9 @@ def dataset_speed(folder: Path, jobs: int, batch: int = 30, repeat: int = 1) -> 
 
 
 __all__ = [
+    'FIRE_PARTS',
     'DatasetResult',
+    'FireTimes',
     'MemoryResult',
     'dataset_speed',
     'decision_fn',
@@ -276,5 +342,6 @@ __all__ = [
     'time_decision',
     'time_decision_parts',
     'time_estimators',
+    'time_fire',
     'time_orbslam',
 ]

@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 #: Sections of the default run, each of which ``--skip`` can leave out.
-SECTIONS = ('decision', 'frame', 'node', 'memory', 'dataset')
+SECTIONS = ('decision', 'frame', 'node', 'core', 'memory', 'dataset')
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,6 +37,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--node-frames', type=int, default=150, help='frames per node replay (default 150)'
+    )
+    parser.add_argument(
+        '--core-frames',
+        type=int,
+        default=300,
+        help='frames of each one-core run, unpinned and pinned (default 300, at 30 Hz)',
     )
     parser.add_argument(
         '--rates',

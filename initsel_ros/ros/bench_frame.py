@@ -7,7 +7,7 @@ parts (conversion, grey conversion, tracking, the debug overlay) timed on the sa
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -19,7 +19,7 @@ from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.selector import Selector, SelectorConfig, to_gray
-from initsel_ros.tracking import KltTracker
+from initsel_ros.tracking import KltTracker, Photometric
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,9 @@ class FramePathResult:
         decision_only: frames where no pose was estimated (no model fired, or a new
             reference): conversion, tracking, features, decision.
         with_pose: frames where a model fired and the pose was estimated and checked.
+        floor: the same frames tracked by the selector's KltTracker with its photometric
+            compensation off, from the same references, timed right after each frame (the
+            frames of ``decision_only``).
         parts: conversion, grey conversion and tracking timed alone on the same frames.
         reasons: status reason -> frames.
     """
@@ -60,6 +63,7 @@ class FramePathResult:
     total: Timing
     decision_only: Timing
     with_pose: Timing
+    floor: Timing
     parts: list[Timing]
     reasons: dict[str, int]
 
@@ -82,6 +86,8 @@ def time_frame_path(
     posed = []
 
     selector = Selector(models, intrinsics, SelectorConfig(mode=Mode.CONTINUOUS))
+    plain = KltTracker(replace(selector.config.tracker, photometric=Photometric.NONE))
+    floor_samples: list[float] = []
     n = len(frames.messages)
     period = float(np.median(np.diff(frames.stamps))) if n > 1 else 1 / 30
     reasons: dict[str, int] = {}
@@ -100,6 +106,13 @@ def time_frame_path(
         t0 = clock()  # the node draws this only while ~/debug_image has subscribers
         draw_frame_overlay(image, result)
         overlay_samples.append(clock() - t0)
+        gray = to_gray(image)
+        t0 = clock()  # the floor: the same frame, plain KLT from the selector's reference
+        if result.new_reference or not plain.has_reference:
+            plain.reset(gray)
+        else:
+            plain.track(gray)
+        floor_samples.append(clock() - t0)
         posed.append(result.selection is not None or result.decision.reason in pose_reasons)
         reason = result.decision.reason.value
         reasons[reason] = reasons.get(reason, 0) + 1
@@ -136,6 +149,7 @@ def time_frame_path(
             'per-frame path, pose estimated (a model fired)',
             times[with_pose] if with_pose.any() else np.full(1, np.nan),
         ),
+        Timing('plain KLT floor', np.array(floor_samples)[~with_pose]),
         parts,
         reasons,
     )

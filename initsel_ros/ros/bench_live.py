@@ -10,18 +10,23 @@ compete with the node for the interpreter lock. The records and the ROS-free hel
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
+import shutil
 import subprocess
 import sys
+import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import rclpy
+import rclpy.executors
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import CameraInfo, Image
 
 from initsel_ros.benchmarks.common import rss_bytes
 from initsel_ros.benchmarks.live import (
@@ -235,6 +240,169 @@ def flood(
     return run
 
 
+# ------------------------------------------------------------------------- one core
+@dataclass
+class CoreRun:
+    """The node in a process of its own, on one core or unpinned, fed at a fixed rate.
+
+    Attributes:
+        run: counts and latency as for the replay.
+        pinned: the node ran under ``taskset -c <node_core>`` and this process (the
+            publisher) on ``publisher_core``.
+        cpu_seconds: the node process's utime + stime over the run, seconds.
+        cpu_share: ``cpu_seconds`` over the run's wall time (1.0 = one core busy).
+        initializations: statuses that reported an initialization.
+    """
+
+    run: NodeRun
+    pinned: bool
+    cpu_seconds: float = 0.0
+    cpu_share: float = float('nan')
+    initializations: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for --json."""
+        return {
+            'pinned': self.pinned,
+            'cpu_seconds': self.cpu_seconds,
+            'cpu_share': self.cpu_share,
+            'initializations': self.initializations,
+            **self.run.to_dict(),
+        }
+
+
+def _cpu_seconds(pid: int) -> float:
+    """utime + stime of process ``pid`` (all its threads), seconds."""
+    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def node_on_one_core(
+    images: list[np.ndarray],
+    intrinsics: Any,
+    model_path: Path,
+    rate_hz: float = 30.0,
+    frames: int = 300,
+    pinned: bool = True,
+    node_core: int = 0,
+    publisher_core: int = 1,
+    timeout: float = 60.0,
+) -> CoreRun:
+    """Run the node as ``python -m initsel_ros.ros.node`` (mode continuous), pinned with
+    ``taskset -c node_core`` when ``pinned``, and publish ``frames`` frames (``images``
+    forth and back, bgr8, with camera_info) at ``rate_hz`` from this process, itself pinned
+    to ``publisher_core`` meanwhile; measure the node's CPU time over the run.
+
+    Raises:
+        InitselError: taskset is missing, the node did not start or was not discovered.
+    """
+    from std_msgs.msg import String
+
+    from initsel_ros.ros.harness import LISTEN_QOS, PUBLISH_QOS
+    from initsel_ros.ros.params import NODE_NAME
+    from initsel_ros.status import FrameStatus
+
+    configure_ros_environment()
+    label = f'node on core {node_core}' if pinned else 'node unpinned'
+    result = CoreRun(NodeRun(f'{label}, {rate_hz:g} Hz'), pinned)
+    cmd = [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p']
+    cmd += [f'model_file:={model_path}', '-p', 'mode:=continuous']
+    if pinned:
+        taskset = shutil.which('taskset')
+        if taskset is None:
+            raise InitselError('taskset (util-linux) is needed to pin the node to one core')
+        cmd = [taskset, '-c', str(node_core), *cmd]
+    affinity = os.sched_getaffinity(0)
+    if pinned:
+        os.sched_setaffinity(0, {publisher_core})  # before the client's threads start
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=dict(os.environ), text=True
+    )
+    context = rclpy.Context()
+    statuses: list[tuple[FrameStatus, float]] = []
+    lock = threading.Lock()
+    thread = None
+    try:
+        rclpy.init(context=context)
+        client = rclpy.create_node('initsel_bench_core_client', context=context)
+
+        def on_status(msg: String) -> None:
+            with lock:
+                statuses.append((FrameStatus.from_json(msg.data), time.monotonic()))
+
+        image_pub = client.create_publisher(Image, 'image_raw', PUBLISH_QOS)
+        info_pub = client.create_publisher(CameraInfo, 'camera_info', PUBLISH_QOS)
+        client.create_subscription(String, f'{NODE_NAME}/status', on_status, LISTEN_QOS)
+        executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        executor.add_node(client)
+
+        def spin() -> None:
+            # the context is shut down at the end of the run
+            with contextlib.suppress(rclpy.executors.ExternalShutdownException):
+                executor.spin()
+
+        thread = threading.Thread(target=spin, daemon=True)
+        thread.start()
+        deadline = time.monotonic() + timeout
+        while not (
+            image_pub.get_subscription_count() > 0
+            and client.count_publishers(f'/{NODE_NAME}/status') > 0
+        ):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                raise InitselError(
+                    f'the node did not start or was not discovered: {stop_process(proc)[1][-500:]}'
+                )
+            time.sleep(0.05)
+        time.sleep(0.5)  # let discovery settle both ways
+        n = len(images)
+        order = [k % (2 * n - 2) if n > 1 else 0 for k in range(frames)]
+        order = [i if i < n else 2 * n - 2 - i for i in order]
+        msgs = [conv.numpy_to_image(images[i], 'bgr8') for i in range(n)]
+        period = 1.0 / rate_hz
+        published: dict[float, float] = {}
+        cpu0, start = _cpu_seconds(proc.pid), time.monotonic()
+        for k, i in enumerate(order):
+            time.sleep(max(0.0, start + k * period - time.monotonic()))
+            stamp = conv.seconds_to_stamp(1.0 + k * period)
+            info_pub.publish(conv.intrinsics_to_camera_info(intrinsics, stamp=stamp))
+            msg = msgs[i]
+            msg.header.stamp = stamp
+            published[round(1.0 + k * period, 6)] = time.monotonic()
+            image_pub.publish(msg)
+        run = result.run
+        run.published = len(order)
+        run.seconds = time.monotonic() - start
+        run.publish_rate_hz = (len(order) - 1) / run.seconds if run.seconds > 0 else 0.0
+        last = round(1.0 + (len(order) - 1) * period, 6)
+        while time.monotonic() < start + run.seconds + 10.0:
+            with lock:
+                if any(round(st.stamp, 6) == last for st, _ in statuses[-5:]):
+                    run.newest_processed = True
+                    break
+            time.sleep(0.01)
+        end = time.monotonic()
+        result.cpu_seconds = _cpu_seconds(proc.pid) - cpu0
+        result.cpu_share = result.cpu_seconds / (end - start)
+        with lock:
+            seen = list(statuses)
+        run.latency = percentiles(
+            [
+                arrival - published[round(st.stamp, 6)]
+                for st, arrival in seen
+                if round(st.stamp, 6) in published
+            ]
+        )
+        summarize(run, [st for st, _ in seen])
+        result.initializations = run.reasons.get('initialized', 0)
+    finally:
+        stop_process(proc)
+        rclpy.try_shutdown(context=context)
+        if thread is not None:
+            thread.join(timeout=5.0)
+        os.sched_setaffinity(0, affinity)
+    return result
+
+
 def main(argv: list[str] | None = None) -> int:
     """``python -m initsel_ros.ros.bench_live publish ...``: the flood's publisher."""
     parser = argparse.ArgumentParser(prog='initsel_ros.ros.bench_live')
@@ -251,7 +419,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-__all__ = ['flood', 'flood_publisher', 'replay']
+__all__ = ['CoreRun', 'flood', 'flood_publisher', 'node_on_one_core', 'replay']
 
 if __name__ == '__main__':
     sys.exit(main())
