@@ -27,14 +27,13 @@ class Photometric(str, Enum):
 
     - ``none``: plain KLT on the frames.
     - ``gain_bias``: after a first KLT pass, a gain and a bias ``prev ~ a * cur + b`` are fitted
-      (a line with outlier rejection) to the mean intensities of the patches of about
-      ``photometric_points`` tracks (patches with saturated or black pixels left out; the
-      previous frame's are kept from its own fit when it was not mapped); when they change the
-      frame's brightness by more than ``photometric_min_change`` grey levels, the frame is
-      mapped by them and tracked again, starting from the first pass's result on
-      ``refine_levels`` pyramid levels. Each frame is so kept at the reference's brightness;
-      frames without a brightness change are tracked exactly as with ``none`` (and a first
-      look at the means' mean and spread skips the robust fit on them).
+      (a line with outlier rejection) to the mean intensities of the tracked patches (patches
+      with saturated or black pixels left out; the previous frame's are kept from its own step
+      when it was not mapped); when they change the frame's brightness by more than
+      ``photometric_min_change`` grey levels, the frame is mapped by them and tracked again,
+      starting from the first pass's result. Each frame is so kept at the reference's
+      brightness; frames without a brightness change are tracked exactly as with ``none``
+      (and a first look at the means' mean and spread skips the robust fit on them).
     - ``zncc``: both frames are locally normalized (zero mean, unit variance over the KLT
       window) before tracking, which removes any local gain and bias.
     """
@@ -64,11 +63,6 @@ class TrackerConfig:
         photometric_min_change: ``gain_bias`` maps a frame anew only when the fitted gain and
             bias change the mean intensity of the tracked patches (5-95 % of them) by more
             than this, grey levels.
-        photometric_points: ``gain_bias`` fits to about this many tracks (every k-th by id,
-            all when fewer are left), not to all of them.
-        refine_levels: pyramid levels above the base of the passes ``gain_bias`` tracks again
-            after a remap (from the first pass's result: what is left to find is that pass's
-            error, not the motion).
     """
 
     max_features: int = 300
@@ -84,8 +78,6 @@ class TrackerConfig:
     lk_epsilon_px: float = 0.03
     photometric: Photometric = Photometric.GAIN_BIAS
     photometric_min_change: float = 1.0
-    refine_levels: int = 1
-    photometric_points: int = 100
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'photometric', Photometric(self.photometric))
@@ -176,9 +168,9 @@ class KltTracker:
         self._gain_bias = (1.0, 0.0)
         #: frames that ``gain_bias`` mapped to a new brightness (since construction)
         self.photometric_remaps = 0
-        # patch means, unclipped flags and which were read, of the previous frame at the
-        # current points, when the last step read them there (gain_bias)
-        self._prev_patches: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        # patch means and unclipped flags of the previous frame at the current points, when
+        # the last step read them there (gain_bias)
+        self._prev_patches: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def has_reference(self) -> bool:
@@ -253,41 +245,28 @@ class KltTracker:
         Args:
             prev: the previous frame; gray: the frame to track into.
             guess: ``(forward, backward)`` (N, 2) results of an earlier pass, to start both
-                directions from, on ``refine_levels`` pyramid levels above the base instead of
-                ``pyramid_levels``: the displacement left is that pass's error.
+                directions from.
 
         Returns:
             ``(next points (N, 2), keep (N,), backward points (N, 2))``.
         """
         cfg = self.config
-        lk = {'winSize': (cfg.window_px, cfg.window_px), 'criteria': self._criteria}
+        lk = {
+            'winSize': (cfg.window_px, cfg.window_px),
+            'maxLevel': cfg.pyramid_levels,
+            'criteria': self._criteria,
+        }
         prev_pts = self._cur.reshape(-1, 1, 2)
         if guess is None:
-            nxt, status, _ = cv2.calcOpticalFlowPyrLK(
-                prev, gray, prev_pts, None, maxLevel=cfg.pyramid_levels, **lk
-            )
-            back, status_back, _ = cv2.calcOpticalFlowPyrLK(
-                gray, prev, nxt, None, maxLevel=cfg.pyramid_levels, **lk
-            )
+            nxt, status, _ = cv2.calcOpticalFlowPyrLK(prev, gray, prev_pts, None, **lk)
+            back, status_back, _ = cv2.calcOpticalFlowPyrLK(gray, prev, nxt, None, **lk)
         else:
-            levels = min(cfg.refine_levels, cfg.pyramid_levels)
+            start = cv2.OPTFLOW_USE_INITIAL_FLOW
             nxt, status, _ = cv2.calcOpticalFlowPyrLK(
-                prev,
-                gray,
-                prev_pts,
-                guess[0].reshape(-1, 1, 2).copy(),
-                flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
-                maxLevel=levels,
-                **lk,
+                prev, gray, prev_pts, guess[0].reshape(-1, 1, 2).copy(), flags=start, **lk
             )
             back, status_back, _ = cv2.calcOpticalFlowPyrLK(
-                gray,
-                prev,
-                nxt,
-                guess[1].reshape(-1, 1, 2).copy(),
-                flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
-                maxLevel=levels,
-                **lk,
+                gray, prev, nxt, guess[1].reshape(-1, 1, 2).copy(), flags=start, **lk
             )
         nxt = nxt.reshape(-1, 2)
         back = back.reshape(-1, 2)
@@ -327,32 +306,23 @@ class KltTracker:
         tracked; the mapping is fitted to the raw frame at the tracks found (the previous
         frame's patch means are read once), and only when it changes a patch mean by more
         than ``photometric_min_change`` is the frame mapped anew and tracked again, from the
-        first pass's result on ``refine_levels`` levels, until the mapping settles.
+        first pass's result, until the mapping settles.
         """
         cfg = self.config
         k = cfg.window_px
         a, b = self._gain_bias
         mapped = gray if (a, b) == (1.0, 0.0) else _map(gray, a, b)
         nxt, keep, back = self._lk(prev, mapped)
-        # an even subset of the tracks, by id, so that it is the same from frame to frame
-        stride = max(1, len(self._ids) // max(cfg.photometric_points, 1))
-        sample = self._ids % stride == 0
-        m_prev, ok_prev, read = self._prev_patches or (
-            np.zeros(len(sample)),
-            np.zeros(len(sample), dtype=bool),
-            np.zeros(len(sample), dtype=bool),
-        )
-        missing = sample & ~read  # read last frame, at these very points, when it was raw
-        if missing.any():
-            m_read, ok_read = _patch_means_at(prev, self._cur, missing, k)
-            m_prev = np.where(missing, m_read, m_prev)
-            ok_prev = np.where(missing, ok_read, ok_prev)
+        if self._prev_patches is not None:  # read last frame, at these very points
+            m_prev, ok_prev = self._prev_patches
+        else:
+            m_prev, ok_prev = _patch_means_at(prev, self._cur, np.ones(len(self._cur), bool), k)
         self._prev_patches = None
         tolerance = cfg.photometric_min_change
         remapped = False
         m_cur, ok_cur = m_prev, np.zeros_like(ok_prev)
         for _ in range(_GAIN_BIAS_ROUNDS):
-            m_cur, ok_cur = _patch_means_at(gray, nxt, keep & sample, k)
+            m_cur, ok_cur = _patch_means_at(gray, nxt, keep, k)
             use = ok_prev & ok_cur
             if use.sum() < _MIN_PHOTOMETRIC_POINTS:
                 break
@@ -376,7 +346,7 @@ class KltTracker:
         if mapped is gray and not remapped:
             # the next frame's previous frame is this raw one and its points are these: keep
             # what was read (read again otherwise: points moved, or the frame was mapped)
-            self._prev_patches = (m_cur[keep], ok_cur[keep], (keep & sample)[keep])
+            self._prev_patches = (m_cur[keep], ok_cur[keep])
         self._gain_bias = (a, b)
         self.last_gain_bias = (a, b)
         return nxt, keep, mapped
