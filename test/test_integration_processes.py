@@ -129,12 +129,14 @@ def test_replayed_bag_initializes_the_installed_selector(
                 stderr=subprocess.STDOUT,
             )
         deadline = time.monotonic() + TIMEOUT_S
-        while not (got['method'] and got['pose'] and got['points']):
+        # ~/status is volatile: under load its first messages can arrive after the latched
+        # init topics, so wait for all four rather than stop at the initialization.
+        while not (got['method'] and got['pose'] and got['points'] and got['status']):
             if replay.poll() is not None:  # replay done: the node has 5 s to catch up
                 deadline = min(deadline, time.monotonic() + 5)
             assert time.monotonic() < deadline, (
-                f'no initialization received\nselector:\n{selector_log.read_text()}\n'
-                f'replay:\n{replay_log.read_text()}'
+                f'missing: {[topic for topic, msgs in got.items() if not msgs]}\n'
+                f'selector:\n{selector_log.read_text()}\nreplay:\n{replay_log.read_text()}'
             )
             executor.spin_once(timeout_sec=0.1)
         replay_code = replay.wait(timeout=TIMEOUT_S)
