@@ -346,7 +346,7 @@ def _node_rows(
     if not ros_available():
         table.add('node end to end', 'skipped: rclpy not importable')
         return []
-    from initsel_ros.ros.bench_live import replay
+    from initsel_ros.ros.bench_live import node_in_own_process
 
     if model_path is None:
         model_path = work / 'bench_models.json'
@@ -354,13 +354,16 @@ def _node_rows(
     images = [seq.image(i) for i in range(len(seq))]
     out = []
     for rate in args.rates:
-        run = replay(images, seq.intrinsics, model_path, rate, args.node_frames)
+        run = node_in_own_process(
+            images, seq.intrinsics, model_path, rate, args.node_frames, pinned=False
+        ).run
         lat = run.latency
         counts = (
             f'{run.published} published ({run.publish_rate_hz:.1f} Hz), {run.received} '
             f'received, {run.processed} processed, {run.dropped} dropped, {run.skipped} '
             f'skipped, {run.reasons.get("initialized", 0)} initializations, newest processed: '
             f'{"yes" if run.newest_processed else "NO"}, max latency {lat["max_ms"]:.1f} ms'
+            f' (slowest: {", ".join(f"{ms:.0f} ms {reason}" for ms, reason in run.slowest)})'
         )
         target, verdict = '', ''
         if rate == REPLAY_TARGET_HZ:
@@ -405,14 +408,14 @@ def _core_rows(
             'one core', 'skipped: needs two cores (the node on one, the publisher on the other)'
         )
         return {}
-    from initsel_ros.ros.bench_live import node_on_one_core
+    from initsel_ros.ros.bench_live import node_in_own_process
 
     if model_path is None:
         model_path = work / 'bench_models.json'
         models.save(model_path)
     images = [seq.image(i) for i in range(len(seq))]
     free, pinned = (
-        node_on_one_core(images, seq.intrinsics, model_path, 30.0, args.core_frames, pinned=p)
+        node_in_own_process(images, seq.intrinsics, model_path, 30.0, args.core_frames, pinned=p)
         for p in (False, True)
     )
     run = pinned.run

@@ -75,6 +75,7 @@ class NodeRun:
         newest_processed: the last published frame was processed.
         rss_start_mb, rss_max_mb, rss_end_mb: resident memory of this process, MiB.
         reasons: status reason -> count.
+        slowest: the three largest latencies, (milliseconds, the frame's status reason).
         seconds: wall-clock length of the publishing phase.
     """
 
@@ -92,6 +93,7 @@ class NodeRun:
     rss_mid_mb: float = 0.0
     rss_end_mb: float = 0.0
     reasons: dict[str, int] = field(default_factory=dict)
+    slowest: list[tuple[float, str]] = field(default_factory=list)
     seconds: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:

@@ -1,9 +1,11 @@
-"""The node end to end for ``initsel bench``: a timed replay (30/60 Hz) and a flood.
+"""The node end to end for ``initsel bench``: timed replays (30/60 Hz, one core) and a flood.
 
-The node runs in this process (:class:`NodeHarness`, spinning in the background, as
-``initsel demo`` does). For the replay the harness's client publishes; for the flood a child
-process does (``python -m initsel_ros.ros.bench_live publish ...``), so publishing does not
-compete with the node for the interpreter lock. The records and the ROS-free helpers are in
+For the replays the node runs as a process of its own (``python -m initsel_ros.ros.node``),
+as it is deployed, and this process publishes and listens: a node sharing the interpreter
+lock with its publisher and listener measured up to 43 ms publish -> status where its own
+process took 26 ms on the same frames. For the flood the node runs in this process
+(:class:`NodeHarness`) and a child process publishes (``python -m initsel_ros.ros.bench_live
+publish ...``), so that memory can be sampled here. The records and the ROS-free helpers are in
 :mod:`initsel_ros.benchmarks.live`.
 """
 
@@ -53,60 +55,6 @@ def _node_under_test(model_path: Path, mode: str = 'continuous') -> NodeHarness:
         timeout=DISCOVERY_S,
     )
     return harness.start()
-
-
-def replay(
-    images: list[np.ndarray],
-    intrinsics: Any,
-    model_path: Path,
-    rate_hz: float,
-    frames: int,
-    timeout: float = 30.0,
-) -> NodeRun:
-    """Publish ``frames`` frames (``images`` played forth and back, bgr8) at ``rate_hz``.
-
-    Latency is publish time -> arrival of the frame's status on ``~/status``.
-    """
-    configure_ros_environment()
-    run = NodeRun(f'node, replay at {rate_hz:g} Hz')
-    with _node_under_test(model_path) as h:
-        n = len(images)
-        order = [k % (2 * n - 2) if n > 1 else 0 for k in range(frames)]
-        order = [i if i < n else 2 * n - 2 - i for i in order]
-        msgs = [conv.numpy_to_image(images[i], 'bgr8') for i in range(n)]
-        published: dict[float, float] = {}
-        run.rss_start_mb = rss_bytes() / 2**20
-        period = 1.0 / rate_hz
-        start = time.monotonic()
-        for k, i in enumerate(order):
-            due = start + k * period
-            time.sleep(max(0.0, due - time.monotonic()))
-            stamp = 1.0 + k * period
-            header_stamp = conv.seconds_to_stamp(stamp)
-            msg = msgs[i]
-            msg.header.stamp = header_stamp
-            h.publish_camera_info(intrinsics, stamp=header_stamp)
-            published[round(stamp, 6)] = time.monotonic()
-            h.publish(msg)
-        run.seconds = time.monotonic() - start
-        run.published = len(order)
-        run.publish_rate_hz = (len(order) - 1) / run.seconds if run.seconds > 0 else 0.0
-        last = round(1.0 + (len(order) - 1) * period, 6)
-        run.newest_processed = h.wait_for(
-            lambda: any(round(s.stamp, 6) == last for s in h.statuses[-5:]), timeout
-        )
-        time.sleep(0.2)
-        run.rss_end_mb = rss_bytes() / 2**20
-        latencies = []
-        with h.lock:
-            for s, (arrival, _) in zip(h.statuses, h.status_arrivals, strict=True):
-                sent = published.get(round(s.stamp, 6))
-                if sent is not None:
-                    latencies.append(arrival - sent)
-            statuses = list(h.statuses)
-        run.latency = percentiles(latencies)
-        summarize(run, statuses)
-    return run
 
 
 # -------------------------------------------------------------------------------- the flood
@@ -277,13 +225,13 @@ def _cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
-def node_on_one_core(
+def node_in_own_process(
     images: list[np.ndarray],
     intrinsics: Any,
     model_path: Path,
     rate_hz: float = 30.0,
     frames: int = 300,
-    pinned: bool = True,
+    pinned: bool = False,
     node_core: int = 0,
     publisher_core: int = 1,
     timeout: float = 60.0,
@@ -303,8 +251,8 @@ def node_on_one_core(
     from initsel_ros.status import FrameStatus
 
     configure_ros_environment()
-    label = f'node on core {node_core}' if pinned else 'node unpinned'
-    result = CoreRun(NodeRun(f'{label}, {rate_hz:g} Hz'), pinned)
+    label = f'node on core {node_core}' if pinned else 'node, replay'
+    result = CoreRun(NodeRun(f'{label} at {rate_hz:g} Hz'), pinned)
     cmd = [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p']
     cmd += [f'model_file:={model_path}', '-p', 'mode:=continuous']
     if pinned:
@@ -385,13 +333,15 @@ def node_on_one_core(
         result.cpu_share = result.cpu_seconds / (end - start)
         with lock:
             seen = list(statuses)
-        run.latency = percentiles(
-            [
-                arrival - published[round(st.stamp, 6)]
-                for st, arrival in seen
-                if round(st.stamp, 6) in published
-            ]
-        )
+        timed = [
+            (arrival - published[round(st.stamp, 6)], st)
+            for st, arrival in seen
+            if round(st.stamp, 6) in published
+        ]
+        run.latency = percentiles([t for t, _ in timed])
+        run.slowest = [
+            (t * 1e3, st.reason.value) for t, st in sorted(timed, key=lambda x: -x[0])[:3]
+        ]
         summarize(run, [st for st, _ in seen])
         result.initializations = run.reasons.get('initialized', 0)
     finally:
@@ -419,7 +369,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-__all__ = ['CoreRun', 'flood', 'flood_publisher', 'node_on_one_core', 'replay']
+__all__ = ['CoreRun', 'flood', 'flood_publisher', 'node_in_own_process']
 
 if __name__ == '__main__':
     sys.exit(main())
