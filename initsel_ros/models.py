@@ -69,7 +69,7 @@ from initsel_ros.modelio import (
     read_bounded,
     unit_number,
 )
-from initsel_ros.trees import TABLE_DEPTH, FlatTrees, LeafTable, TreeEnsembleModel
+from initsel_ros.trees import TABLE_DEPTH, FlatTrees, LeafTable, TreeEnsembleModel, sigmoid
 from initsel_ros.trees import prepare as prepare_tree_inputs
 
 METHODS: tuple[str, ...] = ('F', 'E', 'H', 'R')
@@ -80,10 +80,6 @@ READABLE_VERSIONS = (1, 2)
 PACKAGE = 'initsel_ros'
 DEFAULT_MODEL_NAME = 'models.json'
 KINDS = ('logistic', 'trees')
-
-
-def _sigmoid(z: np.ndarray) -> np.ndarray:
-    return 0.5 * (1.0 + np.tanh(0.5 * z))  # overflow-free logistic
 
 
 @dataclass(frozen=True)
@@ -138,7 +134,7 @@ class LogisticModel:
 
     def predict_proba(self, X: np.ndarray) -> np.ndarray:
         """Probability of 'yes' for each row of ``X`` ((N, D) -> (N,))."""
-        return _sigmoid(self.decision_function(X))
+        return sigmoid(self.decision_function(X))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form for the model file."""
@@ -377,7 +373,7 @@ class ModelSet:
     def predict_proba_batch(self, X: np.ndarray) -> dict[str, np.ndarray]:
         """Probabilities of (N, D) input rows, by model name, each (N,)."""
         X = self._check_inputs(X).reshape(-1, len(self._inputs))  # type: ignore[attr-defined]
-        P = _sigmoid(self._logits(X))
+        P = sigmoid(self._logits(X))
         return {m: P[:, i] for i, m in enumerate(self._names)}  # type: ignore[attr-defined]
 
     def to_dict(self) -> dict[str, Any]:

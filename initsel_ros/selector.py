@@ -16,7 +16,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.geometry import Method
-from initsel_ros.image import to_gray  # re-exported: callers use selector.to_gray
+from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize_pair
 from initsel_ros.model_selection import Selection
 from initsel_ros.models import ModelSet
@@ -51,6 +51,8 @@ class SelectorConfig:
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
         refine: bundle-adjust the chosen pose and points before publishing (refine.py).
         verify: hold the candidate back and confirm it on the next frames (verify.py).
+        bit_depth: significant bits of 16-bit frames (8-16); 0 = automatic, per stream
+            (:class:`~initsel_ros.image.BitDepth`; :meth:`Selector.reset` forgets it).
     """
 
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
@@ -60,6 +62,7 @@ class SelectorConfig:
     ransac_threshold_px: float = 1.0
     refine: bool = True
     verify: VerifyConfig = field(default_factory=VerifyConfig)
+    bit_depth: int = 0
 
     def __post_init__(self) -> None:
         if self.mode not in tuple(Mode):
@@ -68,6 +71,8 @@ class SelectorConfig:
         object.__setattr__(self, 'mode', Mode(self.mode))  # 'once' -> Mode.ONCE
         if self.max_frames_since_reference < 1:
             raise ConfigError('max_frames_since_reference must be at least 1')
+        if isinstance(self.bit_depth, bool) or self.bit_depth not in (0, *range(8, 17)):
+            raise ConfigError(f'bit_depth must be 0 or 8 to 16, got {self.bit_depth!r}')
 
 
 @dataclass(frozen=True)
@@ -195,6 +200,8 @@ class Selector:
         self.intrinsics = intrinsics
         self.thresholds = effective_thresholds(models.thresholds, self.config.policy)
         self.tracker = KltTracker(self.config.tracker)
+        #: How 16-bit frames become 8-bit on this stream.
+        self.bit_depth = BitDepth(self.config.bit_depth)
         self.initialized = False
         self._frame_index = 0
         self._reference_stamp_ns: int | None = None
@@ -228,10 +235,13 @@ class Selector:
         if config.tracker != old_tracker:
             self.tracker = KltTracker(config.tracker)
             self._reference_stamp_ns = None
+        if config.bit_depth != self.bit_depth.fixed:
+            self.bit_depth = BitDepth(config.bit_depth)
 
     def reset(self) -> None:
-        """Start over: the next frame becomes the reference."""
+        """Start over: the next frame becomes the reference; the automatic bit depth is reset."""
         self.tracker.clear()
+        self.bit_depth.reset()
         self.initialized = False
         self._reference_stamp_ns = None
         self._candidate = None
@@ -267,8 +277,8 @@ class Selector:
         """Handle one frame.
 
         Args:
-            image: (H, W) uint8/uint16 grey or (H, W, 3|4) uint8 BGR(A); its size must match
-                the intrinsics.
+            image: (H, W) or (H, W, 3|4) grey, BGR or BGR(A), uint8 or uint16 (16-bit frames
+                scaled by :attr:`bit_depth`); its size must match the intrinsics.
             stamp_ns: capture time, integer nanoseconds (any int: negative and repeated
                 stamps are carried through unchanged; the node decides what they mean).
 
@@ -278,7 +288,7 @@ class Selector:
         Raises:
             ImageConversionError: unusable image (the selector's state is unchanged).
         """
-        gray = to_gray(image)
+        gray = to_gray(self.bit_depth.scale(np.asarray(image)))
         h, w = gray.shape
         if (w, h) != (self.intrinsics.width, self.intrinsics.height):
             raise ImageConversionError(

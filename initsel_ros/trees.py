@@ -41,7 +41,8 @@ MAX_NODES_PER_TREE = 4095
 TREE_KEYS = ('feature', 'split', 'left', 'right', 'value')
 
 
-def _sigmoid(z: np.ndarray) -> np.ndarray:
+def sigmoid(z: np.ndarray) -> np.ndarray:
+    """The logistic function, overflow-free (models.py uses it too)."""
     return 0.5 * (1.0 + np.tanh(0.5 * z))  # overflow-free logistic
 
 
@@ -301,7 +302,7 @@ class TreeEnsembleModel:
 
     def predict_proba(self, X: np.ndarray) -> np.ndarray:
         """Probability of 'yes' for each row of ``X``."""
-        return _sigmoid(self.decision_function(X))
+        return sigmoid(self.decision_function(X))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form for the model file."""
@@ -351,4 +352,5 @@ __all__ = [
     'TreeEnsembleModel',
     'float32_splits',
     'prepare',
+    'sigmoid',
 ]

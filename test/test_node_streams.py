@@ -279,20 +279,17 @@ def test_a_12_bit_mono16_stream_initializes(harness_factory, near_sequence, expo
     sequence = as_sequence(near_sequence)
     h = harness_factory()
     rng = np.random.default_rng(3)
-    highest = []
 
     def to_12_bit(bgr: np.ndarray) -> np.ndarray:
         gray = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY).astype(np.float64)
         noisy = gray * 16 * exposure + rng.normal(0.0, 4.0, gray.shape)
-        pixels = np.clip(noisy, 0, 4095).astype(np.uint16)
-        highest.append(int(pixels.max()).bit_length())
-        return pixels
+        return np.clip(noisy, 0, 4095).astype(np.uint16)
 
     statuses = play(
         h, sequence, unix_stamps(len(sequence)), convert=to_12_bit, until_initialized=True
     )
     assert statuses[-1].method in ('F', 'E', 'H')
-    assert statuses[-1].bit_depth == max(highest)
+    assert statuses[-1].bit_depth == (12 if exposure == 1.0 else 10)
     h.wait_until(lambda: h.poses, what='init/pose')
     cur, ref = init_and_reference(statuses)
     assert_good_direction(sequence, h.poses[0], ref, cur)
@@ -319,6 +316,27 @@ def test_automatic_bit_depth_keeps_the_highest_bit_seen_so_far(harness_factory, 
     assert h.send_array(img << 4, 1.0).bit_depth == 12
     dark = h.send_array((img << 4) >> 2, 1.033)  # a darker frame: still scaled as 12-bit
     assert dark.bit_depth == 12
+
+
+def test_automatic_bit_depth_ignores_a_hot_pixel_rises_on_several_frames_and_resets(
+    harness_factory, tmp_path
+):
+    """Issue 22 case 5: one 65535 pixel in a 12-bit mono16 stream used to switch the scaling
+    to 16 bits for good, surviving ~/reset."""
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    twelve = texture(13).astype(np.uint16) << 4
+    hot = twelve.copy()
+    hot[100, 200] = 65535
+    stamp = iter(np.arange(1.0, 2.0, 0.033))
+    assert h.send_array(twelve, next(stamp)).bit_depth == 12
+    assert h.send_array(hot, next(stamp)).bit_depth == 12
+    assert h.send_array(twelve, next(stamp)).bit_depth == 12
+    sixteen = texture(13).astype(np.uint16) << 8
+    # A real change of range needs several frames in a row.
+    assert [h.send_array(sixteen, next(stamp)).bit_depth for _ in range(3)] == [12, 12, 16]
+    assert h.send_array(twelve, next(stamp)).bit_depth == 16  # never falls by itself
+    assert h.reset().success
+    assert h.send_array(twelve, next(stamp)).bit_depth == 12  # ~/reset forgot it
 
 
 # ----------------------------------------------------------------------------- intrinsics

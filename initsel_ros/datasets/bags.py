@@ -30,10 +30,11 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_pose_matrices
-from initsel_ros.datasets.sequence import Frame, Sequence, without_alpha
+from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
-from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.errors import ConfigError, DatasetError, ImageConversionError
+from initsel_ros.image import decode_compressed, decode_raw, to_cv
 from initsel_ros.transforms import matrix_to_pose
 
 _LOG = logging.getLogger(__name__)
@@ -93,75 +94,47 @@ def is_compressed_type(msgtype: str) -> bool:
 
 
 def image_from_compressed(msg: Any) -> np.ndarray:
-    """A jpeg or png ``sensor_msgs/CompressedImage`` decoded with ``cv2.imdecode``: (H, W, 3)
-    BGR or (H, W) grey, uint8 or uint16 (16-bit png).
+    """A jpeg or png ``sensor_msgs/CompressedImage`` (:func:`initsel_ros.image.decode_compressed`,
+    size checked before decoding): (H, W, 3) BGR or (H, W) grey, uint8 or uint16 (16-bit png).
 
     Raises:
-        DatasetError: empty, or not decodable as an image.
+        DatasetError: empty, too large, or not decodable as an image.
     """
-    data = np.frombuffer(bytes(np.asarray(msg.data, dtype=np.uint8)), dtype=np.uint8)
+    data = np.asarray(msg.data, dtype=np.uint8)
     fmt = str(getattr(msg, 'format', ''))
     if data.size == 0:
         raise DatasetError(f'empty CompressedImage (format {fmt!r})')
     try:
-        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
-    except cv2.error as exc:
-        raise DatasetError(f'cannot decode CompressedImage (format {fmt!r}): {exc}') from exc
-    if img is None or img.size == 0:
-        raise DatasetError(
-            f'cannot decode CompressedImage of {data.size} bytes '
-            f'(format {fmt!r}; jpeg and png are supported)'
-        )
-    return without_alpha(img)
+        return decode_compressed(data, fmt)
+    except ImageConversionError as exc:
+        raise DatasetError(f'cannot decode CompressedImage: {exc}') from exc
 
 
 def image_from_msg(msg: Any) -> np.ndarray:
-    """A ``sensor_msgs/Image`` as numpy: colour -> (H, W, 3) uint8 BGR, mono -> (H, W),
-    depth encodings -> (H, W) float32 metres (NaN -> 0).
+    """A ``sensor_msgs/Image`` as numpy (:func:`initsel_ros.image.decode_raw`): colour and Bayer
+    -> (H, W, 3) uint8 BGR, mono -> (H, W) uint8 or uint16, 32FC1 depth -> (H, W) float32
+    metres (NaN -> 0).
 
     Raises:
         DatasetError: unsupported encoding or a data size that does not match.
     """
-    enc = str(msg.encoding).lower()
-    h, w, step = int(msg.height), int(msg.width), int(msg.step)
-    layouts = {
-        'rgb8': (np.uint8, 3),
-        'bgr8': (np.uint8, 3),
-        'rgba8': (np.uint8, 4),
-        'bgra8': (np.uint8, 4),
-        'mono8': (np.uint8, 1),
-        '8uc1': (np.uint8, 1),
-        '8uc3': (np.uint8, 3),
-        'mono16': (np.uint16, 1),
-        '16uc1': (np.uint16, 1),
-        '32fc1': (np.float32, 1),
-    }
-    if enc not in layouts:
-        raise DatasetError(f'unsupported image encoding {msg.encoding!r}')
-    dtype, channels = layouts[enc]
-    dt = np.dtype(dtype).newbyteorder('>' if msg.is_bigendian else '<')
-    row = w * channels * dt.itemsize
-    data = np.asarray(msg.data, dtype=np.uint8)
-    if h == 0 or w == 0 or step < row or data.size < step * h:
-        raise DatasetError(
-            f'image data of {data.size} bytes does not fit {w}x{h} {enc} (step {step})'
+    try:
+        pixels = decode_raw(
+            np.asarray(msg.data, dtype=np.uint8),
+            msg.encoding,
+            msg.width,
+            msg.height,
+            msg.step,
+            bool(msg.is_bigendian),
+            depth=True,
         )
-    rows = data[: step * h].reshape(h, step)[:, :row]
-    img = np.ascontiguousarray(rows).view(dt).reshape(h, w, channels).astype(dtype)
-    if enc == '32fc1':
-        out = img[..., 0]
-        return np.where(np.isfinite(out), out, 0).astype(np.float32)
-    if enc in ('16uc1', 'mono16') and channels == 1:
-        return img[..., 0]
-    if channels == 1:
-        return img[..., 0]
-    if enc == 'rgb8':
-        return cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
-    if enc == 'rgba8':
-        return cv2.cvtColor(img, cv2.COLOR_RGBA2BGR)
-    if enc == 'bgra8':
-        return cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
-    return img
+        if pixels.dtype == np.float32:
+            return np.where(np.isfinite(pixels), pixels, 0).astype(np.float32)
+        if pixels.dtype == np.uint16:
+            return np.array(pixels)
+        return np.array(to_cv(pixels, msg.encoding))
+    except ImageConversionError as exc:
+        raise DatasetError(str(exc)) from exc
 
 
 class BagSequence(Sequence):

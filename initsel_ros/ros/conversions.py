@@ -1,8 +1,9 @@
 """Conversions between ROS 2 messages and numpy, by hand (no cv_bridge, no sensor_msgs_py).
 
 Images are read with ``np.frombuffer`` honouring ``step`` (row padding) and ``is_bigendian``;
-compressed images (JPEG, PNG) are decoded with ``cv2.imdecode``; messages are built with
-``msg.data = array.tobytes()`` (assigning an ndarray is ~100x slower).
+compressed images (JPEG, PNG) are decoded with ``cv2.imdecode``; all of it lives in
+:mod:`initsel_ros.image` (these are thin calls, for the tests, the bench and the fuzzer).
+Messages are built with ``msg.data = array.tobytes()`` (assigning an ndarray is ~100x slower).
 Poses follow OpenCV's two-view convention ``x_cur = R @ x_ref + t``.
 """
 
@@ -22,14 +23,16 @@ from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.image import (
     ENCODINGS,
     MAX_DECODED_PIXELS,
+    BitDepth,
     EncodingInfo,
     decode_compressed,
     decode_raw,
     encode_compressed,
+    raw_to_cv,
     significant_bits,
     to_8bit,
-    to_cv,
 )
+from initsel_ros.image import compressed_to_cv as image_compressed_to_cv
 from initsel_ros.transforms import matrix_to_quaternion, quaternion_to_matrix
 
 #: Point cloud fields published on ``init/points``: all float32, little-endian, in this order.
@@ -75,25 +78,23 @@ def image_to_numpy(msg: Image) -> np.ndarray:
     return decode_raw(msg.data, msg.encoding, msg.width, msg.height, msg.step, msg.is_bigendian)
 
 
-def image_to_cv(msg: Image, bit_depth: int = 0) -> np.ndarray:
-    """An Image message as the selector's input: (H, W) uint8 gray or (H, W, 3) uint8 BGR.
+def image_to_cv(msg: Image, bit_depth: int | BitDepth = 0) -> np.ndarray:
+    """An Image message as the selector's input (:func:`initsel_ros.image.raw_to_cv`).
 
     Colour and Bayer encodings become BGR; mono16 and 16UC1 are scaled by their real range
     (:func:`to_8bit`: a 12-bit camera's 0..4095 becomes 0..255).
 
     Args:
         msg: the image.
-        bit_depth: significant bits of 16-bit images (8-16); 0 = from this image's data.
+        bit_depth: significant bits of 16-bit images (8-16); 0 = from this image's data; a
+            :class:`~initsel_ros.image.BitDepth` = the stream's.
 
     Raises:
         ImageConversionError: as :func:`image_to_numpy`.
     """
-    pixels = image_to_numpy(msg)
-    return pixels_to_cv(pixels, msg.encoding, bit_depth)
-
-
-#: :func:`initsel_ros.image.to_cv` under its former name.
-pixels_to_cv = to_cv
+    return raw_to_cv(
+        msg.data, msg.encoding, msg.width, msg.height, msg.step, msg.is_bigendian, bit_depth
+    )
 
 
 # -------------------------------------------------------------------------- compressed images
@@ -107,14 +108,13 @@ def compressed_to_numpy(msg: CompressedImage) -> np.ndarray:
     return decode_compressed(msg.data, str(msg.format))
 
 
-def compressed_to_cv(msg: CompressedImage, bit_depth: int = 0) -> np.ndarray:
-    """A CompressedImage as the selector's input (uint8 grey or BGR; 16-bit PNG scaled).
+def compressed_to_cv(msg: CompressedImage, bit_depth: int | BitDepth = 0) -> np.ndarray:
+    """A CompressedImage as the selector's input (:func:`initsel_ros.image.compressed_to_cv`).
 
     Raises:
         ImageConversionError: as :func:`compressed_to_numpy`.
     """
-    pixels = compressed_to_numpy(msg)
-    return to_8bit(pixels, bit_depth) if pixels.dtype == np.uint16 else pixels
+    return image_compressed_to_cv(msg.data, str(msg.format), bit_depth)
 
 
 def numpy_to_compressed(
@@ -411,7 +411,6 @@ __all__ = [
     'ns_to_stamp',
     'numpy_to_compressed',
     'numpy_to_image',
-    'pixels_to_cv',
     'point_cloud_to_array',
     'quaternion_to_rotation',
     'rotation_to_quaternion',

@@ -44,6 +44,7 @@ from std_srvs.srv import Trigger
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
+from initsel_ros.image import HOT_PIXEL_FRACTION, compressed_to_cv, raw_to_cv
 from initsel_ros.models import ModelSet
 from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
@@ -149,7 +150,6 @@ class SelectorNode(Node):
         # Worker-only state.
         self._stamps = StampMonitor()
         self._initializations = 0
-        self._auto_bits = 0  # bit_depth 0: the most significant bits seen so far
         self._intrinsics_warning = ''
         self._guess_logged = False
 
@@ -433,29 +433,32 @@ class SelectorNode(Node):
             self._publish_debug_image(image, result, msg)
 
     def _to_image(self, msg: Image | CompressedImage) -> np.ndarray:
-        """The selector's input (uint8 grey or BGR); 16-bit pixels scaled by ``bit_depth``."""
-        if isinstance(msg, CompressedImage):
-            pixels = conv.compressed_to_numpy(msg)
-            encoding = ''
-        else:
-            pixels = conv.image_to_numpy(msg)
-            encoding = msg.encoding
-        if pixels.dtype == np.uint16:
-            return conv.to_8bit(pixels, self._bits(pixels))
-        return pixels if isinstance(msg, CompressedImage) else conv.pixels_to_cv(pixels, encoding)
+        """The selector's input (uint8 grey or BGR), decoded by :mod:`initsel_ros.image`.
 
-    def _bits(self, pixels: np.ndarray) -> int:
-        """Significant bits of a 16-bit frame: ``bit_depth``, or the most seen so far (0)."""
-        if self._settings.bit_depth:
-            return self._settings.bit_depth
-        bits = conv.significant_bits(pixels)
-        if bits > self._auto_bits:
-            self.get_logger().info(
-                f'16-bit images: scaling {bits} significant bits to 8 (bit_depth 0: the '
-                'highest bit set so far; set bit_depth to fix it)'
+        16-bit pixels are scaled by the selector's :class:`~initsel_ros.image.BitDepth`.
+        """
+        bit_depth = self._selector.bit_depth
+        before = bit_depth.bits
+        if isinstance(msg, CompressedImage):
+            image = compressed_to_cv(msg.data, msg.format, bit_depth)
+        else:
+            image = raw_to_cv(
+                msg.data,
+                msg.encoding,
+                msg.width,
+                msg.height,
+                msg.step,
+                msg.is_bigendian,
+                bit_depth,
             )
-            self._auto_bits = bits
-        return self._auto_bits
+        if bit_depth.bits != before and not bit_depth.fixed:
+            rise = f', up from {before}: {bit_depth.frames} frames in a row needed more'
+            (self.get_logger().warning if before else self.get_logger().info)(
+                f'16-bit images: scaling {bit_depth.bits} significant bits to 8 (bit_depth 0: '
+                f'the bits that hold all but {HOT_PIXEL_FRACTION:.1%} of the pixels'
+                f'{rise if before else ""}; set bit_depth to fix it)'
+            )
+        return image
 
     def _check_stamp(self, stamp: Time, stamp_ns: int) -> None:
         """Log each kind of unusual stamp once; time going backwards starts a new reference."""
@@ -534,7 +537,7 @@ class SelectorNode(Node):
             skipped_frames=self._skipped,
             intrinsics_source=self._intrinsics_source,
             intrinsics_warning=self._intrinsics_warning,
-            bit_depth=self._settings.bit_depth or self._auto_bits or None,
+            bit_depth=self._selector.bit_depth.bits or None,
             stamp_issues=self._stamps.counts,
         )
         status = FrameStatus.from_result(

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from initsel_ros.errors import ConfigError
+from initsel_ros.image import to_8bit
 from initsel_ros.ros.transport import OversizeMonitor
 
 log = logging.getLogger(__name__)
@@ -85,7 +86,7 @@ def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarra
         if native.ndim == 2:
             return native, 'mono16' if native.dtype == np.uint16 else 'mono8'
         if native.dtype == np.uint16:
-            native = (native >> 8).astype(np.uint8)
+            native = to_8bit(native)
         return native, 'bgr8'
     if encoding == 'mono8':
         return sequence.gray(index), 'mono8'  # type: ignore[attr-defined]
