@@ -9,14 +9,14 @@ It prints a Markdown table (``--json`` saves the figures). Other modes:
 * ``--flood``: a 200 Hz publisher of 1920x1080 images against the node (``--seconds 30``).
 * ``--fuzz N``: property-based fuzzing of image conversion and the node's image path.
 
-Heavy modules (scikit-learn, hypothesis) are imported inside :func:`run`; the sections that
+The options are :class:`BenchOptions` (parsed by :mod:`initsel_ros.cli.bench`). Heavy
+modules (scikit-learn, hypothesis) are imported inside :func:`run`; the sections that
 need ROS run from :mod:`initsel_ros.ros` (``bench_frame``, ``bench_live``, ``fuzz``), imported
 only when they run. This module imports no ROS.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
 import os
@@ -25,6 +25,8 @@ import shutil
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +54,54 @@ REPLAY_TARGET_HZ = 30.0
 REPLAY_MAX_LATENCY_S = 33e-3
 #: Issue 19: the node's CPU time over wall time, pinned to one core at 30 Hz.
 ONE_CORE_SHARE_TARGET = 0.25
+
+
+@dataclass(frozen=True)
+class BenchOptions:
+    """What one ``initsel bench`` run does (the options of :mod:`initsel_ros.cli.bench`).
+
+    Attributes:
+        work: folder for the rendered sequence, or None for a temporary one.
+        frames: frames to render.
+        models: model file, or None for the packaged one (else models fitted on random
+            features).
+        repeat: timed repetitions of the decision (the baselines use a tenth).
+        node_frames: frames per node replay.
+        core_frames: frames of each one-core run.
+        rates: node replay rates, Hz.
+        long: memory over 10,000 frames instead of 1,000.
+        memory_frames: frames for the memory run (overrides ``long``).
+        skip: sections left out (``initsel_ros.cli.bench.SECTIONS``).
+        json: where to save every figure, or None.
+        profile: profile the per-frame path with pyinstrument.
+        flood: flood the node with large images instead of the benchmarks.
+        seconds: flood duration, s.
+        flood_rate: flood publishing rate, Hz.
+        flood_size: flood image size, ``WxH``.
+        flood_encoding: flood image encoding, bgr8 or mono8.
+        fuzz: fuzz with this many examples each instead of the benchmarks, or None.
+        fuzz_extreme: with ``fuzz``: also send CameraInfo with any finite value.
+    """
+
+    work: Path | None
+    frames: int
+    models: Path | None
+    repeat: int
+    node_frames: int
+    core_frames: int
+    rates: Sequence[float]
+    long: bool
+    memory_frames: int | None
+    skip: Sequence[str]
+    json: Path | None
+    profile: bool
+    flood: bool
+    seconds: float
+    flood_rate: float
+    flood_size: str
+    flood_encoding: str
+    fuzz: int | None
+    fuzz_extreme: bool
 
 
 # ------------------------------------------------------------------------------- formatting
@@ -115,7 +165,7 @@ class Table:
 
 
 # ---------------------------------------------------------------------------------- sections
-def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
+def _bench(options: BenchOptions, work: Path) -> dict[str, Any]:
     import numpy as np
 
     from initsel_ros.benchmarks import micro
@@ -134,14 +184,14 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         f'machine: {info["cpu"]}, {info["cores"]} cores, load average '
         f'{info["load_average_1min"]:.1f} (timings are only comparable on an idle machine)'
     )
-    seq = render_bench_sequence(work / 'bench_sequence', args.frames)
+    seq = render_bench_sequence(work / 'bench_sequence', options.frames)
     print(f'sequence: {seq} in {seq.path}')
-    models, model_path, model_note = bench_models(args.models, seq)
+    models, model_path, model_note = bench_models(options.models, seq)
     results['models'] = model_note
     print(f'models: {model_note}')
     intrinsics = seq.intrinsics
     pairs = correspondence_sets(seq, 16)
-    fire = fire_pairs(seq, FIRE_PAIRS) if 'decision' not in args.skip else []
+    fire = fire_pairs(seq, FIRE_PAIRS) if 'decision' not in options.skip else []
     n_tracks = int(np.median([len(p0) for p0, _ in pairs]))
     results['correspondences'] = {'sets': len(pairs), 'median_tracks': n_tracks}
     results['sequence'] = {'path': str(seq.path), 'frames': len(seq)}
@@ -151,10 +201,10 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     )
     table = Table('measurement', 'median', 'p99', 'target', 'result')
 
-    if 'decision' not in args.skip:
-        decision = micro.time_decision(models, pairs, args.repeat, WIDTH, HEIGHT)
-        parts = micro.time_decision_parts(models, pairs, args.repeat, WIDTH, HEIGHT)
-        base_repeat = max(20, args.repeat // 10)
+    if 'decision' not in options.skip:
+        decision = micro.time_decision(models, pairs, options.repeat, WIDTH, HEIGHT)
+        parts = micro.time_decision_parts(models, pairs, options.repeat, WIDTH, HEIGHT)
+        base_repeat = max(20, options.repeat // 10)
         orb = micro.time_orbslam(pairs, base_repeat)
         estimators = micro.time_estimators(pairs, intrinsics.K, base_repeat)
         d = decision.median
@@ -197,7 +247,7 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
             'fire': fire_rows,
         }
 
-    if 'frame' not in args.skip:
+    if 'frame' not in options.skip:
         from initsel_ros.ros.bench_frame import image_messages, time_frame_path
 
         frames = image_messages(seq, len(seq))
@@ -247,11 +297,11 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
             'parts': {p.name.strip(): p.to_dict() for p in path.parts},
             'reasons': path.reasons,
         }
-        if args.profile:
+        if options.profile:
             _profile(models, intrinsics, frames)
 
-    if 'memory' not in args.skip:
-        n = args.memory_frames or (10_000 if args.long else 1_000)
+    if 'memory' not in options.skip:
+        n = options.memory_frames or (10_000 if options.long else 1_000)
         images = [seq.image(i) for i in range(len(seq))]
         mem = micro.memory_growth(models, intrinsics, images, n)
         growth = max(mem.traced_growth_bytes, mem.rss_growth_bytes)
@@ -265,13 +315,14 @@ def _bench(args: argparse.Namespace, work: Path) -> dict[str, Any]:
         )
         results['memory'] = mem.__dict__ | {'target_bytes': MEMORY_TARGET_BYTES}
 
-    if 'node' not in args.skip:
-        results['node'] = _node_rows(table, seq, models, model_path, work, args)
+    if 'node' not in options.skip or 'core' not in options.skip:
+        model_file = _model_file(models, model_path, work)
+        if 'node' not in options.skip:
+            results['node'] = _node_rows(table, seq, model_file, options)
+        if 'core' not in options.skip:
+            results['one_core'] = _core_rows(table, seq, model_file, options)
 
-    if 'core' not in args.skip:
-        results['one_core'] = _core_rows(table, seq, models, model_path, work, args)
-
-    if 'dataset' not in args.skip:
+    if 'dataset' not in options.skip:
         results['dataset'] = _dataset_rows(table, seq.path)
 
     results['load_average_1min_end'] = os.getloadavg()[0]
@@ -333,13 +384,17 @@ def _fire_rows(table: Table, fire: Any) -> dict[str, Any]:
     }
 
 
+def _model_file(models: Any, model_path: Path | None, work: Path) -> Path:
+    """``model_path``, or ``models`` saved into ``work`` for a node to load."""
+    if model_path is not None:
+        return model_path
+    saved = work / 'bench_models.json'
+    models.save(saved)
+    return saved
+
+
 def _node_rows(
-    table: Table,
-    seq: Any,
-    models: Any,
-    model_path: Path | None,
-    work: Path,
-    args: argparse.Namespace,
+    table: Table, seq: Any, model_path: Path, options: BenchOptions
 ) -> list[dict[str, Any]]:
     from initsel_ros.ros import ros_available
 
@@ -348,14 +403,11 @@ def _node_rows(
         return []
     from initsel_ros.ros.bench_live import node_in_own_process
 
-    if model_path is None:
-        model_path = work / 'bench_models.json'
-        models.save(model_path)
     images = [seq.image(i) for i in range(len(seq))]
     out = []
-    for rate in args.rates:
+    for rate in options.rates:
         run = node_in_own_process(
-            images, seq.intrinsics, model_path, rate, args.node_frames, pinned=False
+            images, seq.intrinsics, model_path, rate, options.node_frames, pinned=False
         ).run
         lat = run.latency
         counts = (
@@ -389,14 +441,7 @@ def _node_rows(
     return out
 
 
-def _core_rows(
-    table: Table,
-    seq: Any,
-    models: Any,
-    model_path: Path | None,
-    work: Path,
-    args: argparse.Namespace,
-) -> dict[str, Any]:
+def _core_rows(table: Table, seq: Any, model_path: Path, options: BenchOptions) -> dict[str, Any]:
     """The node in its own process at 30 Hz, unpinned then on one core (``one core``)."""
     from initsel_ros.ros import ros_available
 
@@ -410,12 +455,11 @@ def _core_rows(
         return {}
     from initsel_ros.ros.bench_live import node_in_own_process
 
-    if model_path is None:
-        model_path = work / 'bench_models.json'
-        models.save(model_path)
     images = [seq.image(i) for i in range(len(seq))]
     free, pinned = (
-        node_in_own_process(images, seq.intrinsics, model_path, 30.0, args.core_frames, pinned=p)
+        node_in_own_process(
+            images, seq.intrinsics, model_path, 30.0, options.core_frames, pinned=p
+        )
         for p in (False, True)
     )
     run = pinned.run
@@ -491,24 +535,24 @@ def _profile(models: Any, intrinsics: Any, frames: Any) -> None:
     print(profiler.output_text(unicode=True, color=False, show_all=False))
 
 
-def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
+def _flood(options: BenchOptions, work: Path) -> dict[str, Any]:
     from initsel_ros.benchmarks.common import bench_models
     from initsel_ros.ros.bench_live import flood
 
     try:
-        width, height = (int(v) for v in args.flood_size.lower().split('x'))
+        width, height = (int(v) for v in options.flood_size.lower().split('x'))
     except ValueError as exc:
-        raise InitselError(f'--flood-size must be WxH, got {args.flood_size!r}') from exc
-    models, model_path, note = bench_models(args.models)
-    if model_path is None:
-        model_path = work / 'bench_models.json'
-        models.save(model_path)
+        raise InitselError(f'--flood-size must be WxH, got {options.flood_size!r}') from exc
+    models, model_path, note = bench_models(options.models)
+    model_path = _model_file(models, model_path, work)
     print(f'models: {note}')
     print(
-        f'flooding the node with {width}x{height} {args.flood_encoding} at '
-        f'{args.flood_rate:g} Hz for {args.seconds:g} s ...'
+        f'flooding the node with {width}x{height} {options.flood_encoding} at '
+        f'{options.flood_rate:g} Hz for {options.seconds:g} s ...'
     )
-    run = flood(model_path, args.seconds, args.flood_rate, width, height, args.flood_encoding)
+    run = flood(
+        model_path, options.seconds, options.flood_rate, width, height, options.flood_encoding
+    )
     table = Table('flood', 'value')
     lat = run.latency
     for name, value in (
@@ -533,12 +577,12 @@ def _flood(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     return {'machine': machine(), 'models': note, 'flood': run.to_dict(), 'table': table.render()}
 
 
-def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
+def _fuzz(options: BenchOptions, work: Path) -> dict[str, Any]:
     from initsel_ros.benchmarks.common import bench_models
     from initsel_ros.ros import ros_available
     from initsel_ros.ros.fuzz import run_conversion_fuzz, run_node_fuzz
 
-    n = args.fuzz
+    n = options.fuzz
     start = time.perf_counter()
     conversion = run_conversion_fuzz(n)
     print(
@@ -548,38 +592,36 @@ def _fuzz(args: argparse.Namespace, work: Path) -> dict[str, Any]:
     if not ros_available():
         print('node callbacks: skipped (rclpy not importable)')
         return out
-    models, model_path, _ = bench_models(args.models)
-    if model_path is None:
-        model_path = work / 'bench_models.json'
-        models.save(model_path)
+    models, model_path, _ = bench_models(options.models)
+    model_path = _model_file(models, model_path, work)
     start = time.perf_counter()
-    node = run_node_fuzz(str(model_path), n, extreme=args.fuzz_extreme)
+    node = run_node_fuzz(str(model_path), n, extreme=options.fuzz_extreme)
     print(
-        f'node callbacks{" (extreme CameraInfo)" if args.fuzz_extreme else ""}: {n} '
+        f'node callbacks{" (extreme CameraInfo)" if options.fuzz_extreme else ""}: {n} '
         f'examples passed {node} ({time.perf_counter() - start:.0f} s)'
     )
     out['node'] = node
     return out
 
 
-def run(args: argparse.Namespace) -> int:
+def run(options: BenchOptions) -> int:
     """Run the benchmarks (or the flood, or the fuzzers); 0 when done."""
-    work = args.work
+    work = options.work
     temporary = work is None
     work = Path(tempfile.mkdtemp(prefix='initsel-bench-')) if temporary else Path(work)
     work.mkdir(parents=True, exist_ok=True)
     try:
-        if args.fuzz is not None:
-            results = _fuzz(args, work)
-        elif args.flood:
-            results = _flood(args, work)
+        if options.fuzz is not None:
+            results = _fuzz(options, work)
+        elif options.flood:
+            results = _flood(options, work)
         else:
-            results = _bench(args, work)
+            results = _bench(options, work)
         results['command'] = 'initsel bench ' + ' '.join(sys.argv[2:])
-        if args.json is not None:
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-            args.json.write_text(json.dumps(results, indent=2, default=_plain) + '\n')
-            print(f'\nfigures saved to {args.json}')
+        if options.json is not None:
+            options.json.parent.mkdir(parents=True, exist_ok=True)
+            options.json.write_text(json.dumps(results, indent=2, default=_plain) + '\n')
+            print(f'\nfigures saved to {options.json}')
         return 0
     finally:
         if temporary:

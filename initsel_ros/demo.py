@@ -8,7 +8,6 @@ initializations are matched by their exact stamps. ``--offline`` runs the same
 
 from __future__ import annotations
 
-import argparse
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,26 +37,31 @@ class InitRecord:
         return bool(self.translation_error < 0.8)
 
 
-def prepare_sequence(args: argparse.Namespace, work: Path):
+def prepare_sequence(
+    work: Path,
+    source: Path | None = None,
+    *,
+    scene: str = 'structure_texture',
+    trajectory: str = 'near',
+    seed: int = 0,
+    frames: int = 240,
+):
+    """The sequence ``source``, or a rendered one in ``work`` (reused when it already holds
+    ``frames`` frames)."""
     from initsel_ros.datasets import open_sequence
 
-    if args.source is not None:
-        return open_sequence(args.source)
-    folder = work / f'{args.scene}_{args.trajectory}_{args.seed}'
+    if source is not None:
+        return open_sequence(source)
+    folder = work / f'{scene}_{trajectory}_{seed}'
     if (folder / 'rgb.txt').is_file():
         seq = open_sequence(folder)
-        if len(seq) >= args.frames:
+        if len(seq) >= frames:
             print(f'reusing {folder} ({len(seq)} frames)')
             return seq
     from initsel_ros.synth import render_sequence
 
-    print(
-        f'rendering {args.frames} frames ({args.scene} scene, {args.trajectory} trajectory) '
-        f'into {folder}'
-    )
-    render_sequence(
-        folder, scene=args.scene, trajectory=args.trajectory, frames=args.frames, seed=args.seed
-    )
+    print(f'rendering {frames} frames ({scene} scene, {trajectory} trajectory) into {folder}')
+    render_sequence(folder, scene=scene, trajectory=trajectory, frames=frames, seed=seed)
     return open_sequence(folder)
 
 

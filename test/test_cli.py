@@ -144,3 +144,26 @@ def test_models_arguments_take_names_or_file_stems():
     assert list(named_model_paths(None)) == ['shipped']
     with pytest.raises(ValueError):
         named_model_paths(['a=x.json', 'a=y.json'])
+
+
+def test_argparse_is_imported_only_by_the_command_line_modules():
+    import ast
+
+    package = Path(__file__).resolve().parent.parent / 'initsel_ros'
+    allowed = {package / 'ros' / 'node.py'}  # the node's own ``main``
+    importers = set()
+    for path in package.rglob('*.py'):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or '']
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
+            if any(n.split('.')[0] == 'argparse' for n in names):
+                importers.add(path)
+    outside = sorted(
+        str(p.relative_to(package)) for p in importers - allowed if p.parent.name != 'cli'
+    )
+    assert outside == []

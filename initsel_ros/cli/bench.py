@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from initsel_ros.cli.options import add_models_option, options_from
+
 #: Sections of the default run, each of which ``--skip`` can leave out.
 SECTIONS = ('decision', 'frame', 'node', 'core', 'memory', 'dataset')
 
@@ -23,11 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'when it already holds enough frames)',
     )
     parser.add_argument('--frames', type=int, default=90, help='frames to render (default 90)')
-    parser.add_argument(
-        '--models',
-        type=Path,
-        default=None,
-        help='model file (default: config/models.json, else models fitted on random features)',
+    add_models_option(
+        parser, 'model file (default: config/models.json, else models fitted on random features)'
     )
     parser.add_argument(
         '--repeat',
@@ -112,6 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmarks (or the flood, or the fuzzers); 0 when done."""
+    from initsel_ros.bench import BenchOptions
     from initsel_ros.bench import run as bench
 
-    return bench(args)
+    return bench(options_from(args, BenchOptions))

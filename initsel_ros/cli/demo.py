@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from initsel_ros.cli.options import add_models_option, model_path
 from initsel_ros.names import Mode
 
 
@@ -38,12 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='stop after the first initialization (default), or re-anchor '
         'after each and judge every one',
     )
-    parser.add_argument(
-        '--models',
-        type=Path,
-        default=None,
-        help='model file (default: the packaged config/models.json)',
-    )
+    add_models_option(parser)
     parser.add_argument(
         '--rate',
         type=float,
@@ -71,16 +67,23 @@ def run(args: argparse.Namespace) -> int:
 
     from initsel_ros.demo import prepare_sequence, print_report, run_offline
     from initsel_ros.errors import InitselError
-    from initsel_ros.models import ModelSet, default_model_path
+    from initsel_ros.models import ModelSet
 
-    model_path = args.models or default_model_path()
-    models = ModelSet.load(model_path)
+    models_file = model_path(args.models)
+    models = ModelSet.load(models_file)
     work = args.work
     temporary = work is None
     if temporary:
         work = Path(tempfile.mkdtemp(prefix='initsel-demo-'))
     try:
-        seq = prepare_sequence(args, Path(work))
+        seq = prepare_sequence(
+            Path(work),
+            args.source,
+            scene=args.scene,
+            trajectory=args.trajectory,
+            seed=args.seed,
+            frames=args.frames,
+        )
         frames = min(args.frames, len(seq))
         live = not args.offline
         if live:
@@ -89,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
             if not ros_available():
                 print('rclpy is not importable: running offline (pip install -e ".[ros]")')
                 live = False
-        print(f'model file: {model_path}')
+        print(f'model file: {models_file}')
         transport = ', compressed (JPEG)' if live and args.compressed else ''
         print(
             f'running the selector {"live (ROS 2 node)" if live else "offline"} on '

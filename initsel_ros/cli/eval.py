@@ -6,6 +6,8 @@ import argparse
 import contextlib
 from pathlib import Path
 
+from initsel_ros.cli.options import add_models_option, model_path
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel eval``."""
@@ -16,12 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='PAIRS_CSV',
         help='test pair tables written by `initsel dataset`',
     )
-    parser.add_argument(
-        '--models',
-        type=Path,
-        default=None,
-        help='model file (default: the packaged config/models.json)',
-    )
+    add_models_option(parser)
     parser.add_argument(
         '--out-dir', type=Path, default=None, help='write eval.md, eval.csv and the PNG plots here'
     )
@@ -55,9 +52,9 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.learn.evaluate import evaluate, report_markdown, results_csv_rows
     from initsel_ros.learn.table import read_tables
     from initsel_ros.learn.train import prepare
-    from initsel_ros.models import ModelSet, default_model_path
+    from initsel_ros.models import ModelSet
 
-    models = ModelSet.load(args.models or default_model_path())
+    models = ModelSet.load(model_path(args.models))
     test = read_tables(args.tables)
     train = None
     config = config_like(models.metadata, models.scaling)

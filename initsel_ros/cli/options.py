@@ -3,19 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any, TypeVar
+
+Options = TypeVar('Options')
 
 
-def add_models_option(parser: argparse.ArgumentParser) -> None:
+def add_models_option(
+    parser: argparse.ArgumentParser,
+    help_text: str = 'model file (default: the packaged config/models.json)',
+) -> None:
     """``--models PATH``: one model file (default: the packaged config/models.json)."""
-    parser.add_argument(
-        '--models',
-        type=Path,
-        default=None,
-        metavar='PATH',
-        help='model file (default: the packaged config/models.json)',
-    )
+    parser.add_argument('--models', type=Path, default=None, metavar='PATH', help=help_text)
 
 
 def add_named_models_option(parser: argparse.ArgumentParser) -> None:
@@ -57,4 +58,16 @@ def named_model_paths(values: Sequence[str] | None) -> dict[str, Path]:
     return out
 
 
-__all__ = ['add_models_option', 'add_named_models_option', 'model_path', 'named_model_paths']
+def options_from(args: argparse.Namespace, cls: type[Options], **overrides: Any) -> Options:
+    """The dataclass ``cls`` filled from the parsed options of the same names."""
+    fields = {f.name: getattr(args, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    return cls(**(fields | overrides))
+
+
+__all__ = [
+    'add_models_option',
+    'add_named_models_option',
+    'model_path',
+    'named_model_paths',
+    'options_from',
+]

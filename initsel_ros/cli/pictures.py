@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from initsel_ros.cli.options import add_models_option, model_path
 from initsel_ros.names import Mode
 
 
@@ -46,12 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='with --source: probabilities-over-time figure (.png)',
     )
-    parser.add_argument(
-        '--models',
-        type=Path,
-        default=None,
-        help='model file (default: the packaged config/models.json)',
-    )
+    add_models_option(parser)
     parser.add_argument(
         '--frames',
         type=int,
@@ -70,7 +66,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Draw what the selector saw; returns the exit code."""
     from initsel_ros.errors import ConfigError
-    from initsel_ros.models import ModelSet, default_model_path
+    from initsel_ros.models import ModelSet
     from initsel_ros.pictures import (
         README_IMAGES,
         groundtruth_baselines,
@@ -81,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from initsel_ros.selector import SelectorConfig
 
-    models = ModelSet.load(args.models or default_model_path())
+    models = ModelSet.load(model_path(args.models))
     if args.source is None:
         out = args.out or README_IMAGES
         paths = make_readme_pictures(out, args.work, models, frames=args.frames or 240)

@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from initsel_ros.cli.options import options_from
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel replay``."""
@@ -114,6 +116,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Publish the sequence (see :func:`initsel_ros.ros.replay.run`)."""
+    from initsel_ros.ros.replay import ReplayOptions
     from initsel_ros.ros.replay import run as replay
 
-    return replay(args)
+    return replay(options_from(args, ReplayOptions))

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from initsel_ros.cli.options import add_models_option, model_path
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel seedmap``."""
@@ -17,12 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='sequences with ground truth and depth (TUM folders, bags); a '
         "name containing 'wall', 'floor' or 'planar' counts as planar",
     )
-    parser.add_argument(
-        '--models',
-        type=Path,
-        default=None,
-        help='model file (default: the packaged config/models.json)',
-    )
+    add_models_option(parser)
     parser.add_argument(
         '--length',
         type=int,
@@ -72,7 +69,6 @@ def run(args: argparse.Namespace) -> int:
         summarize,
         summary_markdown,
     )
-    from initsel_ros.models import default_model_path
     from initsel_ros.selector import SelectorConfig
 
     config = SelectorConfig(refine=not args.no_refine)
@@ -91,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
 
     outcomes = evaluate_sequences(
         args.sequences,
-        args.models or default_model_path(),
+        model_path(args.models),
         config,
         length=args.length,
         step=args.step,

@@ -4,14 +4,13 @@ For the replays the node runs as a process of its own (``python -m initsel_ros.r
 as it is deployed, and this process publishes and listens: a node sharing the interpreter
 lock with its publisher and listener measured up to 43 ms publish -> status where its own
 process took 26 ms on the same frames. For the flood the node runs in this process
-(:class:`NodeHarness`) and a child process publishes (``python -m initsel_ros.ros.bench_live
-publish ...``), so that memory can be sampled here. The records and the ROS-free helpers are in
-:mod:`initsel_ros.benchmarks.live`.
+(:class:`NodeHarness`) and a child process publishes (``python -m
+initsel_ros.cli.flood_publisher ...``), so that memory can be sampled here. The records and the
+ROS-free helpers are in :mod:`initsel_ros.benchmarks.live`.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import os
@@ -136,8 +135,7 @@ def flood(
     cmd = [
         sys.executable,
         '-m',
-        'initsel_ros.ros.bench_live',
-        'publish',
+        'initsel_ros.cli.flood_publisher',
         '--rate',
         str(rate_hz),
         '--seconds',
@@ -353,23 +351,4 @@ def node_in_own_process(
     return result
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``python -m initsel_ros.ros.bench_live publish ...``: the flood's publisher."""
-    parser = argparse.ArgumentParser(prog='initsel_ros.ros.bench_live')
-    sub = parser.add_subparsers(dest='command', required=True)
-    pub = sub.add_parser('publish', help='publish textured frames on image_raw')
-    pub.add_argument('--rate', type=float, default=200.0)
-    pub.add_argument('--seconds', type=float, default=30.0)
-    pub.add_argument('--width', type=int, default=1920)
-    pub.add_argument('--height', type=int, default=1080)
-    pub.add_argument('--encoding', choices=('bgr8', 'mono8'), default='bgr8')
-    args = parser.parse_args(argv)
-    summary = flood_publisher(args.rate, args.seconds, args.width, args.height, args.encoding)
-    print(json.dumps(summary), flush=True)
-    return 0
-
-
 __all__ = ['CoreRun', 'flood', 'flood_publisher', 'node_in_own_process']
-
-if __name__ == '__main__':
-    sys.exit(main())

@@ -6,15 +6,16 @@ the dataset's calibration (with distortion D for EuRoC), at the recorded timing 
 ``--rate``, and optionally the ground truth as a PoseStamped. Header stamps are the source's
 exact integer nanoseconds (``Frame.stamp_ns``). A frame larger than the Fast DDS shared-memory
 segment is reported once (:class:`initsel_ros.ros.transport.OversizeMonitor`). rclpy is
-imported inside :func:`run`; the options are :mod:`initsel_ros.cli.replay`.
+imported inside :func:`run`; the options are :class:`ReplayOptions`, parsed by
+:mod:`initsel_ros.cli.replay`.
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -26,6 +27,54 @@ log = logging.getLogger(__name__)
 
 #: Seconds to keep the node alive after the last frame so reliable messages get delivered.
 LINGER_S = 0.5
+
+
+@dataclass(frozen=True)
+class ReplayOptions:
+    """What one replay publishes and how: the options of ``initsel replay`` (their defaults
+    and help are in :mod:`initsel_ros.cli.replay`).
+
+    Attributes:
+        source: TUM, EuRoC or KITTI folder, ROS 1 .bag file or ROS 2 bag folder.
+        sequence: KITTI: the sequence, when ``source`` is the odometry root.
+        bag_image_topic: bags: the image topic to read, or None for the default.
+        rate: playback speed factor of the recorded timing.
+        loop: start over at the end, until ^C.
+        start: seconds skipped from the first frame.
+        duration: seconds to publish, or None for the rest.
+        encoding: rgb8, bgr8, mono8 or native (as stored).
+        compressed: publish CompressedImage on ``<image_topic>/compressed`` instead of Image.
+        compressed_format: jpeg or png.
+        jpeg_quality: 0-100, with ``compressed`` jpeg.
+        image_topic, camera_info_topic: where the frames and the calibration go.
+        frame_id: frame id of images and camera_info.
+        publish_groundtruth: also publish the ground-truth camera-to-world pose.
+        groundtruth_topic, world_frame_id: its topic and frame id.
+        restamp: stamp messages with the current time instead of the recorded one.
+        wait_for_subscriber: seconds to wait for a subscriber on the image topic first.
+        node_name: the publishing node's name.
+    """
+
+    source: Path
+    sequence: str | None
+    bag_image_topic: str | None
+    rate: float
+    loop: bool
+    start: float
+    duration: float | None
+    encoding: str
+    compressed: bool
+    compressed_format: str
+    jpeg_quality: int
+    image_topic: str
+    camera_info_topic: str
+    frame_id: str
+    publish_groundtruth: bool
+    groundtruth_topic: str
+    world_frame_id: str
+    restamp: bool
+    wait_for_subscriber: float
+    node_name: str
 
 
 @dataclass(frozen=True)
@@ -96,26 +145,28 @@ def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarra
     return np.ascontiguousarray(bgr[..., ::-1]), 'rgb8'
 
 
-def open_source(args: argparse.Namespace) -> object:
-    """The sequence of ``args.source`` (with ``--sequence`` and ``--bag-image-topic``)."""
+def open_source(options: ReplayOptions) -> object:
+    """The sequence of ``options.source`` (with its ``sequence`` and ``bag_image_topic``)."""
     from initsel_ros.datasets import open_sequence, sequence_kind
 
-    options = {}
-    if args.bag_image_topic is not None:
-        if sequence_kind(args.source) != 'bag':
+    topic = {}
+    if options.bag_image_topic is not None:
+        if sequence_kind(options.source) != 'bag':
             raise ConfigError('--bag-image-topic applies to bags only')
-        options['image_topic'] = args.bag_image_topic
-    return open_sequence(args.source, sequence=args.sequence, **options)
+        topic['image_topic'] = options.bag_image_topic
+    return open_sequence(options.source, sequence=options.sequence, **topic)
 
 
-def run(args: argparse.Namespace) -> int:
+def run(options: ReplayOptions) -> int:
     """Publish the sequence; prints the number of frames published. 0 on success."""
     from initsel_ros.datasets.bags import compressed_format, encode_image
 
-    if not 0 <= args.jpeg_quality <= 100:
-        raise ConfigError(f'--jpeg-quality must be in 0-100, got {args.jpeg_quality}')
-    sequence = open_source(args)  # before rclpy: a bad source fails fast, with one line
-    plan = plan_replay(sequence.stamps, rate=args.rate, start=args.start, duration=args.duration)
+    if not 0 <= options.jpeg_quality <= 100:
+        raise ConfigError(f'--jpeg-quality must be in 0-100, got {options.jpeg_quality}')
+    sequence = open_source(options)  # before rclpy: a bad source fails fast, with one line
+    plan = plan_replay(
+        sequence.stamps, rate=options.rate, start=options.start, duration=options.duration
+    )
 
     import rclpy
     from geometry_msgs.msg import PoseStamped
@@ -125,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
 
     from initsel_ros.ros import conversions as conv
 
-    info_template = conv.intrinsics_to_camera_info(sequence.intrinsics, frame_id=args.frame_id)
+    info_template = conv.intrinsics_to_camera_info(sequence.intrinsics, frame_id=options.frame_id)
     qos = QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=5,
@@ -134,38 +185,42 @@ def run(args: argparse.Namespace) -> int:
     )
     shm = OversizeMonitor()  # warns once when frames exceed the Fast DDS SHM segment
     # cv2.imencode takes BGR: compressed colour frames are 'bgr8; jpeg compressed bgr8'
-    layout = 'bgr8' if args.compressed and args.encoding == 'rgb8' else args.encoding
+    layout = 'bgr8' if options.compressed and options.encoding == 'rgb8' else options.encoding
 
     rclpy.init(args=[])
-    node = rclpy.create_node(args.node_name)
+    node = rclpy.create_node(options.node_name)
     published = passes = 0
     started = time.monotonic()
     try:
-        if args.compressed:
-            image_topic = f'{args.image_topic.rstrip("/")}/compressed'
+        if options.compressed:
+            image_topic = f'{options.image_topic.rstrip("/")}/compressed'
             image_pub = node.create_publisher(CompressedImage, image_topic, qos)
         else:
-            image_pub = node.create_publisher(Image, args.image_topic, qos)
-        info_pub = node.create_publisher(CameraInfo, args.camera_info_topic, qos)
+            image_pub = node.create_publisher(Image, options.image_topic, qos)
+        info_pub = node.create_publisher(CameraInfo, options.camera_info_topic, qos)
         gt_pub = (
-            node.create_publisher(PoseStamped, args.groundtruth_topic, qos)
-            if args.publish_groundtruth
+            node.create_publisher(PoseStamped, options.groundtruth_topic, qos)
+            if options.publish_groundtruth
             else None
         )
-        if args.wait_for_subscriber > 0 and not _wait_for_subscriber(
-            node, image_pub, args.wait_for_subscriber
+        if options.wait_for_subscriber > 0 and not _wait_for_subscriber(
+            node, image_pub, options.wait_for_subscriber
         ):
             log.warning(
                 'no subscriber on %s after %.1f s; publishing anyway',
                 image_pub.topic_name,
-                args.wait_for_subscriber,
+                options.wait_for_subscriber,
             )
-        kind = f'{args.compressed_format} CompressedImage' if args.compressed else args.encoding
+        kind = (
+            f'{options.compressed_format} CompressedImage'
+            if options.compressed
+            else options.encoding
+        )
         log.info(
             'replaying %s: %d frames at rate %g on %s (%s) and %s',
             sequence.name,
             plan.indices.size,
-            args.rate,
+            options.rate,
             image_pub.topic_name,
             kind,
             info_pub.topic_name,
@@ -177,21 +232,21 @@ def run(args: argparse.Namespace) -> int:
                 if not _sleep_until(pass_start + offset):
                     break
                 frame = sequence.frames[int(index)]
-                if args.restamp:
+                if options.restamp:
                     stamp = node.get_clock().now().to_msg()
                 else:
                     stamp = conv.ns_to_stamp(frame.stamp_ns)
                 pixels, encoding = frame_pixels(sequence, int(index), layout)
-                if args.compressed:
+                if options.compressed:
                     message = CompressedImage()
-                    message.header = Header(stamp=stamp, frame_id=args.frame_id)
-                    message.format = compressed_format(pixels, args.compressed_format)
+                    message.header = Header(stamp=stamp, frame_id=options.frame_id)
+                    message.format = compressed_format(pixels, options.compressed_format)
                     message.data = encode_image(
-                        pixels, args.compressed_format, args.jpeg_quality
+                        pixels, options.compressed_format, options.jpeg_quality
                     ).tobytes()
                 else:
                     message = conv.numpy_to_image(
-                        pixels, encoding, stamp=stamp, frame_id=args.frame_id
+                        pixels, encoding, stamp=stamp, frame_id=options.frame_id
                     )
                 shm.check(len(message.data), image_pub.topic_name)
                 info_template.header.stamp = stamp
@@ -200,13 +255,13 @@ def run(args: argparse.Namespace) -> int:
                 if gt_pub is not None and frame.pose is not None:
                     gt_pub.publish(
                         _pose_message(
-                            frame.pose, Header(stamp=stamp, frame_id=args.world_frame_id)
+                            frame.pose, Header(stamp=stamp, frame_id=options.world_frame_id)
                         )
                     )
                 published += 1
             else:
                 passes += 1
-                if args.loop:
+                if options.loop:
                     continue
             break
         if rclpy.ok():
@@ -266,6 +321,7 @@ def _pose_message(T_w_c: np.ndarray, header: object) -> object:
 
 
 __all__ = [
+    'ReplayOptions',
     'ReplayPlan',
     'frame_pixels',
     'open_source',
