@@ -35,7 +35,7 @@ setup(
     ],
     extras_require={
         'ros': ros_wheels,
-        'test': ['pytest>=7', 'hypothesis>=6', 'ruff>=0.5'],
+        'test': ['pytest>=7', 'hypothesis>=6', 'ruff>=0.5', 'pycolmap==4.2.1'],
         'plot': ['matplotlib>=3.7'],
         'cluster': ['dask[distributed]>=2024.1'],
     },

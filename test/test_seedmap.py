@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 from initsel_ros.learn.seedmap import (
+    ORB2_RULE,
+    RULE_SYSTEMS,
     BatchOutcome,
     evaluate_sequences,
     summarize,
@@ -18,7 +20,7 @@ def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence):
         [wall_arc_sequence, near_sequence], default_model_path(), length=60, step=60, jobs=1
     )
     systems = {o.system for o in outcomes}
-    assert systems == {'initsel', 'ORB-SLAM2', 'ORB-SLAM3', 'VINS-Mono', 'Butt 2020'}
+    assert systems == {'initsel', *RULE_SYSTEMS}
     ours = [o for o in outcomes if o.system == 'initsel']
     assert len(ours) == 2 and all(o.initialized for o in ours)
     wall = next(o for o in ours if o.planar)
@@ -30,15 +32,31 @@ def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence):
     rows = summarize(outcomes)
     assert {r.group for r in rows} == {'planar', 'non-planar'}
     text = summary_markdown(rows)
-    assert '| planar | initsel | 1 | 1 |' in text
+    assert '| planar | initsel | 1 | 1 | 0 |' in text
+    assert all(o.group == ('planar' if o.planar else 'non-planar') for o in outcomes)
 
 
 def test_summary_counts_failures_and_skips_empty_groups():
     outcomes = [
         BatchOutcome('rotation_test', False, 'initsel', 0, False),
-        BatchOutcome('rotation_test', False, 'ORB-SLAM2', 0, True, 'F', 3, 3, 0.0, 1.2, 0.5),
+        BatchOutcome('rotation_test', False, ORB2_RULE, 0, True, 'F', 3, 3, 0.0, 1.2, 0.5),
     ]
     rows = summarize(outcomes)
     assert [r.group for r in rows] == ['rotation/static', 'rotation/static']
     assert rows[0].initialized == 0 and rows[1].initialized == 1
     assert math.isnan(rows[0].median_e_t)
+
+
+def test_seedmap_command_refuses_bad_baselines_groups_and_a_missing_orbslam3(
+    near_sequence, tmp_path, capsys
+):
+    from initsel_ros.cli import main
+
+    seq = str(near_sequence)
+    assert main(['seedmap', seq, '--baselines', 'rules,orbslam2']) == 2
+    assert 'unknown baselines' in capsys.readouterr().err
+    assert main(['seedmap', seq, '--group', f'{near_sequence.name}=wall']) == 2
+    assert 'planar, non-planar, rotation/static' in capsys.readouterr().err
+    nowhere = str(tmp_path / 'no-venv')
+    assert main(['seedmap', seq, '--baselines', 'orbslam3', '--orbslam3-venv', nowhere]) == 2
+    assert 'scripts/setup_orbslam3.sh' in capsys.readouterr().err

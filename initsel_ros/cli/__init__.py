@@ -27,6 +27,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         'initsel_ros.cli.seedmap',
         'accuracy of the published seed map against the baselines',
     ),
+    'orbvocab': (
+        'initsel_ros.cli.orbvocab',
+        'train the substitute ORB vocabulary the real ORB-SLAM3 baseline loads',
+    ),
     'replay': ('initsel_ros.cli.replay', 'publish a TUM, EuRoC, KITTI folder or bag as a camera'),
     'bench': ('initsel_ros.cli.bench', 'measure decision, per-frame and baseline costs'),
     'demo': ('initsel_ros.cli.demo', 'render a sequence and initialize on it, end to end'),

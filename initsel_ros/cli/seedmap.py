@@ -16,8 +16,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs='+',
         type=Path,
         metavar='SEQUENCE',
-        help='sequences with ground truth and depth (TUM folders, bags); a '
-        "name containing 'wall', 'floor' or 'planar' counts as planar",
+        help='sequences with ground truth and depth (TUM folders, bags); grouped by --group, '
+        "else by name: 'rotation' or 'static' -> rotation/static, 'wall', 'floor' or "
+        "'planar' -> planar, anything else non-planar",
+    )
+    parser.add_argument(
+        '--group',
+        action='append',
+        default=[],
+        metavar='SEQUENCE=GROUP',
+        help='put a sequence (its path as given, or its folder name) in a table group: '
+        'planar, non-planar or rotation/static (repeatable; overrides the name rule)',
     )
     add_models_option(parser)
     parser.add_argument(
@@ -44,6 +53,49 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument('--no-baselines', action='store_true', help='the selector only')
     parser.add_argument(
+        '--baselines',
+        default='rules',
+        metavar='LIST',
+        help='comma-separated baselines beside initsel: rules (ORB-SLAM2/3, VINS-Mono, Butt '
+        '2020 rules, re-implemented), colmap (pycolmap two-view geometry on the same tracks), '
+        'orbslam3 (the real ORB-SLAM3, from scripts/setup_orbslam3.sh) (default rules)',
+    )
+    parser.add_argument(
+        '--orbslam3-venv',
+        type=Path,
+        default=None,
+        help='the ORB-SLAM3 venv (default $INITSEL_ORBSLAM3_VENV or ./.venv-orbslam3)',
+    )
+    parser.add_argument(
+        '--orbslam3-vocab',
+        type=Path,
+        default=None,
+        help='DBoW2 text vocabulary (default VENV/initsel_orbvoc.txt; see initsel orbvocab)',
+    )
+    parser.add_argument(
+        '--orbslam3-timeout',
+        type=float,
+        default=300.0,
+        metavar='S',
+        help='seconds per batch before ORB-SLAM3 counts as failed (default 300)',
+    )
+    parser.add_argument(
+        '--sensor-noise',
+        type=float,
+        default=0.0,
+        metavar='GREY',
+        help='Gaussian noise added to every frame, grey levels (default 0: none)',
+    )
+    parser.add_argument(
+        '--noise-seed',
+        type=int,
+        nargs='+',
+        default=[0],
+        metavar='SEED',
+        help='seeds of the sensor noise; with several, every batch runs once per seed and '
+        'the table pools them (default 0)',
+    )
+    parser.add_argument(
         '--min-rotation-residual',
         type=float,
         default=None,
@@ -63,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
     from dataclasses import replace
 
+    from initsel_ros.errors import ConfigError
     from initsel_ros.learn.seedmap import (
         evaluate_sequences,
         outcomes_csv,
@@ -81,6 +134,12 @@ def run(args: argparse.Namespace) -> int:
         config = replace(config, policy=replace(config.policy, r_veto=frozenset(args.r_veto)))
     if args.verify_frames is not None:
         config = replace(config, verify=replace(config.verify, frames=args.verify_frames))
+    try:
+        options = baseline_options(args)
+        groups = parse_groups(args.group)
+    except (ValueError, ConfigError) as exc:
+        print(f'initsel seedmap: error: {exc}', file=sys.stderr)
+        return 2
 
     def progress(done: int, total: int) -> None:
         print(f'\rbatches {done}/{total}', end='', file=sys.stderr, flush=True)
@@ -92,7 +151,9 @@ def run(args: argparse.Namespace) -> int:
         length=args.length,
         step=args.step,
         jobs=args.jobs,
-        baselines=not args.no_baselines,
+        baselines=options,
+        groups=groups,
+        noise_seeds=args.noise_seed,
         progress=progress,
     )
     print(file=sys.stderr)
@@ -103,3 +164,47 @@ def run(args: argparse.Namespace) -> int:
         (args.out_dir / 'seedmap.md').write_text(table + '\n')
         outcomes_csv(outcomes, args.out_dir / 'seedmap.csv')
     return 0
+
+
+def parse_groups(items: list[str]) -> dict[str, str]:
+    """``SEQUENCE=GROUP`` items -> mapping.
+
+    Raises:
+        ValueError: an item is not ``SEQUENCE=GROUP`` or names an unknown group.
+    """
+    from initsel_ros.learn.seedmap import GROUPS
+
+    groups = {}
+    for item in items:
+        name, sep, group = item.rpartition('=')
+        if not sep or not name:
+            raise ValueError(f'--group {item!r}: expected SEQUENCE=GROUP')
+        if group not in GROUPS:
+            raise ValueError(f'--group {item!r}: the group is one of {", ".join(GROUPS)}')
+        groups[name] = group
+    return groups
+
+
+def baseline_options(args: argparse.Namespace):
+    """The baselines to run, from --no-baselines / --baselines and the ORB-SLAM3 options.
+
+    Raises:
+        ValueError: an unknown baseline or bad noise.
+        ConfigError: ORB-SLAM3 asked for but its venv or vocabulary is missing.
+    """
+    from initsel_ros.errors import ConfigError
+    from initsel_ros.learn.seedmap import BaselineOptions
+
+    names = () if args.no_baselines else tuple(n for n in args.baselines.split(',') if n)
+    setup = None
+    if 'orbslam3' in names:
+        from initsel_ros.learn.real_baselines.orbslam3_runner import find_orbslam3
+
+        setup = find_orbslam3(args.orbslam3_venv, args.orbslam3_vocab, args.orbslam3_timeout)
+    if 'colmap' in names:
+        try:
+            import pycolmap  # noqa: F401
+        except ImportError as exc:
+            msg = f"baseline 'colmap' needs pycolmap ({exc}): pip install -e '.[test]'"
+            raise ConfigError(msg) from exc
+    return BaselineOptions(names, setup, args.sensor_noise, args.noise_seed[0])

@@ -13,22 +13,38 @@ exactly as the node runs it; its published initialization is compared with the g
 - whether the chosen method is the most accurate of F/E/H on that pair, or within
   ``tolerance`` E_t of it (each method estimated and refined as the selector would).
 
-On the same tracks (one KLT tracker per batch, the selector's settings), the baselines run as
-per-frame rules, each initializing at its first accepted frame with its own method:
-ORB-SLAM2 and ORB-SLAM3 (parallel H/F RANSAC scores, H when ``R_H`` > 0.40 / 0.50, then at
-least 50 points with 1 degree of parallax), VINS-Mono (more than 20 correspondences with an
-average parallax above 30 px at focal 460, F-RANSAC + recoverPose with more than 12 inliers)
-and Butt et al. 2020 (H when the mean disparity exceeds 50 px, F when its deviation also
-exceeds 15 px).
+Baselines (``baselines``, any of :data:`BASELINES`), on the same batches and ground truth:
+
+- ``'rules'``: other systems' initialization rules, re-implemented here and run per frame on
+  the same tracks (one KLT tracker per batch, the selector's settings), each initializing at
+  its first accepted frame with its own method: ORB-SLAM2 and ORB-SLAM3 (parallel H/F RANSAC
+  scores, H when ``R_H`` > 0.40 / 0.50, then at least 50 points with 1 degree of parallax),
+  VINS-Mono (more than 20 correspondences with an average parallax above 30 px at focal 460,
+  F-RANSAC + recoverPose with more than 12 inliers) and Butt et al. 2020 (H when the mean
+  disparity exceeds 50 px, F when its deviation also exceeds 15 px). Their rows are named
+  ``... rule (re-implemented)``.
+- ``'colmap'``: COLMAP's own two-view geometry on the same tracks
+  (:mod:`initsel_ros.learn.real_baselines.colmap`), row ``COLMAP (real)``.
+- ``'orbslam3'``: the real ORB-SLAM3 fed the batch's frames
+  (:mod:`initsel_ros.learn.real_baselines.orbslam3_runner`), row ``ORB-SLAM3 (real)``; a crash or a
+  time-out is counted as ``failed``.
+
+Sequences are grouped as planar, non-planar or rotation/static by an explicit mapping
+(``groups``); a sequence it does not name is grouped by :func:`default_group`, a rule on its
+folder name. ``sensor_noise`` adds Gaussian noise (grey levels, seeded by ``noise_seed``, the
+batch and the sequence) to every frame before any system sees it: the real ORB-SLAM3 fixes its
+RANSAC seed, so spread over runs comes from noise seeds.
 """
 
 from __future__ import annotations
 
 import math
+import zlib
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -56,12 +72,63 @@ from initsel_ros.names import POSE_METHODS
 from initsel_ros.selector import Selector, SelectorConfig
 from initsel_ros.tracking import KltTracker
 
+if TYPE_CHECKING:
+    from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
+
+#: The re-implemented rules' rows.
+ORB2_RULE = 'ORB-SLAM2 rule (re-implemented)'
+ORB3_RULE = 'ORB-SLAM3 rule (re-implemented)'
+VINS_RULE = 'VINS-Mono rule (re-implemented)'
+BUTT_RULE = 'Butt 2020 rule (re-implemented)'
+RULE_SYSTEMS = (ORB2_RULE, ORB3_RULE, VINS_RULE, BUTT_RULE)
+#: The real systems' rows.
+ORBSLAM3_REAL = 'ORB-SLAM3 (real)'
+COLMAP_REAL = 'COLMAP (real)'
 #: Names of the systems compared, in table order.
-SYSTEMS = ('initsel', 'ORB-SLAM2', 'ORB-SLAM3', 'VINS-Mono', 'Butt 2020')
-#: Substrings of a sequence name that mark it planar (every visible point on one plane).
+SYSTEMS = ('initsel', ORBSLAM3_REAL, COLMAP_REAL, *RULE_SYSTEMS)
+#: Baseline families ``evaluate_sequences`` can run.
+BASELINES = ('rules', 'orbslam3', 'colmap')
+#: Table groups, in table order.
+GROUPS = ('planar', 'non-planar', 'rotation/static')
+#: The default grouping rule: substrings of a sequence's folder name that mark it planar
+#: (every visible point on one plane) ...
 PLANAR_MARKERS = ('wall', 'floor', 'planar')
-#: Substrings that mark a sequence without a usable baseline (no initialization expected).
+#: ... or without a usable baseline (no initialization expected). Anything else: non-planar.
 NO_BASELINE_MARKERS = ('rotation', 'static')
+
+
+def default_group(name: str) -> str:
+    """The default group of a sequence from its folder name (used unless told otherwise)."""
+    low = name.lower()
+    if any(m in low for m in NO_BASELINE_MARKERS):
+        return 'rotation/static'
+    return 'planar' if any(m in low for m in PLANAR_MARKERS) else 'non-planar'
+
+
+@dataclass(frozen=True)
+class BaselineOptions:
+    """Which baselines run, and how (picklable: it goes to the worker processes).
+
+    Attributes:
+        baselines: any of :data:`BASELINES`.
+        orbslam3: the real ORB-SLAM3's setup (needed for 'orbslam3').
+        sensor_noise: Gaussian noise added to every frame, grey levels (0 = none).
+        noise_seed: seed of that noise (mixed with the batch start and the sequence name).
+    """
+
+    baselines: tuple[str, ...] = ('rules',)
+    orbslam3: Orbslam3Setup | None = None
+    sensor_noise: float = 0.0
+    noise_seed: int = 0
+
+    def __post_init__(self) -> None:
+        unknown = set(self.baselines) - set(BASELINES)
+        if unknown:
+            raise ValueError(f'unknown baselines {sorted(unknown)}: choose from {BASELINES}')
+        if 'orbslam3' in self.baselines and self.orbslam3 is None:
+            raise ValueError("baseline 'orbslam3' needs its setup (find_orbslam3)")
+        if not (self.sensor_noise >= 0 and math.isfinite(self.sensor_noise)):
+            raise ValueError(f'sensor noise must be >= 0 grey levels, got {self.sensor_noise}')
 
 
 @dataclass(frozen=True)
@@ -70,7 +137,7 @@ class BatchOutcome:
 
     Attributes:
         sequence: sequence name.
-        planar: the sequence is planar.
+        planar: the sequence is in the planar group.
         system: one of :data:`SYSTEMS`.
         start: batch start, frame index.
         initialized: the system initialized within the batch.
@@ -85,6 +152,11 @@ class BatchOutcome:
         best_method: the most accurate of F/E/H on that pair (selector only).
         chosen_ok: the chosen method is the best or within the tolerance (selector only).
         e_t_f: F's E_t on that pair, refined (selector only); likewise e_t_e and e_t_h.
+        group: the table group (one of :data:`GROUPS`; '' = :func:`default_group`).
+        reference_offset: reference frame - batch start (a system may re-reference).
+        failed: the system crashed or timed out on this batch (ORB-SLAM3 (real) only).
+        detail: why it failed.
+        noise_seed: the sensor noise's seed (-1 without added noise).
     """
 
     sequence: str
@@ -105,6 +177,16 @@ class BatchOutcome:
     e_t_f: float = math.nan
     e_t_e: float = math.nan
     e_t_h: float = math.nan
+    group: str = ''
+    reference_offset: float = math.nan
+    failed: bool = False
+    detail: str = ''
+    noise_seed: int = -1
+
+    @property
+    def table_group(self) -> str:
+        """The group the table counts this batch in."""
+        return self.group or default_group(self.sequence)
 
 
 def _pose_errors(
@@ -135,16 +217,41 @@ def _estimate(method: str, p0: np.ndarray, p1: np.ndarray, K: np.ndarray):
 class _Batch:
     """The frames of one batch, decoded once, and its ground truth."""
 
-    def __init__(self, sequence, start: int, length: int) -> None:
+    def __init__(
+        self,
+        sequence,
+        start: int,
+        length: int,
+        group: str = '',
+        noise: float = 0.0,
+        noise_seed: int = 0,
+        images: list[np.ndarray] | None = None,
+    ) -> None:
         self.sequence = sequence
         self.name = sequence.name
         self.start = start
         self.stop = min(start + length, len(sequence))
-        self.images = [sequence.image(i) for i in range(start, self.stop)]
+        if images is None:
+            images = [sequence.image(i) for i in range(start, self.stop)]
+            if noise > 0:
+                images = add_sensor_noise(images, noise, (noise_seed, start, self.name))
+        self.images = images
         self.poses = sequence.poses()
         self.stamps_ns = sequence.stamps_ns
         self.intrinsics: Intrinsics = sequence.intrinsics
-        self.planar = any(m in self.name.lower() for m in PLANAR_MARKERS)
+        self.group = group or default_group(self.name)
+        self.planar = self.group == 'planar'
+
+    def sub(self, start: int, stop: int) -> _Batch:
+        """The frames ``start..stop - 1`` (sequence indices) of this batch, as a batch."""
+        k0, k1 = start - self.start, stop - self.start
+        return _Batch(self.sequence, start, stop - start, self.group, images=self.images[k0:k1])
+
+    def missed(self, system: str, **fields) -> BatchOutcome:
+        """The outcome of a system that did not initialize in this batch."""
+        return BatchOutcome(
+            self.name, self.planar, system, self.start, False, group=self.group, **fields
+        )
 
     def gray(self, k: int) -> np.ndarray:
         return to_gray(self.images[k])
@@ -179,7 +286,31 @@ class _Batch:
             rot,
             depth_error(points, pixels_ref, self.sequence.depth(ref)),
             len(points),
+            group=self.group,
+            reference_offset=0.0,
         )
+
+
+def add_sensor_noise(
+    images: Sequence[np.ndarray], sigma: float, seed: tuple[int, int, str]
+) -> list[np.ndarray]:
+    """Frames plus Gaussian noise of ``sigma`` grey levels (8-bit, rounded and clipped).
+
+    Args:
+        seed: (noise seed, batch start, sequence name): the same triple, the same noise.
+
+    Raises:
+        ValueError: a frame is not 8-bit.
+    """
+    noise_seed, start, name = seed
+    rng = np.random.default_rng([noise_seed, start, zlib.crc32(name.encode())])
+    out = []
+    for image in images:
+        if image.dtype != np.uint8:
+            raise ValueError(f'sensor noise needs 8-bit frames, got {image.dtype}')
+        noisy = image.astype(np.float32) + rng.normal(0.0, sigma, image.shape).astype(np.float32)
+        out.append(np.clip(np.rint(noisy), 0, 255).astype(np.uint8))
+    return out
 
 
 def _run_selector(
@@ -194,10 +325,8 @@ def _run_selector(
             continue
         ref = int(np.searchsorted(batch.stamps_ns, init.reference_stamp_ns))
         cur = int(np.searchsorted(batch.stamps_ns, init.stamp_ns))
-        if ref != batch.start:  # the selector re-referenced inside the batch: judge its pair
-            batch_for_pair = _Batch(batch.sequence, ref, cur - ref + 1)
-        else:
-            batch_for_pair = batch
+        # the selector may re-reference inside the batch: judge its pair
+        batch_for_pair = batch.sub(ref, cur + 1) if ref != batch.start else batch
         out = batch_for_pair.outcome(
             'initsel',
             cur,
@@ -213,9 +342,10 @@ def _run_selector(
             start=batch.start,
             frames_to_init=float(cur - batch.start),
             frames_to_publish=float(i - batch.start),
+            reference_offset=float(ref - batch.start),
         )
         return _compare_methods(batch_for_pair, ref, cur, out, config, tolerance)
-    return BatchOutcome(batch.name, batch.planar, 'initsel', batch.start, False)
+    return batch.missed('initsel')
 
 
 def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
@@ -287,13 +417,26 @@ def _butt_attempt(p0, p1, K):
     return method, est.R, est.t, est.points, p0[est.indices]
 
 
-def _run_baselines(batch: _Batch, config: SelectorConfig) -> list[BatchOutcome]:
-    attempts: dict[str, Callable] = {
-        'ORB-SLAM2': lambda a, b, K: _orb_attempt(a, b, K, OrbSlamVersion.ORB2),
-        'ORB-SLAM3': lambda a, b, K: _orb_attempt(a, b, K, OrbSlamVersion.ORB3),
-        'VINS-Mono': _vins_attempt,
-        'Butt 2020': _butt_attempt,
-    }
+def _colmap_attempt(intrinsics: Intrinsics) -> Callable:
+    from initsel_ros.learn.real_baselines.colmap import colmap_attempt
+
+    return lambda a, b, K: colmap_attempt(a, b, intrinsics)
+
+
+def _run_track_baselines(
+    batch: _Batch, config: SelectorConfig, baselines: Sequence[str]
+) -> list[BatchOutcome]:
+    """The baselines that run on the batch's KLT tracks: the rules and COLMAP."""
+    attempts: dict[str, Callable] = {}
+    if 'colmap' in baselines:
+        attempts[COLMAP_REAL] = _colmap_attempt(batch.intrinsics)
+    if 'rules' in baselines:
+        attempts[ORB2_RULE] = lambda a, b, K: _orb_attempt(a, b, K, OrbSlamVersion.ORB2)
+        attempts[ORB3_RULE] = lambda a, b, K: _orb_attempt(a, b, K, OrbSlamVersion.ORB3)
+        attempts[VINS_RULE] = _vins_attempt
+        attempts[BUTT_RULE] = _butt_attempt
+    if not attempts:
+        return []
     found: dict[str, BatchOutcome] = {}
     tracker = KltTracker(config.tracker)
     tracker.reset(batch.gray(0))
@@ -312,10 +455,34 @@ def _run_baselines(batch: _Batch, config: SelectorConfig) -> list[BatchOutcome]:
                 found[name] = batch.outcome(name, batch.start + k, method, R, t, points, pixels)
         if len(found) == len(attempts):
             break
-    return [
-        found.get(name, BatchOutcome(batch.name, batch.planar, name, batch.start, False))
-        for name in attempts
-    ]
+    return [found.get(name, batch.missed(name)) for name in attempts]
+
+
+def _run_orbslam3(batch: _Batch, setup) -> BatchOutcome:
+    """The real ORB-SLAM3 on the batch's frames, judged at its first initialization."""
+    from initsel_ros.learn.real_baselines.orbslam3_runner import run_orbslam3
+
+    gray = [batch.gray(k) for k in range(len(batch.images))]
+    init = run_orbslam3(gray, batch.stamps_ns[batch.start : batch.stop], batch.intrinsics, setup)
+    if init.status == 'failed':
+        return batch.missed(ORBSLAM3_REAL, failed=True, detail=init.detail)
+    if init.status != 'initialized':
+        return batch.missed(ORBSLAM3_REAL)
+    ref, cur = batch.start + init.reference, batch.start + init.current
+    R, t = init.pose
+    K = batch.intrinsics.K
+    points = init.points
+    in_front = points[:, 2] > 0
+    pixels = (points[in_front] @ K.T)[:, :2] / points[in_front, 2:3]
+    judged = batch.sub(ref, cur + 1) if ref != batch.start else batch
+    out = judged.outcome(ORBSLAM3_REAL, cur, '', R, t, points[in_front], pixels)
+    return replace(
+        out,
+        start=batch.start,
+        frames_to_init=float(cur - batch.start),
+        frames_to_publish=float(cur - batch.start),
+        reference_offset=float(ref - batch.start),
+    )
 
 
 def evaluate_batch(
@@ -325,19 +492,32 @@ def evaluate_batch(
     model_path: str,
     config: SelectorConfig,
     tolerance: float = 0.05,
-    baselines: bool = True,
+    baselines: bool | BaselineOptions = True,
+    group: str = '',
 ) -> list[BatchOutcome]:
-    """Every system's outcome on one batch (a process-pool task: arguments are picklable)."""
+    """Every system's outcome on one batch (a process-pool task: arguments are picklable).
+
+    ``baselines``: True = the rules, False = the selector only, or a :class:`BaselineOptions`.
+    """
     from initsel_ros.datasets import open_sequence
 
+    options = _options(baselines)
     cv2.setNumThreads(1)
     sequence = open_sequence(path)
-    batch = _Batch(sequence, start, length)
+    batch = _Batch(sequence, start, length, group, options.sensor_noise, options.noise_seed)
     models = ModelSet.load(model_path)
     outcomes = [_run_selector(batch, models, config, tolerance)]
-    if baselines:
-        outcomes += _run_baselines(batch, config)
-    return outcomes
+    if 'orbslam3' in options.baselines:
+        outcomes.append(_run_orbslam3(batch, options.orbslam3))
+    outcomes += _run_track_baselines(batch, config, options.baselines)
+    seed = options.noise_seed if options.sensor_noise > 0 else -1
+    return [replace(o, noise_seed=seed) for o in outcomes]
+
+
+def _options(baselines: bool | BaselineOptions) -> BaselineOptions:
+    if isinstance(baselines, BaselineOptions):
+        return baselines
+    return BaselineOptions(('rules',) if baselines else ())
 
 
 def evaluate_sequences(
@@ -349,19 +529,42 @@ def evaluate_sequences(
     step: int = 30,
     jobs: int = 2,
     tolerance: float = 0.05,
-    baselines: bool = True,
+    baselines: bool | BaselineOptions = True,
+    groups: dict[str, str] | None = None,
+    noise_seeds: Sequence[int] | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[BatchOutcome]:
-    """Run :func:`evaluate_batch` over every batch of every sequence (in a process pool)."""
+    """Run :func:`evaluate_batch` over every batch of every sequence (in a process pool).
+
+    Args:
+        groups: sequence path (as given) or folder name -> group (one of :data:`GROUPS`);
+            sequences it does not name get :func:`default_group`.
+        noise_seeds: with sensor noise, run every batch once per seed (pooled in the table;
+            default: the options' one seed).
+
+    Raises:
+        ValueError: a group is not one of :data:`GROUPS`.
+    """
     from initsel_ros.datasets import open_sequence
 
     config = config or SelectorConfig()
+    options = _options(baselines)
+    groups = groups or {}
+    bad = {g for g in groups.values() if g not in GROUPS}
+    if bad:
+        raise ValueError(f'unknown groups {sorted(bad)}: choose from {GROUPS}')
     tasks = []
     for path in paths:
         n = len(open_sequence(path))
-        tasks += [(str(path), s, length) for s in range(0, max(n - length // 2, 1), step)]
+        group = groups.get(str(path), groups.get(Path(path).name, ''))
+        tasks += [(str(path), s, length, group) for s in range(0, max(n - length // 2, 1), step)]
     outcomes: list[BatchOutcome] = []
-    args = [(p, s, n, str(model_path), config, tolerance, baselines) for p, s, n in tasks]
+    seeds = list(noise_seeds or [options.noise_seed]) if options.sensor_noise > 0 else [-1]
+    args = [
+        (p, s, n, str(model_path), config, tolerance, replace(options, noise_seed=seed), g)
+        for seed in seeds
+        for p, s, n, g in tasks
+    ]
     if jobs <= 1:
         results: Iterable = (evaluate_batch(*a) for a in args)
         for k, res in enumerate(results):
@@ -392,6 +595,7 @@ class SystemSummary:
     system: str
     batches: int
     initialized: int
+    failed: int
     median_e_t: float
     median_rotation_deg: float
     median_depth_error: float
@@ -403,29 +607,25 @@ class SystemSummary:
 
 
 def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
-    """Per group (planar, non-planar, no baseline) and system, the table's figures."""
-
-    def group_of(o: BatchOutcome) -> str:
-        if any(m in o.sequence.lower() for m in NO_BASELINE_MARKERS):
-            return 'rotation/static'
-        return 'planar' if o.planar else 'non-planar'
-
+    """Per group (planar, non-planar, rotation/static) and system, the table's figures."""
     rows = []
-    for group in ('planar', 'non-planar', 'rotation/static'):
+    for group in GROUPS:
         for system in SYSTEMS:
-            sel = [o for o in outcomes if o.system == system and group_of(o) == group]
+            sel = [o for o in outcomes if o.system == system and o.table_group == group]
             if not sel:
                 continue
             done = [o for o in sel if o.initialized]
             counts: dict[str, int] = {}
             for o in done:
-                counts[o.method] = counts.get(o.method, 0) + 1
+                if o.method:
+                    counts[o.method] = counts.get(o.method, 0) + 1
             rows.append(
                 SystemSummary(
                     group,
                     system,
                     len(sel),
                     len(done),
+                    sum(o.failed for o in sel),
                     _median([o.e_t for o in done]),
                     _median([o.rotation_deg for o in done]),
                     _median([o.depth_error for o in done]),
@@ -448,14 +648,15 @@ def _f(value: float, digits: int = 3) -> str:
 def summary_markdown(rows: Sequence[SystemSummary]) -> str:
     """The seed-map table as Markdown."""
     lines = [
-        '| sequences | system | batches | initialized | median E_t | median rotation error, '
-        'deg | median depth error | E_t < 0.1 | chosen method best (+-0.05 E_t) | '
+        '| sequences | system | batches | initialized | failed | median E_t | median rotation '
+        'error, deg | median depth error | E_t < 0.1 | chosen method best (+-0.05 E_t) | '
         'median frames to init | median frames to publish | methods |',
-        '|---|---|---|---|---|---|---|---|---|---|---|---|',
+        '|---|---|---|---|---|---|---|---|---|---|---|---|---|',
     ]
     for r in rows:
         lines.append(
-            f'| {r.group} | {r.system} | {r.batches} | {r.initialized} | {_f(r.median_e_t)} | '
+            f'| {r.group} | {r.system} | {r.batches} | {r.initialized} | {r.failed} | '
+            f'{_f(r.median_e_t)} | '
             f'{_f(r.median_rotation_deg, 2)} | {_f(r.median_depth_error)} | '
             f'{_f(r.share_e_t_below_0_1, 2)} | {_f(r.chosen_ok_share, 2)} | '
             f'{_f(r.median_frames_to_init, 1)} | {_f(r.median_frames_to_publish, 1)} | '
@@ -479,9 +680,17 @@ def outcomes_csv(outcomes: Sequence[BatchOutcome], path: Path) -> None:
 
 
 __all__ = [
+    'BASELINES',
+    'COLMAP_REAL',
+    'GROUPS',
+    'ORBSLAM3_REAL',
+    'RULE_SYSTEMS',
     'SYSTEMS',
+    'BaselineOptions',
     'BatchOutcome',
     'SystemSummary',
+    'add_sensor_noise',
+    'default_group',
     'depth_error',
     'evaluate_batch',
     'evaluate_sequences',
