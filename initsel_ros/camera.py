@@ -44,6 +44,12 @@ class Intrinsics:
         if self.width <= 0 or self.height <= 0:
             raise ConfigError(f'image size must be positive, got {self.width}x{self.height}')
         check_distortion(self.distortion)
+        for name, c, size in (('cx', self.cx, self.width), ('cy', self.cy, self.height)):
+            if not 0 <= c <= size:
+                raise ConfigError(
+                    f'principal point {name}={c:g} px is outside the {self.width}x{self.height} '
+                    f'image (expected 0 <= {name} <= {size})'
+                )
         diagonal = math.hypot(self.width, self.height)
         for name, f in (('fx', self.fx), ('fy', self.fy)):
             if not MIN_FOCAL_PER_DIAGONAL * diagonal <= f <= MAX_FOCAL_PER_DIAGONAL * diagonal:

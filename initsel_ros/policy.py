@@ -30,6 +30,7 @@ class Reason(str, Enum):
     DONE = 'already initialized'  # mode 'once', until reset
     # Frames that never got a decision (set by the node, not the selector):
     SKIPPED_IMAGE = 'image skipped'  # the image could not be converted or used
+    OUT_OF_ORDER = 'out of order'  # a little older than the latest frame (jitter): skipped
     INTERNAL_ERROR = 'internal error'  # the selector or the publishing failed unexpectedly
 
 

@@ -246,6 +246,16 @@ class Selector:
         self._reference_stamp_ns = None
         self._candidate = None
 
+    def restart(self) -> None:
+        """The stream started over (time jumped back): the next frame becomes the reference.
+
+        Unlike :meth:`reset`, an initialization in mode ONCE is kept (frames stay
+        ``already initialized`` until :meth:`reset`), and so is the bit depth.
+        """
+        self.tracker.clear()
+        self._reference_stamp_ns = None
+        self._candidate = None
+
     def _new_reference(
         self,
         gray: np.ndarray,

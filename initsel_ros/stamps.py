@@ -1,8 +1,11 @@
 """Checks on a stream's image stamps (integer nanoseconds): negative, zero, repeated, backwards.
 
-None of them stops a frame: the selector carries any stamp through unchanged. The node logs
-each kind the first time it appears, counts them in ``~/status`` and, when time goes
-backwards (a bag replayed from the start, a clock reset), takes a new reference.
+Time going back by at most a tolerance (:data:`DEFAULT_RESTART_TOLERANCE_NS`, the node's
+``restart_tolerance_s``) is jitter: the frame is *out of order* and skipped, and the stream's
+latest stamp stays what it was. A jump back by more is a *restart* (a bag replayed from the
+start, a clock reset). Negative, zero and repeated stamps never stop a frame: the selector
+carries any stamp through unchanged. The node logs each kind the first time it appears and
+counts them in ``~/status``.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ class StampIssue(str, Enum):
     NEGATIVE = 'negative'  # before 1970 (sec < 0): allowed by builtin_interfaces/Time
     ZERO = 'zero'  # sec = nanosec = 0: the publisher does not stamp its images
     DUPLICATE = 'duplicate'  # the same stamp as the previous frame
-    BACKWARDS = 'backwards'  # earlier than the previous frame
+    OUT_OF_ORDER = 'out_of_order'  # earlier than the latest frame, within the tolerance
+    RESTART = 'restart'  # earlier than the latest frame by more than the tolerance
 
 
 #: What each issue means for the selector, for the log line.
@@ -25,8 +29,15 @@ CONSEQUENCES: dict[StampIssue, str] = {
     StampIssue.NEGATIVE: 'processed as usual; init/* carry the same negative stamps',
     StampIssue.ZERO: 'processed as usual, but init/* cannot tell frames apart by stamp',
     StampIssue.DUPLICATE: 'processed as usual, but init/* cannot tell these frames apart',
-    StampIssue.BACKWARDS: 'a replay restart or clock reset: a new reference is taken',
+    StampIssue.OUT_OF_ORDER: 'jitter (within restart_tolerance_s): the frame is skipped',
+    StampIssue.RESTART: (
+        'a replay restart or clock reset (further back than restart_tolerance_s): a new '
+        'reference is taken, but in mode once an initialization is kept until ~/reset'
+    ),
 }
+
+#: Default largest jump back in time that is still jitter, nanoseconds (1 s).
+DEFAULT_RESTART_TOLERANCE_NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -36,23 +47,38 @@ class StampCheck:
     Attributes:
         issues: every issue of this stamp.
         new: those seen for the first time on this stream (to be logged).
-        back_ns: how far time went back, nanoseconds (0 unless BACKWARDS).
+        back_ns: how far time went back, nanoseconds (0 unless OUT_OF_ORDER or RESTART).
     """
 
     issues: tuple[StampIssue, ...] = ()
     new: tuple[StampIssue, ...] = ()
     back_ns: int = 0
 
+    @property
+    def out_of_order(self) -> bool:
+        """The frame is a little older than the latest one: skip it."""
+        return StampIssue.OUT_OF_ORDER in self.issues
+
+    @property
+    def restart(self) -> bool:
+        """Time jumped back further than the tolerance: the stream started over."""
+        return StampIssue.RESTART in self.issues
+
 
 class StampMonitor:
-    """Classifies each frame's stamp against the previous frame's and counts the issues."""
+    """Classifies each frame's stamp against the latest frame's and counts the issues.
 
-    def __init__(self) -> None:
+    Args:
+        restart_tolerance_ns: largest jump back that is jitter (out of order), nanoseconds.
+    """
+
+    def __init__(self, restart_tolerance_ns: int = DEFAULT_RESTART_TOLERANCE_NS) -> None:
         self.counts: dict[str, int] = {issue.value: 0 for issue in StampIssue}
+        self.restart_tolerance_ns = int(restart_tolerance_ns)
         self._last_ns: int | None = None
 
     def check(self, stamp_ns: int) -> StampCheck:
-        """Classify ``stamp_ns`` (the next frame's stamp) and remember it."""
+        """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order)."""
         issues = []
         if stamp_ns < 0:
             issues.append(StampIssue.NEGATIVE)
@@ -63,9 +89,11 @@ class StampMonitor:
             if stamp_ns == self._last_ns and stamp_ns != 0:
                 issues.append(StampIssue.DUPLICATE)
             elif stamp_ns < self._last_ns:
-                issues.append(StampIssue.BACKWARDS)
                 back_ns = self._last_ns - stamp_ns
-        self._last_ns = stamp_ns
+                late = back_ns <= self.restart_tolerance_ns
+                issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
+        if StampIssue.OUT_OF_ORDER not in issues:
+            self._last_ns = stamp_ns
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
         for issue in issues:
             self.counts[issue.value] += 1
@@ -76,4 +104,10 @@ class StampMonitor:
         self._last_ns = None
 
 
-__all__ = ['CONSEQUENCES', 'StampCheck', 'StampIssue', 'StampMonitor']
+__all__ = [
+    'CONSEQUENCES',
+    'DEFAULT_RESTART_TOLERANCE_NS',
+    'StampCheck',
+    'StampIssue',
+    'StampMonitor',
+]

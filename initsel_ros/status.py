@@ -84,21 +84,29 @@ class NodeCounters:
     Attributes:
         initialized: the selector is done (mode once) until a reset.
         initializations: initializations published so far.
-        received_frames: images received.
-        dropped_frames: images overwritten before they were processed.
-        skipped_frames: images that could not be used (conversion errors, internal errors).
+        received_frames: images received; once the node is idle, processed + dropped +
+            skipped.
+        processed_frames: images the selector decided on.
+        dropped_frames: images overwritten before they were processed, or dropped by
+            ``~/reset``.
+        skipped_frames: images that could not be used (conversion errors, out-of-order
+            stamps, internal errors).
         intrinsics_source: 'parameters' (camera.*) or 'camera_info'.
+        intrinsics: the intrinsics in use (fx, fy, cx, cy, width, height), or None.
         intrinsics_warning: why the pose uses guessed intrinsics ('' when it does not).
         bit_depth: significant bits used to scale 16-bit images (None until one arrives).
-        stamp_issues: stamp issue ('negative', 'zero', 'duplicate', 'backwards') -> frames.
+        stamp_issues: stamp issue ('negative', 'zero', 'duplicate', 'out_of_order',
+            'restart') -> frames.
     """
 
     initialized: bool = False
     initializations: int = 0
     received_frames: int = 0
+    processed_frames: int = 0
     dropped_frames: int = 0
     skipped_frames: int = 0
     intrinsics_source: str = 'parameters'
+    intrinsics: Mapping[str, Any] | None = None
     intrinsics_warning: str = ''
     bit_depth: int | None = None
     stamp_issues: Mapping[str, int] = field(default_factory=dict)
@@ -134,9 +142,11 @@ class FrameStatus:
     initialized: bool
     initializations: int
     received_frames: int
+    processed_frames: int
     dropped_frames: int
     skipped_frames: int
     intrinsics_source: str
+    intrinsics: Mapping[str, Any] | None
     intrinsics_guessed: bool
     intrinsics_warning: str
     bit_depth: int | None
@@ -213,9 +223,11 @@ class FrameStatus:
             initialized=bool(counters.initialized),
             initializations=int(counters.initializations),
             received_frames=int(counters.received_frames),
+            processed_frames=int(counters.processed_frames),
             dropped_frames=int(counters.dropped_frames),
             skipped_frames=int(counters.skipped_frames),
             intrinsics_source=counters.intrinsics_source,
+            intrinsics=None if counters.intrinsics is None else dict(counters.intrinsics),
             intrinsics_guessed=bool(counters.intrinsics_warning),
             intrinsics_warning=counters.intrinsics_warning,
             bit_depth=counters.bit_depth,
@@ -271,6 +283,7 @@ class FrameStatus:
         out['probabilities'] = dict(self.probabilities)
         out['fired'], out['vetoed'] = list(self.fired), list(self.vetoed)
         out['stamp_issues'] = dict(self.stamp_issues)
+        out['intrinsics'] = None if self.intrinsics is None else dict(self.intrinsics)
         out['selection'] = None if self.selection is None else dict(self.selection)
         out['verification'] = None if self.verification is None else self.verification.to_dict()
         return out

@@ -54,6 +54,10 @@ def node(harness_factory, tmp_path):
         ('min_parallax_deg', math.nan, r'min_parallax_deg must be a finite number in [0, 90]'),
         ('min_tracks', 400, 'min_tracks (400) > max_features (300)'),
         ('camera.fx', -1.0, 'focal lengths must be positive'),
+        ('camera.cx', -1e6, 'principal point cx=-1e+06 px is outside the 640x480 image'),
+        ('camera.cy', 481.0, 'principal point cy=481 px is outside'),
+        ('max_image_pixels', 0, 'max_image_pixels must be an integer in [1, '),
+        ('restart_tolerance_s', math.inf, 'restart_tolerance_s must be a finite number'),
         ('camera.distortion', [0.01, 0.001, 0.0], 'camera.distortion: 3 distortion coefficients'),
         ('bit_depth', 3, 'bit_depth must be 0 (automatic) or an integer in [8, 16]'),
         ('min_parallax_deg', 2, 'Wrong parameter type'),  # an integer for a double
@@ -174,6 +178,9 @@ def test_camera_parameters_are_live_until_a_camera_info_arrives(node):
         ('max_features:=1000000000000', r'max_features must be an integer in \[1, 10000\]'),
         ('camera.distortion:=[0.01, 0.001, 0.0]', 'camera.distortion: 3 distortion'),
         ('bit_depth:=20', 'bit_depth must be 0'),
+        ('camera.cx:=-5.0', 'principal point cx=-5 px is outside the 640x480 image'),
+        ('camera.cy:=1000000.0', 'principal point cy=1e\\+06 px is outside'),
+        ('restart_tolerance_s:=-1.0', 'restart_tolerance_s must be a finite number'),
     ],
 )
 def test_bad_start_up_values_are_refused(context, tmp_path, override, match):

@@ -3,6 +3,8 @@ changing and guessed intrinsics, bad distortion vectors. In-process (node_harnes
 
 from __future__ import annotations
 
+import threading
+
 import cv2
 import numpy as np
 import pytest
@@ -155,22 +157,72 @@ def test_negative_stamps_lose_no_initialization_and_are_logged_once(
     assert capfd.readouterr().err.count('negative image stamp') == 1
 
 
-def test_a_replay_restart_starts_a_new_reference_and_initializes_again(
+def test_a_replay_restart_in_mode_continuous_takes_a_new_reference_and_initializes_again(
     harness_factory, near_sequence, capfd
 ):
     sequence = as_sequence(near_sequence)
-    h = harness_factory()
+    h = harness_factory(mode='continuous')
     first = play(h, sequence, unix_stamps(len(sequence)), until_initialized=True)
     assert first[-1].method
-    # The bag starts over: time goes back by the length of the first run.
-    stamps = unix_stamps(len(sequence))
+    # The bag starts over, earlier than the first run by 10 s (more than the 1 s tolerance).
+    stamps = unix_stamps(len(sequence), start_ns=UNIX_START_NS - 10 * 10**9)
     second = play(h, sequence, stamps, until_initialized=True)
-    assert second[0].new_reference and second[0].stamp_issues['backwards'] == 1
-    assert second[-1].method and second[-1].initializations == 2
+    assert second[0].new_reference and second[0].stamp_issues['restart'] == 1
+    assert second[-1].method and second[-1].initializations >= 2
     h.wait_until(lambda: len(h.poses) >= 2, what='the second init/pose')
     cur, _ = init_and_reference(second)
     assert same(h.poses[-1].header.stamp, stamps[cur])
-    assert capfd.readouterr().err.count('backwards image stamp') == 1
+    assert capfd.readouterr().err.count('restart image stamp') == 1
+
+
+def test_in_mode_once_jitter_is_skipped_and_a_restart_keeps_the_initialization_until_reset(
+    harness_factory, near_sequence, capfd
+):
+    """Issue 22 case 3: one frame stamped 1 ms early used to re-initialize in mode once."""
+    sequence = as_sequence(near_sequence)
+    h = harness_factory()
+    stamps = unix_stamps(len(sequence))
+    first = play(h, sequence, stamps, until_initialized=True)
+    assert first[-1].method and first[-1].initialized
+    k = len(first)
+    late_ns = conv.stamp_to_ns(stamps[k - 1]) - 1_000_000  # 1 ms older than the latest frame
+    late = h.send_array(sequence.image(k), conv.ns_to_stamp(late_ns))
+    assert late.reason == 'out of order' and late.stamp_issues['out_of_order'] == 1
+    assert late.initialized and late.skipped_frames == 1 and late.frame_index is None
+    # The next frames stay done: no new reference, no second initialization.
+    after = [
+        h.send_array(sequence.image(i), stamps[i]) for i in range(k, min(k + 20, len(stamps)))
+    ]
+    assert {s.reason for s in after} == {Reason.DONE}
+    # A replay restart (time back by seconds) is counted and logged, the initialization kept.
+    replay = unix_stamps(30, start_ns=UNIX_START_NS - 10 * 10**9)
+    restarted = [h.send_array(sequence.image(i), replay[i]) for i in range(30)]
+    assert restarted[0].stamp_issues['restart'] == 1
+    assert {s.reason for s in restarted} == {Reason.DONE} and restarted[-1].initializations == 1
+    h.settle()
+    assert len(h.poses) == 1
+    err = capfd.readouterr().err
+    assert err.count('out_of_order image stamp') == 1
+    assert 'restart image stamp' in err and 'kept (mode once) until ~/reset' in err
+    assert h.reset().success
+    again = play(h, sequence, stamps, until_initialized=True)
+    assert again[0].new_reference and again[-1].method and again[-1].initializations == 2
+
+
+def test_the_restart_tolerance_is_a_live_parameter(harness_factory, tmp_path):
+    h = harness_factory(model_file=double_model_file(tmp_path), mode='continuous')
+    img = texture(11)
+    t = 10 * 10**9
+    h.send_array(img, conv.ns_to_stamp(t))
+    assert h.send_array(shifted(img, 1, 0.0), conv.ns_to_stamp(t - 500_000_000)).reason == (
+        'out of order'
+    )
+    assert all(r.successful for r in h.set_parameters({'restart_tolerance_s': 0.1}))
+    h.send_array(img, conv.ns_to_stamp(t + FRAME_NS))
+    back = h.send_array(shifted(img, 1, 0.0), conv.ns_to_stamp(t - 400_000_000))
+    assert back.new_reference and back.stamp_issues['restart'] == 1
+    refused = h.set_parameters({'restart_tolerance_s': -1.0})
+    assert not refused[0].successful and 'restart_tolerance_s' in refused[0].reason
 
 
 def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kind(
@@ -185,21 +237,73 @@ def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kin
     t = 10 * 10**9
     assert send(0, t).new_reference
     assert send(1, t + FRAME_NS).frames_since_reference == 1
-    back = send(2, t + FRAME_NS - 1)  # 1 ns backwards (any amount counts)
-    assert back.new_reference and back.reason == 'new reference'
-    duplicate = send(3, t + FRAME_NS - 1)
-    assert duplicate.reason == 'no model fired' and duplicate.frames_since_reference == 1
-    assert send(4, t + 2 * FRAME_NS).frames_since_reference == 2
-    back_again = send(5, t - 5 * 10**9)
+    back = send(2, t + FRAME_NS - 1)  # 1 ns backwards: jitter, skipped
+    assert back.reason == 'out of order' and back.skipped_frames == 1
+    duplicate = send(3, t + FRAME_NS)  # the latest stamp is still t + FRAME_NS
+    assert duplicate.reason == 'no model fired' and duplicate.frames_since_reference == 2
+    assert send(4, t + 2 * FRAME_NS).frames_since_reference == 3
+    back_again = send(5, t - 5 * 10**9)  # 5 s back: a restart
     assert back_again.new_reference
-    zero = send(6, 0)  # also backwards
+    zero = send(6, 0)  # also a restart
     zero_again = send(7, 0)
     assert zero.new_reference and zero_again.frames_since_reference == 1
-    assert zero_again.stamp_issues == {'negative': 0, 'zero': 2, 'duplicate': 1, 'backwards': 3}
+    assert zero_again.stamp_issues == {
+        'negative': 0,
+        'zero': 2,
+        'duplicate': 1,
+        'out_of_order': 1,
+        'restart': 2,
+    }
     err = capfd.readouterr().err
-    for kind in ('backwards', 'duplicate', 'zero'):
+    for kind in ('out_of_order', 'duplicate', 'zero'):
         assert err.count(f'{kind} image stamp') == 1, kind
+    assert err.count('restart image stamp') == 2
     assert 'negative image stamp' not in err
+
+
+def test_received_frames_add_up_under_a_reset_hammer(harness_factory, tmp_path):
+    """Issue 22 case 4: a frame pending when ~/reset was called got no status and no count."""
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(12)
+    # Deterministic first: a frame waits while the worker is busy, and ~/reset drops it.
+    entered, release = threading.Event(), threading.Event()
+    process = h.node._selector.process
+
+    def slow_process(image, stamp):
+        entered.set()
+        assert release.wait(10.0)
+        return process(image, stamp)
+
+    h.node._selector.process = slow_process
+    h.node._on_image(h.image_message(img, 0.5))
+    assert entered.wait(10.0)
+    h.node._on_image(h.image_message(shifted(img, 1, 0.0), 0.533))  # pending ...
+    assert h.reset().success  # ... and dropped by the reset
+    release.set()
+    h.wait_until(lambda: len(h.statuses) == 1, what="the busy frame's status")
+    h.node._selector.process = process
+    first = h.send_array(img, 0.6)
+    assert first.received_frames == 3 and first.dropped_frames == 1
+    assert first.processed_frames == 2 and first.new_reference
+    # Then the hammer: every frame followed at once by a reset, in whatever order they land.
+    for k in range(20):
+        h.publish(h.image_message(shifted(img, k % 3, 0.0), 1.0 + k / 30))
+        assert h.reset().success
+    h.settle()
+    last = h.send_array(img, 5.0)
+    assert last.received_frames > 3
+    assert last.received_frames == (
+        last.processed_frames + last.dropped_frames + last.skipped_frames
+    )
+    # Out-of-order and undecodable frames are counted as skipped, and still add up.
+    assert h.send_array(img, 4.99).reason == 'out of order'
+    bad = h.send(Image(height=2, width=2, encoding='mono8', step=2, data=b'\x00'))
+    assert bad.reason == 'image skipped'
+    final = h.send_array(img, 5.1)
+    assert final.received_frames == last.received_frames + 3 and final.skipped_frames >= 2
+    assert final.received_frames == (
+        final.processed_frames + final.dropped_frames + final.skipped_frames
+    )
 
 
 # ------------------------------------------------------------------------ compressed images
@@ -269,6 +373,53 @@ def test_corrupt_or_foreign_compressed_data_is_a_skipped_frame_with_a_reason(
         assert match in status.detail
     status = h.send(good)
     assert status.reason == 'new reference' and status.skipped_frames == len(cases)
+
+
+def _jpeg_claiming(pixels: np.ndarray, width: int, height: int) -> bytes:
+    """A real JPEG of ``pixels`` whose start-of-frame header claims ``width`` x ``height``."""
+    data = bytearray(cv2.imencode('.jpg', pixels)[1].tobytes())
+    sof = data.index(b'\xff\xc0')
+    data[sof + 5 : sof + 9] = height.to_bytes(2, 'big') + width.to_bytes(2, 'big')
+    return bytes(data)
+
+
+def test_compressed_frames_too_large_or_of_another_size_are_refused_before_decoding(
+    harness_factory, tmp_path
+):
+    """Issue 22 case 6: a 64 KB JPEG claiming 8000x8000 used to decode to 192 MB (4.5 s)."""
+    h = harness_factory(model_file=double_model_file(tmp_path), image_transport='compressed')
+    img = texture(12)
+    assert h.send(conv.numpy_to_compressed(img, 'jpeg', stamp=conv.seconds_to_stamp(1.0)))
+    bomb = CompressedImage(format='jpeg', data=_jpeg_claiming(img, 8000, 8000))
+    bomb.header.stamp = conv.seconds_to_stamp(1.033)
+    status = h.send(bomb)
+    assert status.reason is Reason.SKIPPED_IMAGE
+    assert '8000x8000 = 64000000 pixels is larger than the 8847360 pixels allowed' in (
+        status.detail
+    )
+    # Once camera_info gives the size, a frame of another size is not decoded either.
+    h.send_camera_info(Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480))
+    small = conv.numpy_to_compressed(img[:240, :320], 'jpeg', stamp=conv.seconds_to_stamp(1.066))
+    status = h.send(small)
+    assert status.reason is Reason.SKIPPED_IMAGE
+    assert 'header says 320x240 but camera_info is for 640x480' in status.detail
+    # The limit is a live parameter.
+    assert all(r.successful for r in h.set_parameters({'max_image_pixels': 640 * 479}))
+    frame = conv.numpy_to_compressed(img, 'png', stamp=conv.seconds_to_stamp(1.1))
+    status = h.send(frame)
+    assert status.reason is Reason.SKIPPED_IMAGE and 'max_image_pixels' in status.detail
+    assert all(r.successful for r in h.set_parameters({'max_image_pixels': 640 * 480}))
+    frame.header.stamp = conv.seconds_to_stamp(1.133)
+    status = h.send(frame)
+    assert status.reason is not Reason.SKIPPED_IMAGE and status.skipped_frames == 3
+
+
+def test_raw_frames_larger_than_max_image_pixels_are_skipped(harness_factory, tmp_path):
+    h = harness_factory(model_file=double_model_file(tmp_path), max_image_pixels=100 * 100)
+    status = h.send_array(np.zeros((101, 100), np.uint8), 1.0)
+    assert status.reason is Reason.SKIPPED_IMAGE and 'larger than the 10000 pixels' in (
+        status.detail
+    )
 
 
 # ------------------------------------------------------------------------------ 16-bit images
@@ -362,6 +513,27 @@ def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
     assert h.send_array(shifted(small, 1, 0), 1.133).frames_since_reference == 1
     assert h.node._selector.intrinsics == half
     assert capfd.readouterr().err.count('camera_info changed the intrinsics') == 2
+
+
+def test_a_principal_point_outside_the_image_is_refused_and_the_intrinsics_are_kept(
+    harness_factory, tmp_path, capfd
+):
+    """Issue 22 case 1: cx = 1e6, cy = -5e5 for 640x480 used to be taken as new intrinsics."""
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(14)
+    good = Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480)
+    h.send_camera_info(good)
+    before = h.send_array(img, 1.0)
+    assert before.intrinsics_source == 'camera_info' and before.intrinsics['cx'] == 319.5
+    for cx, cy in ((1e6, -5e5), (-0.5, 239.5), (319.5, 480.5)):
+        bad = conv.intrinsics_to_camera_info(good)
+        bad.k = [600.0, 0.0, cx, 0.0, 600.0, cy, 0.0, 0.0, 1.0]
+        h.send_camera_info(bad)
+    after = h.send_array(shifted(img, 1, 0.0), 1.033)
+    assert after.intrinsics == before.intrinsics and after.frames_since_reference == 1
+    err = capfd.readouterr().err
+    assert 'ignoring camera_info: principal point cx=1e+06 px is outside the 640x480' in err
+    assert err.count('ignoring camera_info') == 1  # throttled
 
 
 def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(

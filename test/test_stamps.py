@@ -29,11 +29,32 @@ def test_each_kind_is_new_only_the_first_time_and_counted_every_time():
     assert duplicate.issues == (StampIssue.NEGATIVE, StampIssue.DUPLICATE)
     assert duplicate.new == (StampIssue.DUPLICATE,)
     back = monitor.check(-SECOND - 1)
-    assert StampIssue.BACKWARDS in back.new and back.back_ns == 1
+    assert StampIssue.OUT_OF_ORDER in back.new and back.back_ns == 1
     zero = monitor.check(0)
     assert zero.issues == (StampIssue.ZERO,)
     assert monitor.check(0).issues == (StampIssue.ZERO,)  # repeated zeros: not duplicates
-    assert monitor.counts == {'negative': 4, 'zero': 2, 'duplicate': 1, 'backwards': 1}
+    restart = monitor.check(-5 * SECOND)
+    assert restart.restart and restart.new == (StampIssue.RESTART,)
+    assert monitor.counts == {
+        'negative': 5,
+        'zero': 2,
+        'duplicate': 1,
+        'out_of_order': 1,
+        'restart': 1,
+    }
+
+
+def test_jitter_within_the_tolerance_is_out_of_order_and_keeps_the_latest_stamp():
+    monitor = StampMonitor(restart_tolerance_ns=SECOND)
+    monitor.check(10 * SECOND)
+    late = monitor.check(10 * SECOND - 1_000_000)  # 1 ms early: jitter
+    assert late.out_of_order and not late.restart and late.back_ns == 1_000_000
+    # The latest stamp is still 10 s: a frame between the two is out of order as well.
+    assert monitor.check(10 * SECOND - 500_000).out_of_order
+    assert monitor.check(10 * SECOND - SECOND).out_of_order  # exactly the tolerance
+    assert monitor.check(10 * SECOND + 1).issues == ()
+    assert monitor.check(8 * SECOND).restart  # 2 s back: a restart, which becomes the latest
+    assert monitor.check(8 * SECOND + 33_000_000).issues == ()
 
 
 def test_forgetting_the_last_stamp_accepts_any_next_one():

@@ -46,6 +46,7 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
 from initsel_ros.image import HOT_PIXEL_FRACTION, compressed_to_cv, raw_to_cv
 from initsel_ros.models import ModelSet
+from initsel_ros.names import Mode
 from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
@@ -59,7 +60,7 @@ from initsel_ros.ros.params import (
     read_params_yaml,
 )
 from initsel_ros.selector import FrameResult, Initialization, Selector
-from initsel_ros.stamps import CONSEQUENCES, StampIssue, StampMonitor
+from initsel_ros.stamps import CONSEQUENCES, StampCheck, StampIssue, StampMonitor
 from initsel_ros.status import FrameStatus, NodeCounters
 
 try:  # tf2_msgs is not among the PyPI ROS wheels; /tf is broadcast only when it is installed
@@ -147,8 +148,9 @@ class SelectorNode(Node):
         self._received = 0
         self._dropped = 0
         self._skipped = 0
+        self._processed = 0
         # Worker-only state.
-        self._stamps = StampMonitor()
+        self._stamps = StampMonitor(self._tolerance_ns(self._settings))
         self._initializations = 0
         self._intrinsics_warning = ''
         self._guess_logged = False
@@ -276,10 +278,15 @@ class SelectorNode(Node):
             + ', '.join(f'{name}={value!r}' for name, value in sorted(changes.items()))
         )
 
+    @staticmethod
+    def _tolerance_ns(settings: NodeSettings) -> int:
+        return round(settings.restart_tolerance_s * 1e9)
+
     def _apply_settings(self, settings: NodeSettings) -> None:
         """Worker: use validated live settings from this frame on."""
         previous, self._settings = self._settings, settings
         self._selector.update_config(settings.selector_config())
+        self._stamps.restart_tolerance_ns = self._tolerance_ns(settings)
         if self._intrinsics_source == 'parameters' and not settings.intrinsics.same_camera(
             previous.intrinsics
         ):
@@ -320,7 +327,9 @@ class SelectorNode(Node):
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         with self._lock:
             self._reset_requested = True
-            self._pending = None  # the next frame to arrive becomes the reference
+            if self._pending is not None:  # dropped: the next frame to arrive is the reference
+                self._dropped += 1
+                self._pending = None
         response.success = True
         response.message = 'the next frame becomes the reference'
         self.get_logger().info('reset requested: the next frame becomes the reference')
@@ -388,12 +397,24 @@ class SelectorNode(Node):
         return self._settings.intrinsics
 
     def _process(self, msg: Image | CompressedImage, dropped: int) -> None:
+        """Worker: one frame ends processed, or skipped with a status saying why."""
         stamp = msg.header.stamp
         stamp_ns = conv.stamp_to_ns(stamp)
+        check = self._check_stamp(stamp, stamp_ns)
+        if check.out_of_order:
+            self._skipped += 1
+            self._publish_status(
+                stamp,
+                None,
+                dropped,
+                Reason.OUT_OF_ORDER,
+                f'{check.back_ns / 1e9:.9f} s older than the latest frame (at most '
+                f'restart_tolerance_s = {self._settings.restart_tolerance_s:g} s: jitter)',
+            )
+            return
         try:
             image = self._to_image(msg)
             self._fit_intrinsics(image.shape[1], image.shape[0])
-            self._check_stamp(stamp, stamp_ns)
             result = self._selector.process(image, stamp_ns)
         except ImageConversionError as exc:
             self._skipped += 1
@@ -410,6 +431,7 @@ class SelectorNode(Node):
             )
             self._publish_status(stamp, None, dropped, Reason.INTERNAL_ERROR, repr(exc))
             return
+        self._processed += 1
         reason, detail = result.decision.reason, result.decision.detail
         if result.decision.reason is Reason.VERIFICATION_FAILED:
             self.get_logger().info(f'{reason.value}: {detail}; looking on')
@@ -439,8 +461,16 @@ class SelectorNode(Node):
         """
         bit_depth = self._selector.bit_depth
         before = bit_depth.bits
+        max_pixels = self._settings.max_image_pixels
         if isinstance(msg, CompressedImage):
-            image = compressed_to_cv(msg.data, msg.format, bit_depth)
+            info = self._info_intrinsics if self._intrinsics_source == 'camera_info' else None
+            image = compressed_to_cv(
+                msg.data,
+                msg.format,
+                bit_depth,
+                max_pixels=max_pixels,
+                size=None if info is None else (info.width, info.height),
+            )
         else:
             image = raw_to_cv(
                 msg.data,
@@ -450,6 +480,7 @@ class SelectorNode(Node):
                 msg.step,
                 msg.is_bigendian,
                 bit_depth,
+                max_pixels=max_pixels,
             )
         if bit_depth.bits != before and not bit_depth.fixed:
             rise = f', up from {before}: {bit_depth.frames} frames in a row needed more'
@@ -460,17 +491,36 @@ class SelectorNode(Node):
             )
         return image
 
-    def _check_stamp(self, stamp: Time, stamp_ns: int) -> None:
-        """Log each kind of unusual stamp once; time going backwards starts a new reference."""
+    def _check_stamp(self, stamp: Time, stamp_ns: int) -> StampCheck:
+        """Log each kind of unusual stamp once, and every restart.
+
+        A frame a little older than the latest (within ``restart_tolerance_s``) is out of order
+        (the caller skips it); a jump back further is a restart: a new reference, but in mode
+        once an initialization is kept until ``~/reset``.
+        """
         check = self._stamps.check(stamp_ns)
+        back = f' by {check.back_ns / 1e9:.9f} s' if check.back_ns else ''
         for issue in check.new:
-            detail = f' by {check.back_ns / 1e9:.9f} s' if issue is StampIssue.BACKWARDS else ''
+            if issue is not StampIssue.RESTART:
+                self.get_logger().warning(
+                    f'{issue.value} image stamp (sec {stamp.sec}, nanosec {stamp.nanosec})'
+                    f'{back}: {CONSEQUENCES[issue]} (logged once; counted in ~/status '
+                    'stamp_issues)'
+                )
+        if check.restart:
+            kept = self._selector.initialized and self._settings.mode is Mode.ONCE
             self.get_logger().warning(
-                f'{issue.value} image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){detail}: '
-                f'{CONSEQUENCES[issue]} (logged once; counted in ~/status stamp_issues)'
+                f'restart image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){back}, more '
+                f'than restart_tolerance_s = {self._settings.restart_tolerance_s:g} s: '
+                + (
+                    'the initialization is kept (mode once) until ~/reset'
+                    if kept
+                    else 'a new reference is taken'
+                )
+                + f' (restart {self._stamps.counts[StampIssue.RESTART.value]} of this stream)'
             )
-        if StampIssue.BACKWARDS in check.issues:
-            self._selector.reset()
+            self._selector.restart()
+        return check
 
     def _fit_intrinsics(self, width: int, height: int) -> None:
         """Give the selector the intrinsics for this image size (scaled when they differ).
@@ -533,9 +583,11 @@ class SelectorNode(Node):
             initialized=bool(self._selector.initialized),
             initializations=self._initializations,
             received_frames=self._received,
+            processed_frames=self._processed,
             dropped_frames=dropped,
             skipped_frames=self._skipped,
             intrinsics_source=self._intrinsics_source,
+            intrinsics=self._selector.intrinsics.to_dict(),
             intrinsics_warning=self._intrinsics_warning,
             bit_depth=self._selector.bit_depth.bits or None,
             stamp_issues=self._stamps.counts,

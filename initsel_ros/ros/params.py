@@ -24,9 +24,11 @@ from typing import Any
 
 from initsel_ros.camera import TUM_FR3, Intrinsics, check_distortion
 from initsel_ros.errors import ConfigError
+from initsel_ros.image import MAX_DECODED_PIXELS
 from initsel_ros.names import MODEL_NAMES, POSE_METHODS, Mode
 from initsel_ros.policy import PolicyConfig
 from initsel_ros.selector import SelectorConfig
+from initsel_ros.stamps import DEFAULT_RESTART_TOLERANCE_NS
 from initsel_ros.tracking import TrackerConfig
 from initsel_ros.verify import VerifyConfig
 
@@ -36,6 +38,8 @@ NODE_NAME = 'selector'
 SECTION_KEYS = (NODE_NAME, f'/{NODE_NAME}', f'/**/{NODE_NAME}', '/**')
 #: Upper bound of ``max_features`` (and of the counts compared with it).
 MAX_FEATURES_LIMIT = 10_000
+#: Default ``max_image_pixels``: 4096 x 2160 (DCI 4K).
+DEFAULT_MAX_IMAGE_PIXELS = 4096 * 2160
 
 
 class ImageTransport(str, Enum):
@@ -346,6 +350,21 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         BitDepth(),
     ),
     ParameterSpec(
+        'max_image_pixels',
+        DEFAULT_MAX_IMAGE_PIXELS,
+        'frames of more pixels (width x height, read from the header of compressed ones) are '
+        'skipped before decoding; default 4096 x 2160',
+        Number(1, MAX_DECODED_PIXELS, integer=True),
+    ),
+    ParameterSpec(
+        'restart_tolerance_s',
+        DEFAULT_RESTART_TOLERANCE_NS / 1e9,
+        'a frame older than the latest by at most this many seconds is jitter (skipped as out '
+        'of order); a jump back by more is a restart (new reference; mode once keeps its '
+        'initialization until ~/reset)',
+        Number(0.0, 86_400.0),
+    ),
+    ParameterSpec(
         'use_camera_info',
         True,
         'take intrinsics and distortion from the camera_info topic when it arrives',
@@ -356,8 +375,12 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         'camera.fx', TUM_FR3['fx'], 'focal length x, pixels (until camera_info)', Number()
     ),
     ParameterSpec('camera.fy', TUM_FR3['fy'], 'focal length y, pixels', Number()),
-    ParameterSpec('camera.cx', TUM_FR3['cx'], 'principal point x, pixels', Number()),
-    ParameterSpec('camera.cy', TUM_FR3['cy'], 'principal point y, pixels', Number()),
+    ParameterSpec(
+        'camera.cx', TUM_FR3['cx'], 'principal point x, pixels (0 to camera.width)', Number()
+    ),
+    ParameterSpec(
+        'camera.cy', TUM_FR3['cy'], 'principal point y, pixels (0 to camera.height)', Number()
+    ),
     ParameterSpec(
         'camera.width', TUM_FR3['width'], 'image width, pixels', Number(1, 100_000, integer=True)
     ),
@@ -408,6 +431,8 @@ class NodeSettings:
     publish_tf: bool
     image_transport: ImageTransport
     bit_depth: int
+    max_image_pixels: int
+    restart_tolerance_s: float
     use_camera_info: bool
     intrinsics: Intrinsics
     values: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
@@ -433,15 +458,18 @@ class NodeSettings:
                     f'{name} ({v[name]}) > max_features ({v["max_features"]}): no frame could '
                     'ever have enough'
                 )
-        intrinsics = Intrinsics(
-            v['camera.fx'],
-            v['camera.fy'],
-            v['camera.cx'],
-            v['camera.cy'],
-            v['camera.width'],
-            v['camera.height'],
-            v['camera.distortion'],
-        )
+        try:
+            intrinsics = Intrinsics(
+                v['camera.fx'],
+                v['camera.fy'],
+                v['camera.cx'],
+                v['camera.cy'],
+                v['camera.width'],
+                v['camera.height'],
+                v['camera.distortion'],
+            )
+        except ConfigError as exc:
+            raise ConfigError(f'camera.* parameters: {exc}') from exc
         return cls(
             model_file=v['model_file'],
             thresholds={
@@ -464,6 +492,8 @@ class NodeSettings:
             publish_tf=v['publish_tf'],
             image_transport=ImageTransport(v['image_transport']),
             bit_depth=v['bit_depth'],
+            max_image_pixels=v['max_image_pixels'],
+            restart_tolerance_s=v['restart_tolerance_s'],
             use_camera_info=v['use_camera_info'],
             intrinsics=intrinsics,
             values=raw,
@@ -569,6 +599,7 @@ def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
 
 __all__ = [
     'CAMERA_PARAMETERS',
+    'DEFAULT_MAX_IMAGE_PIXELS',
     'MAX_FEATURES_LIMIT',
     'NODE_NAME',
     'PARAMETERS',
