@@ -211,6 +211,61 @@ def test_arc_trajectory_keeps_its_distance_and_looks_at_the_target():
     assert np.allclose(np.diff(stamps), 1 / 30)
 
 
+def test_arc_parameters_set_distance_extent_and_the_rotation_that_keeps_the_plane_centred():
+    from initsel_ros.errors import ConfigError
+    from initsel_ros.synth.trajectories import ArcPath
+
+    target = build_scene('wall').target
+    _, arc = make_trajectory('arc', 76, arc=ArcPath(distance=3.5, extent=0.3), target=target)
+    eyes = arc[:, :3, 3]
+    assert np.linalg.norm(eyes - target, axis=1) == pytest.approx(3.5)  # on the circle
+    assert np.linalg.norm(eyes[75] - eyes[0]) == pytest.approx(0.3, abs=0.01)  # the extent
+    offsets = (target - eyes) / 3.5
+    assert np.allclose(np.sum(arc[:, :3, 2] * offsets, axis=1), 1.0)  # target centred
+    slide = ArcPath(distance=2.0, extent=0.2, centring=0.0, straight=True)
+    _, poses = make_trajectory('arc', 76, arc=slide, target=target)
+    assert np.allclose(poses[:, :3, :3], poses[0, :3, :3])  # a pure translation
+    steps = poses[1:, :3, 3] - poses[0, :3, 3]
+    assert np.allclose(steps[:, 2], 0.0) and np.allclose(steps @ poses[0, :3, 2], 0.0)
+    half = ArcPath(distance=2.0, extent=0.2, centring=0.5, straight=True).poses(
+        np.array([0.0, 2.5]), target
+    )
+    turned = np.degrees(
+        np.arccos(np.clip((np.trace(half[1, :3, :3].T @ half[0, :3, :3]) - 1) / 2, -1, 1))
+    )
+    full = ArcPath(distance=2.0, extent=0.2, straight=True).poses(np.array([0.0, 2.5]), target)
+    turned_full = np.degrees(
+        np.arccos(np.clip((np.trace(full[1, :3, :3].T @ full[0, :3, :3]) - 1) / 2, -1, 1))
+    )
+    assert turned == pytest.approx(turned_full / 2, rel=0.05)
+    with pytest.raises(ConfigError, match='centring'):
+        ArcPath(centring=1.5)
+    with pytest.raises(ConfigError, match='extent'):
+        ArcPath(distance=1.0, extent=1.0)
+    with pytest.raises(ConfigError, match='arc settings'):
+        make_trajectory('rotation', 10, arc=ArcPath())
+
+
+def test_cli_renders_an_arc_and_writes_a_focal_length_error(tmp_path):
+    from initsel_ros.cli import main
+
+    out = tmp_path / 'arc'
+    args = ['synth', '--out', str(out), '--frames', '2', '--width', '160', '--no-progress']
+    arc = ['--scene', 'floor', '--trajectory', 'arc', '--arc-distance', '1.5']
+    assert main([*args, *arc, '--arc-elevation', '70', '--focal-error', '0.1']) == 0
+    data = yaml.safe_load((out / 'intrinsics.yaml').read_text())
+    true = Intrinsics.tum_fr3().scaled(160, 120)
+    assert data['fx'] == pytest.approx(1.1 * true.fx) and data['fy'] == pytest.approx(
+        1.1 * true.fy
+    )
+    poses = open_sequence(out).poses()
+    target = build_scene('floor').target  # the floor scene's own target, on the floor
+    view = poses[0, :3, 3] - target
+    assert np.linalg.norm(view) == pytest.approx(1.5)
+    assert np.degrees(np.arcsin(view[2] / 1.5)) == pytest.approx(70.0)
+    assert main([*args, '--trajectory', 'rotation', '--arc-extent', '0.1']) == 2
+
+
 def test_static_sequence_keeps_one_pose_and_changes_only_by_noise(static_sequence):
     seq = open_sequence(static_sequence)
     assert np.allclose(seq.poses(), seq.poses()[0])

@@ -27,6 +27,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         'initsel_ros.cli.seedmap',
         'accuracy of the published seed map against the baselines',
     ),
+    'planar_arc': (
+        'initsel_ros.cli.planar_arc',
+        "issue 20's planes from sideways arcs against their oracle frames",
+    ),
     'orbvocab': (
         'initsel_ros.cli.orbvocab',
         'train the substitute ORB vocabulary the real ORB-SLAM3 baseline loads',

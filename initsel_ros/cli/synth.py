@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall', 'repeated')
 #: Keys of ``initsel_ros.synth.realism.EFFECT_LEVELS`` (not imported: ``--help`` stays light;
@@ -64,6 +65,50 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '--start', type=int, default=0, help='skip the first N frames of the trajectory'
     )
     parser.add_argument('--seed', type=int, default=0)
+    arc = parser.add_argument_group(
+        'arc geometry (any of these: the arc trajectory about the scene target, '
+        'initsel_ros.synth.trajectories.ArcPath; none: the fixed 1.3 m, +-25 deg swing)'
+    )
+    arc.add_argument(
+        '--arc-distance',
+        type=float,
+        default=None,
+        metavar='M',
+        help='start distance from the target, metres (default 3.5)',
+    )
+    arc.add_argument(
+        '--arc-extent',
+        type=float,
+        default=None,
+        metavar='M',
+        help='sideways amplitude, metres, reached at frame 75 (default 0.3)',
+    )
+    arc.add_argument(
+        '--arc-centring',
+        type=float,
+        default=None,
+        metavar='0-1',
+        help='share of the rotation keeping the target centred (default 1; 0 = pure translation)',
+    )
+    arc.add_argument(
+        '--arc-elevation',
+        type=float,
+        default=None,
+        metavar='DEG',
+        help='viewing elevation, degrees (default: the nominal 33; 70: from above)',
+    )
+    arc.add_argument(
+        '--arc-straight',
+        action='store_true',
+        help='slide on a straight line instead of the circle about the target',
+    )
+    parser.add_argument(
+        '--focal-error',
+        type=float,
+        default=0.0,
+        metavar='FRACTION',
+        help='write the focal lengths this much too long into intrinsics.yaml (0.1 = 10 %%)',
+    )
     parser.add_argument(
         '--bag',
         action='append',
@@ -194,6 +239,7 @@ def run(args: argparse.Namespace) -> int:
 
     from initsel_ros.synth.effects import Effects
     from initsel_ros.synth.realism import draw_realism, effect_fields
+    from initsel_ros.synth.trajectories import ArcPath
     from initsel_ros.synth.write import render
 
     named, named_distortion, named_scene = (
@@ -209,6 +255,19 @@ def run(args: argparse.Namespace) -> int:
         distortion = distortion or drawn.distortion
     else:
         effects = Effects(**given)
+    arc_options = {
+        'distance': args.arc_distance,
+        'extent': args.arc_extent,
+        'centring': args.arc_centring,
+        'elevation_deg': args.arc_elevation,
+    }
+    arc_given = {k: v for k, v in arc_options.items() if v is not None}
+    arc = None
+    if arc_given or args.arc_straight:
+        if args.trajectory != 'arc':
+            print('initsel synth: the --arc-* options need --trajectory arc', file=sys.stderr)
+            return 2
+        arc = ArcPath(**arc_given, straight=args.arc_straight)
     result = render(
         args.out,
         args.scene or named_scene or 'structure_texture',
@@ -225,6 +284,8 @@ def run(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         start=args.start,
         realism=args.realism,
+        arc=arc,
+        focal_error=args.focal_error,
     )
     changed = {k: v for k, v in result.effects.to_dict().items() if v != Effects().to_dict()[k]}
     print(

@@ -7,6 +7,7 @@ the point its optical axes converge to; the others are generated around the scen
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 
@@ -22,6 +23,9 @@ NEAR_FILE = DATA_DIR / 'structure_texture_near.txt'
 #: First colour frame time of the real near sequence (s); generated trajectories start here too.
 START_TIME = 1341839327.392692
 FRAME_RATE = 30.0
+#: Mean viewing direction of the real near trajectory (camera minus scene target), world frame
+#: (what :func:`nominal_eye` derives from the bundled trajectory).
+_NOMINAL_VIEW_DIRECTION = np.array([0.7516, -0.3713, 0.5452])
 
 
 class TrajectoryName(str, Enum):
@@ -34,6 +38,71 @@ class TrajectoryName(str, Enum):
     STATIC = 'static'
     RANDOM = 'random'
     ARC = 'arc'
+
+
+@dataclass(frozen=True)
+class ArcPath:
+    """A parameterized sideways ``arc`` (or straight slide) in front of the scene target.
+
+    The eye starts ``distance`` metres from the target, seen from ``elevation_deg`` above the
+    horizontal, in the nominal viewing direction's vertical plane, and moves sideways by
+    ``extent * sin(2 pi 0.1 t)`` metres (the full extent is reached at 2.5 s, frame 75 at
+    30 Hz): along the horizontal circle about the target for an arc, along a straight line
+    for a slide. ``centring`` 1 keeps looking at the target (the plane stays centred), 0 keeps
+    the start orientation (a pure translation), and values between turn part of the way.
+
+    Attributes:
+        distance: start distance from the target, metres.
+        extent: sideways amplitude, metres (the baseline to the first frame grows up to it).
+        centring: 0..1, share of the rotation that keeps the target centred.
+        elevation_deg: viewing elevation, degrees (None: the nominal view's, about 33).
+        straight: slide on a straight line instead of the circle.
+    """
+
+    distance: float = 3.5
+    extent: float = 0.3
+    centring: float = 1.0
+    elevation_deg: float | None = None
+    straight: bool = False
+
+    def __post_init__(self) -> None:
+        if not 0.05 <= self.distance <= 100.0:
+            raise ConfigError(f'arc distance must be in [0.05, 100] m, got {self.distance}')
+        if not 0.0 <= self.extent < self.distance:
+            raise ConfigError(
+                f'arc extent must be in [0, distance), got {self.extent} (distance '
+                f'{self.distance})'
+            )
+        if not 0.0 <= self.centring <= 1.0:
+            raise ConfigError(f'arc centring must be in [0, 1], got {self.centring}')
+        if self.elevation_deg is not None and not -80.0 <= self.elevation_deg <= 85.0:
+            raise ConfigError(f'arc elevation must be in [-80, 85] deg, got {self.elevation_deg}')
+
+    def poses(self, t: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(N, 4, 4) camera-to-world poses at times ``t`` (seconds) about ``target``."""
+        view = _NOMINAL_VIEW_DIRECTION
+        horizontal = np.array([view[0], view[1], 0.0]) / np.linalg.norm(view[:2])
+        if self.elevation_deg is None:
+            elevation = np.arcsin(view[2] / np.linalg.norm(view))
+        else:
+            elevation = np.deg2rad(self.elevation_deg)
+        radius = self.distance * np.cos(elevation)
+        height = self.distance * np.sin(elevation)
+        side = np.cross(np.array([0.0, 0.0, 1.0]), horizontal)  # left to right, horizontal
+        lateral = self.extent * np.sin(2 * np.pi * 0.1 * t)
+        start = target + radius * horizontal + [0.0, 0.0, height]
+        if self.straight:
+            eyes = start + lateral[:, None] * side
+        else:
+            angle = lateral / max(radius, 1e-9)
+            eyes = (
+                target
+                + radius * np.cos(angle)[:, None] * horizontal
+                + radius * np.sin(angle)[:, None] * side
+                + [0.0, 0.0, height]
+            )
+        looks = target + (1.0 - self.centring) * (eyes - start)
+        return look_at(eyes, looks)
 
 
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray | None = None) -> np.ndarray:
@@ -89,6 +158,7 @@ def make_trajectory(
     seed: int = 0,
     target: np.ndarray | None = None,
     start: int = 0,
+    arc: ArcPath | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Timestamps and camera-to-world poses for a trajectory kind.
 
@@ -100,6 +170,8 @@ def make_trajectory(
         target: (3,) world point the generated trajectories look at (default: scene target).
         start: skip this many frames first (e.g. the near trajectory barely moves in its first
             40 frames; from frame 80 it moves 0.22 m in 30 frames).
+        arc: the ``arc`` trajectory's geometry (None: the fixed 1.3 m, +-25 degree swing);
+            with another name it is an error.
 
     Returns:
         ``(stamps (N,) seconds, poses (N, 4, 4) camera-to-world)``.
@@ -109,6 +181,8 @@ def make_trajectory(
         raise ConfigError(f'frames must be positive, got {frames}')
     if start < 0:
         raise ConfigError(f'start must be >= 0, got {start}')
+    if arc is not None and name is not TrajectoryName.ARC:
+        raise ConfigError(f'arc settings apply to the arc trajectory, not {name.value}')
     if name in (TrajectoryName.NEAR, TrajectoryName.FAR):
         stamps, poses = near_trajectory()
         stop = len(stamps) if frames is None else start + frames
@@ -145,6 +219,8 @@ def make_trajectory(
         poses = np.repeat(base[None], n, axis=0)
         poses[:, :3, 3] = target + dist[:, None] * direction
         return stamps, poses
+    if name is TrajectoryName.ARC and arc is not None:
+        return stamps, arc.poses(t, target)
     if name is TrajectoryName.ARC:
         # 1.3 m from the target, swinging +-25 degrees about the vertical through it, 0.1 Hz
         offset = nominal_eye(1.3) - target
@@ -184,6 +260,7 @@ def make_trajectory(
 __all__ = [
     'NEAR_FILE',
     'START_TIME',
+    'ArcPath',
     'TrajectoryName',
     'look_at',
     'make_trajectory',

@@ -7,7 +7,7 @@ import shutil
 import time
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -21,7 +21,7 @@ from initsel_ros.synth.effects import Effects
 from initsel_ros.synth.movers import make_movers
 from initsel_ros.synth.scene import build_scene
 from initsel_ros.synth.sensor import PoseTrack, SensorRenderer
-from initsel_ros.synth.trajectories import make_trajectory
+from initsel_ros.synth.trajectories import ArcPath, make_trajectory
 from initsel_ros.transforms import matrix_to_pose
 
 _LOG = logging.getLogger(__name__)
@@ -97,6 +97,8 @@ def render(
     progress: bool = False,
     start: int = 0,
     realism: bool = False,
+    arc: ArcPath | None = None,
+    focal_error: float = 0.0,
 ) -> SynthResult:
     """Render a sequence as a TUM folder with exact ground truth.
 
@@ -119,6 +121,11 @@ def render(
         realism: draw the effects and the distortion at random from ``seed``
             (:func:`initsel_ros.synth.realism.draw_realism`); ``effects`` and
             ``distortion``, when given, replace the drawn ones.
+        arc: the ``arc`` trajectory's geometry about the scene's target (None: the fixed
+            swing about the default target).
+        focal_error: relative error written into ``intrinsics.yaml``'s focal lengths (0.1:
+            10 % too long); the images are rendered with the true camera, so a reader gets a
+            miscalibrated one.
 
     Returns:
         A :class:`SynthResult`.
@@ -134,9 +141,18 @@ def render(
     for b in bags:
         if b not in ('ros1', 'ros2'):
             raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {b!r}")
+    if not -0.5 < focal_error < 1.0:
+        raise ConfigError(f'focal_error must be in (-0.5, 1), got {focal_error}')
     cam = _camera(width, height, intrinsics, distortion)
-    stamps, poses = make_trajectory(trajectory, frames, seed, start=start)
     world = build_scene(scene, seed)
+    stamps, poses = make_trajectory(
+        trajectory,
+        frames,
+        seed,
+        start=start,
+        arc=arc,
+        target=None if arc is None else world.target,
+    )
     movers = make_movers(
         effects.movers,
         np.random.default_rng([seed, 2]),
@@ -196,7 +212,11 @@ def render(
     write_trajectory(
         out / 'groundtruth.txt', stamps, t, q, 'ground truth trajectory (camera-to-world, exact)'
     )
-    cam.save_yaml(out / 'intrinsics.yaml')
+    calibration = cam
+    if focal_error:
+        scale = 1.0 + focal_error
+        calibration = replace(cam, fx=cam.fx * scale, fy=cam.fy * scale)
+    calibration.save_yaml(out / 'intrinsics.yaml')
     _save_effects(out / 'effects.yaml', effects, cam.distortion, realism, seed, len(movers))
 
     written: list[Path] = []

@@ -1,0 +1,251 @@
+"""The planar-arc table (issue 20): planes from sideways arcs, against an oracle frame.
+
+Each sequence of ``scripts/planar_arc.sh`` is one batch from its first frame (the seed-map
+machinery of :mod:`initsel_ros.learn.seedmap`: the live selector in mode 'once'). For each:
+
+- the selector's first published initialization: the frame it was published on, its E_t and
+  rotation error (as in the seed-map table);
+- the oracle frame: the first frame whose homography estimate from the same tracks (the
+  selector's tracker from the first frame, the core's H estimate; where its decompositions
+  are ambiguous, the one nearest the ground truth) has E_t < :data:`ORACLE_E_T`.
+
+Sequences named ``rotation*`` or ``static*`` have no baseline: nothing may initialize there.
+Run it as ``initsel planar_arc SEQUENCE... --out-dir DIR`` (``scripts/planar_arc.sh``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from initsel_ros.geometry import (
+    HOMOGRAPHY_AMBIGUITY_RATIO,
+    Method,
+    estimate_pose,
+    triangulate_pair,
+)
+from initsel_ros.learn.seedmap import NO_BASELINE_MARKERS, _Batch, _run_selector
+from initsel_ros.metrics import relative_pose, translation_chordal_error
+from initsel_ros.models import ModelSet
+from initsel_ros.selector import SelectorConfig
+from initsel_ros.tracking import KltTracker
+
+#: E_t below which the homography estimate counts as usable (the oracle frame's bar).
+ORACLE_E_T = 0.1
+#: A published initialization must be within this many frames of the oracle frame.
+FRAMES_AFTER_ORACLE = 10
+
+
+@dataclass(frozen=True)
+class ArcOutcome:
+    """One sequence of the family.
+
+    Attributes:
+        sequence: its name.
+        no_baseline: a pan or a camera standing still (nothing may initialize).
+        initialized: the selector published an initialization.
+        method: its method ('' when none).
+        frame: the frame it was published on (NaN when none).
+        e_t: its translation direction error (NaN when none).
+        rotation_deg: its rotation error, degrees (NaN when none).
+        oracle_frame: the first frame with a homography estimate of E_t < 0.1 (NaN when none).
+    """
+
+    sequence: str
+    no_baseline: bool
+    initialized: bool
+    method: str = ''
+    frame: float = math.nan
+    e_t: float = math.nan
+    rotation_deg: float = math.nan
+    oracle_frame: float = math.nan
+
+    @property
+    def verdict(self) -> str:
+        """'ok' when the outcome meets issue 20's bar for its kind, else why not."""
+        if self.no_baseline:
+            return 'initialized on a pan' if self.initialized else 'ok'
+        if not math.isfinite(self.oracle_frame):
+            return 'E_t > 0.3 without an oracle frame' if self.e_t > 0.3 else 'ok'
+        if not self.initialized:
+            return 'not initialized'
+        if not (self.e_t < ORACLE_E_T and self.rotation_deg < 1.0):
+            return 'inaccurate'
+        if self.frame > self.oracle_frame + FRAMES_AFTER_ORACLE:
+            return 'late'
+        return 'ok'
+
+
+def _homography_e_t(p0: np.ndarray, p1: np.ndarray, K: np.ndarray, t_gt: np.ndarray) -> float:
+    """E_t of the core's H estimate on these tracks (NaN without a usable one).
+
+    The decompositions are scored as the core scores them (points in front of both cameras,
+    within 2.5 px, with 0.36 degrees of parallax: ``geometry.estimate_pose``'s defaults);
+    those with at least ``HOMOGRAPHY_AMBIGUITY_RATIO`` of the best one's points are the
+    candidates (the core's pick, or the pair it calls ambiguous), and the oracle takes the
+    one nearest the ground truth among them. Fewer than 8 such points: no estimate.
+    """
+    estimate = estimate_pose(Method.H, p0, p1, K)
+    if not np.any(estimate.matrix) or estimate.inliers.sum() < 8:
+        return math.nan
+    count, rotations, translations, _ = cv2.decomposeHomographyMat(estimate.matrix, K)
+    a, b = p0[estimate.inliers], p1[estimate.inliers]
+    scored = []
+    for i in range(count):
+        t = np.asarray(translations[i], dtype=np.float64).reshape(3)
+        norm = float(np.linalg.norm(t))
+        if norm < 0.01:  # the core's min_homography_baseline_ratio: a rotation
+            continue
+        tri = triangulate_pair(rotations[i], t / norm, K, a, b)
+        good = tri.in_front & (tri.reprojection_px <= 2.5) & (tri.parallax_deg >= 0.36)
+        scored.append((int(good.sum()), translation_chordal_error(t_gt, t / norm)))
+    most = max((n for n, _ in scored), default=0)
+    if most < 8:
+        return math.nan
+    return min(e for n, e in scored if n >= HOMOGRAPHY_AMBIGUITY_RATIO * most)
+
+
+def oracle_frame(batch: _Batch, config: SelectorConfig) -> float:
+    """The first frame of ``batch`` whose homography estimate has E_t < 0.1 (NaN: none)."""
+    tracker = KltTracker(config.tracker)
+    tracker.reset(batch.gray(0))
+    K = batch.intrinsics.K
+    for k in range(1, len(batch.images)):
+        tracks = tracker.track(batch.gray(k))
+        if len(tracks) < config.policy.min_tracks:
+            break
+        _, t_gt = relative_pose(batch.poses[batch.start], batch.poses[batch.start + k])
+        if np.linalg.norm(t_gt) < 1e-9:
+            continue
+        p0, p1 = batch.undistort(tracks.ref), batch.undistort(tracks.cur)
+        if _homography_e_t(p0, p1, K, t_gt) < ORACLE_E_T:
+            return float(k)
+    return math.nan
+
+
+def evaluate_arc(path: str, model_path: str, config: SelectorConfig) -> ArcOutcome:
+    """One sequence's outcome (a process-pool task: arguments are picklable)."""
+    from initsel_ros.datasets import open_sequence
+
+    cv2.setNumThreads(1)
+    sequence = open_sequence(path)
+    batch = _Batch(sequence, 0, len(sequence))
+    no_baseline = any(m in batch.name.lower() for m in NO_BASELINE_MARKERS)
+    selector = _run_selector(batch, ModelSet.load(model_path), config, 0.05)
+    oracle = math.nan if no_baseline else oracle_frame(batch, config)
+    return ArcOutcome(
+        batch.name,
+        no_baseline,
+        selector.initialized,
+        selector.method,
+        selector.frames_to_publish,
+        selector.e_t,
+        selector.rotation_deg,
+        oracle,
+    )
+
+
+def evaluate_arcs(
+    paths: Sequence[Path | str],
+    model_path: Path | str,
+    config: SelectorConfig | None = None,
+    jobs: int = 1,
+) -> list[ArcOutcome]:
+    """:func:`evaluate_arc` on every sequence (in a process pool when ``jobs`` > 1)."""
+    config = config or SelectorConfig()
+    args = [(str(p), str(model_path), config) for p in paths]
+    if jobs <= 1:
+        return [evaluate_arc(*a) for a in args]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context('spawn')) as pool:
+        return list(pool.map(evaluate_arc, *zip(*args, strict=True)))
+
+
+def _f(value: float, digits: int = 3) -> str:
+    return '-' if not math.isfinite(value) else f'{value:.{digits}f}'
+
+
+def _kind(name: str) -> str:
+    """The sequence name without its noise and seed suffixes (``wall_arc_d3.5_e0.30``)."""
+    parts = name.split('_')
+    return '_'.join(p for p in parts if not (p[:1] in 'ns' and p[1:].isdigit()))
+
+
+def _noise(name: str) -> str:
+    return next((p[1:] for p in name.split('_') if p[:1] == 'n' and p[1:].isdigit()), '-')
+
+
+def arc_markdown(outcomes: Sequence[ArcOutcome]) -> str:
+    """The table: a summary per kind and noise level, then every sequence."""
+    groups: dict[tuple[str, str], list[ArcOutcome]] = {}
+    for o in outcomes:
+        groups.setdefault((_kind(o.sequence), _noise(o.sequence)), []).append(o)
+    lines = [
+        '| sequences | noise, grey levels | runs | with an oracle frame | initialized | '
+        'median E_t | median rotation error, deg | median frame published | '
+        'median oracle frame | meet the bar |',
+        '|---|---|---|---|---|---|---|---|---|---|',
+    ]
+    for (kind, noise), sel in sorted(groups.items()):
+        done = [o for o in sel if o.initialized]
+
+        def median(values: list[float]) -> float:
+            finite = [v for v in values if math.isfinite(v)]
+            return float(np.median(finite)) if finite else math.nan
+
+        lines.append(
+            f'| {kind} | {noise} | {len(sel)} | '
+            f'{sum(math.isfinite(o.oracle_frame) for o in sel)} | {len(done)} | '
+            f'{_f(median([o.e_t for o in done]))} | '
+            f'{_f(median([o.rotation_deg for o in done]), 2)} | '
+            f'{_f(median([o.frame for o in done]), 1)} | '
+            f'{_f(median([o.oracle_frame for o in sel]), 1)} | '
+            f'{sum(o.verdict == "ok" for o in sel)}/{len(sel)} |'
+        )
+    lines += [
+        '',
+        '| sequence | method | frame published | E_t | rotation error, deg | oracle frame | '
+        'verdict |',
+        '|---|---|---|---|---|---|---|',
+    ]
+    for o in outcomes:
+        lines.append(
+            f'| {o.sequence} | {o.method or "-"} | {_f(o.frame, 0)} | {_f(o.e_t)} | '
+            f'{_f(o.rotation_deg, 2)} | {_f(o.oracle_frame, 0)} | {o.verdict} |'
+        )
+    return '\n'.join(lines)
+
+
+def write_outputs(outcomes: Sequence[ArcOutcome], out_dir: Path) -> str:
+    """Write planar_arc.md and planar_arc.csv (one row per sequence) and return the table."""
+    import csv
+
+    table = arc_markdown(outcomes)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / 'planar_arc.md').write_text(table + '\n')
+    with open(out_dir / 'planar_arc.csv', 'w', newline='') as f:
+        fields = [*asdict(outcomes[0]).keys(), 'verdict'] if outcomes else ['sequence']
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        for o in outcomes:
+            writer.writerow({**asdict(o), 'verdict': o.verdict})
+    return table
+
+
+__all__ = [
+    'FRAMES_AFTER_ORACLE',
+    'ORACLE_E_T',
+    'ArcOutcome',
+    'arc_markdown',
+    'evaluate_arc',
+    'evaluate_arcs',
+    'oracle_frame',
+    'write_outputs',
+]
