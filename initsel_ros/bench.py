@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from initsel_ros.errors import InitselError
+from initsel_ros.markdown import Table
 
 log = logging.getLogger(__name__)
 
@@ -140,28 +141,6 @@ def _ms(seconds: float) -> str:
 
 def _verdict(ok: bool) -> str:
     return 'met' if ok else '**missed**'
-
-
-class Table:
-    """A Markdown table built row by row."""
-
-    def __init__(self, *columns: str) -> None:
-        self.columns = columns
-        self.rows: list[tuple[str, ...]] = []
-
-    def add(self, *cells: Any) -> None:
-        """Append a row (missing trailing cells are empty)."""
-        cells = tuple(str(c) for c in cells) + ('',) * (len(self.columns) - len(cells))
-        self.rows.append(cells)
-
-    def render(self) -> str:
-        """The table as Markdown."""
-        lines = [
-            '| ' + ' | '.join(self.columns) + ' |',
-            '|' + '|'.join('---' for _ in self.columns) + '|',
-        ]
-        lines += ['| ' + ' | '.join(r) + ' |' for r in self.rows]
-        return '\n'.join(lines)
 
 
 # ---------------------------------------------------------------------------------- sections

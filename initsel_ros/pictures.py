@@ -262,32 +262,15 @@ def plot_probabilities(
             colour = _MODEL_COLOURS[name]
             ax.plot(x, p, color=colour, lw=1.4, label=f'P({name})')
             ax.axhline(thresholds.get(name, 0.5), color=colour, lw=0.8, ls='--', alpha=0.8)
-        rotation = np.array([r.decision.reason is Reason.ROTATION for r in results])
-        if rotation.any():
-            ax.fill_between(
-                x,
-                0,
-                1,
-                where=rotation,
-                step='mid',
-                color='tab:red',
-                alpha=0.08,
-                lw=0,
-                label='reason: rotation (R fired)',
-            )
-        done = np.array([r.decision.reason is Reason.DONE for r in results])
-        if done.any():
-            ax.fill_between(
-                x,
-                0,
-                1,
-                where=done,
-                step='mid',
-                color='0.5',
-                alpha=0.15,
-                lw=0,
-                label="initialized (mode 'once')",
-            )
+        for reason, colour, alpha, label in (
+            (Reason.ROTATION, 'tab:red', 0.08, 'reason: rotation (R fired)'),
+            (Reason.DONE, '0.5', 0.15, "initialized (mode 'once')"),
+        ):
+            where = np.array([r.decision.reason is reason for r in results])
+            if where.any():
+                ax.fill_between(
+                    x, 0, 1, where=where, step='mid', color=colour, alpha=alpha, lw=0, label=label
+                )
         new_ref = [xi for xi, r in zip(x, results, strict=True) if r.new_reference]
         for xi in new_ref:
             ax.axvline(xi, color='0.6', lw=0.6, ls=':')

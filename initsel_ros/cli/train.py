@@ -121,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
         describe_inputs,
         train_models,
     )
+    from initsel_ros.markdown import markdown_table
 
     if not 0.0 < args.target_precision <= 1.0:
         raise ConfigError(f'--target-precision must be in (0, 1], got {args.target_precision}')
@@ -172,15 +173,17 @@ def run(args: argparse.Namespace) -> int:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     report.models.save(args.out)
     print(f'{args.out}: trained on {report.n_pairs} pairs in {report.n_batches} batches')
-    print(
-        '| model | family | positives | threshold | val. precision | val. recall | val. F1 '
-        '| target |'
-    )
-    print('|---|---|---|---|---|---|---|---|')
-    for m, c in report.choices.items():
-        fam = report.models.models[m].metrics.get('family', '')
-        print(
-            f'| {m} | {fam} | {report.positives[m]} | {c.threshold:.3f} | {c.precision:.3f} '
-            f'| {c.recall:.3f} | {c.f1:.3f} | {"reached" if c.reached else "not reached"} |'
+    columns = ('model', 'family', 'positives', 'threshold', 'val. precision', 'val. recall')
+    columns += ('val. F1', 'target')
+    rows = [
+        (
+            m,
+            report.models.models[m].metrics.get('family', ''),
+            report.positives[m],
+            *(f'{v:.3f}' for v in (c.threshold, c.precision, c.recall, c.f1)),
+            'reached' if c.reached else 'not reached',
         )
+        for m, c in report.choices.items()
+    ]
+    print(markdown_table(columns, rows))
     return 0

@@ -23,6 +23,7 @@ from initsel_ros.learn.baselines import ORB_MIN_PARALLAX_DEG, ORB_MIN_POINTS
 from initsel_ros.learn.candidates import Candidate, FittedCandidate, fit_candidate
 from initsel_ros.learn.table import PairTable, input_columns
 from initsel_ros.learn.train import TrainConfig, feature_columns, label_column
+from initsel_ros.markdown import markdown_table
 from initsel_ros.models import METHODS, ModelSet
 from initsel_ros.policy import PolicyConfig, check_pose_batch, decide_batch
 
@@ -502,60 +503,45 @@ def _f(v: float) -> str:
 
 def results_markdown(report: EvalReport) -> str:
     """The pair-level table (ours beside the paper's), Markdown."""
-    lines = [
-        '| classifier | label | accuracy | precision | recall | F1 | yes | positives '
-        '| paper acc. | paper prec. | paper rec. | paper F1 |',
-        '|---|---|---|---|---|---|---|---|---|---|---|---|',
-    ]
+    columns = ('classifier', 'label', 'accuracy', 'precision', 'recall', 'F1', 'yes')
+    columns += ('positives', 'paper acc.', 'paper prec.', 'paper rec.', 'paper F1')
+    rows = []
     for r in report.rows:
         s = r.scores
-        p = r.paper or (math.nan,) * 4
-        lines.append(
-            f'| {r.name} | {r.label} | {_f(s.accuracy)} | {_f(s.precision)} | {_f(s.recall)} '
-            f'| {_f(s.f1)} | {s.predicted} | {s.positives} | '
-            + ' | '.join(_f(v) for v in p)
-            + ' |'
-        )
-    return '\n'.join(lines)
+        scores = map(_f, (s.accuracy, s.precision, s.recall, s.f1))
+        paper = map(_f, r.paper or (math.nan,) * 4)
+        rows.append((r.name, r.label, *scores, s.predicted, s.positives, *paper))
+    return markdown_table(columns, rows)
 
 
 def systems_markdown(report: EvalReport) -> str:
     """The sequence-level table, Markdown."""
-    lines = [
-        '| rule | batches | batches with a yes | median frames to first yes '
-        '| first yes good | false yes on rotation pairs | yes rate on rotation/static seqs |',
-        '|---|---|---|---|---|---|---|',
-    ]
+    columns = ('rule', 'batches', 'batches with a yes', 'median frames to first yes')
+    columns += ('first yes good', 'false yes on rotation pairs')
+    columns += ('yes rate on rotation/static seqs',)
+    rows = []
     for s in report.systems:
         named = ', '.join(f'{k}: {v:.3f}' for k, v in s.false_yes_named.items()) or '-'
-        lines.append(
-            f'| {s.name} | {s.batches} | {s.batches_with_yes} | '
-            f'{_f(s.median_frames_to_first_yes)} | {_f(s.first_yes_good)} | '
-            f'{_f(s.false_yes_rotation)} | {named} |'
-        )
-    return '\n'.join(lines)
+        rates = map(_f, (s.median_frames_to_first_yes, s.first_yes_good, s.false_yes_rotation))
+        rows.append((s.name, s.batches, s.batches_with_yes, *rates, named))
+    return markdown_table(columns, rows)
 
 
 def candidates_markdown(report: EvalReport) -> str:
     """Candidate families vs the model file: alone, after the R veto, at equal recall."""
     if not report.candidates:
         return ''
-    lines = [
-        '| model family | label | precision | recall | F1 | precision after R veto '
-        '| recall after R veto | precision at model-file recall | model-file precision '
-        '| model-file recall | decision (4 models), us |',
-        '|---|---|---|---|---|---|---|---|---|---|---|',
-    ]
+    columns = ('model family', 'label', 'precision', 'recall', 'F1', 'precision after R veto')
+    columns += ('recall after R veto', 'precision at model-file recall', 'model-file precision')
+    columns += ('model-file recall', 'decision (4 models), us')
+    rows = []
     for c in report.candidates:
-        s = c.scores
-        v = c.veto
-        lines.append(
-            f'| {c.candidate} | {c.model} | {_f(s.precision)} | {_f(s.recall)} | {_f(s.f1)} '
-            f'| {_f(v.precision) if v else "-"} | {_f(v.recall) if v else "-"} '
-            f'| {_f(c.precision_at_file_recall)} | {_f(c.file_precision)} '
-            f'| {_f(c.file_recall)} | {c.decision_us:.1f} |'
-        )
-    return '\n'.join(lines)
+        s, v = c.scores, c.veto
+        vetoed = (_f(v.precision), _f(v.recall)) if v else ('-', '-')
+        alone = map(_f, (s.precision, s.recall, s.f1))
+        file = map(_f, (c.precision_at_file_recall, c.file_precision, c.file_recall))
+        rows.append((c.candidate, c.model, *alone, *vetoed, *file, f'{c.decision_us:.1f}'))
+    return markdown_table(columns, rows)
 
 
 #: Targets of issue 10 on the near-like test set, after the R veto: (precision, recall).

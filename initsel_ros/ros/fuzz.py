@@ -86,6 +86,11 @@ def image_cases() -> Any:
         st.sampled_from([0, 1, 2**16, 2**31, UINT32_MAX]),
     )
 
+    def case(draw: Callable[[Any], Any], *layout: Any) -> ImageCase:
+        """The case of ``layout`` (encoding, height, width, step, bytes), its byte order and
+        data seed drawn."""
+        return ImageCase(*layout, draw(st.booleans()), draw(st.integers(0, 2**32 - 1)))
+
     @st.composite
     def anything(draw: Callable[[Any], Any]) -> ImageCase:
         encoding = draw(
@@ -114,15 +119,7 @@ def image_cases() -> Any:
                 st.integers(0, 64),
             )
         )
-        return ImageCase(
-            encoding,
-            height,
-            width,
-            step,
-            n_bytes,
-            draw(st.booleans()),
-            draw(st.integers(0, 2**32 - 1)),
-        )
+        return case(draw, encoding, height, width, step, n_bytes)
 
     @st.composite
     def plausible(draw: Callable[[Any], Any]) -> ImageCase:
@@ -131,15 +128,7 @@ def image_cases() -> Any:
         height, width = draw(st.integers(1, MAX_SIDE)), draw(st.integers(1, MAX_SIDE))
         step = width * _bytes_per_pixel(encoding) + draw(st.sampled_from([0, 0, 1, 3, 8]))
         n_bytes = step * height + draw(st.sampled_from([0, 0, 0, 1, 100]))
-        return ImageCase(
-            encoding,
-            height,
-            width,
-            step,
-            n_bytes,
-            draw(st.booleans()),
-            draw(st.integers(0, 2**32 - 1)),
-        )
+        return case(draw, encoding, height, width, step, n_bytes)
 
     return st.one_of(plausible(), anything())
 

@@ -16,6 +16,7 @@ from initsel_ros.learn.robustness.models import (
     is_model_row,
     slug,
 )
+from initsel_ros.markdown import markdown_table
 
 
 # ----------------------------------------------------------------------------- comparison
@@ -35,18 +36,19 @@ def comparison_markdown(rows: Sequence[Mapping[str, Any]], choice: str = '') -> 
         'recall of F, E, H (after the R veto for the model files) and of R; baselines have '
         "no R, and '-' where they have no such method.",
         '',
-        '| effect | strength | system | pairs | F P / R | E P / R | H P / R | R P / R | '
-        'first yes good | false yes, baseline <= 5 cm | false yes, pure pan |',
-        '|' + '---|' * 11,
     ]
-    for r in rows:
-        lines.append(
-            f'| {r["effect"]} | {r["level"]} | {r["system"]} | {r["pairs"]} | '
-            + ' | '.join(_pr(r, m) for m in COLUMNS)
-            + f' | {format_number(r["first_yes_good"])} | '
-            f'{format_number(r["false_yes_rotation"])} | {format_number(r["false_yes_pan"])} |'
-        )
-    text = '\n'.join(lines) + '\n'
+    columns = ('effect', 'strength', 'system', 'pairs', *(f'{m} P / R' for m in COLUMNS))
+    columns += ('first yes good', 'false yes, baseline <= 5 cm', 'false yes, pure pan')
+    counts = ('first_yes_good', 'false_yes_rotation', 'false_yes_pan')
+    table = markdown_table(
+        columns,
+        (
+            [r['effect'], r['level'], r['system'], r['pairs'], *(_pr(r, m) for m in COLUMNS)]
+            + [format_number(r[k]) for k in counts]
+            for r in rows
+        ),
+    )
+    text = '\n'.join([*lines, table]) + '\n'
     return text + (f'\n{choice.strip()}\n' if choice else '')
 
 

@@ -1,0 +1,34 @@
+"""Markdown tables: the one layout every report of the package prints (``| a | b |``)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+
+def markdown_table(columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    """``columns`` and ``rows`` (cells formatted with ``str``) as a Markdown table, no final
+    newline."""
+    lines = ['| ' + ' | '.join(columns) + ' |', '|' + '---|' * len(columns)]
+    lines += ['| ' + ' | '.join(str(c) for c in row) + ' |' for row in rows]
+    return '\n'.join(lines)
+
+
+class Table:
+    """A Markdown table built row by row."""
+
+    def __init__(self, *columns: str) -> None:
+        self.columns = columns
+        self.rows: list[tuple[str, ...]] = []
+
+    def add(self, *cells: Any) -> None:
+        """Append a row (missing trailing cells are empty)."""
+        cells = tuple(str(c) for c in cells) + ('',) * (len(self.columns) - len(cells))
+        self.rows.append(cells)
+
+    def render(self) -> str:
+        """The table as Markdown."""
+        return markdown_table(self.columns, self.rows)
+
+
+__all__ = ['Table', 'markdown_table']
