@@ -14,7 +14,7 @@ from typing import Any
 
 from initsel_ros.datasets.euroc import EurocSequence, is_euroc_folder
 from initsel_ros.datasets.kitti import KittiSequence, is_kitti_root, is_kitti_sequence
-from initsel_ros.datasets.poses import interpolate_pose_matrices, interpolate_poses
+from initsel_ros.datasets.poses import interpolate_poses, pose_matrices
 from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.tum import TumSequence, is_tum_folder, read_trajectory
 from initsel_ros.errors import DatasetError
@@ -95,7 +95,6 @@ __all__ = [
     'KittiSequence',
     'Sequence',
     'TumSequence',
-    'interpolate_pose_matrices',
     'interpolate_poses',
     'is_bag',
     'is_euroc_folder',
@@ -103,6 +102,7 @@ __all__ = [
     'is_kitti_sequence',
     'is_tum_folder',
     'open_sequence',
+    'pose_matrices',
     'read_trajectory',
     'sequence_kind',
 ]

@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_pose_matrices
+from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
 from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
@@ -231,7 +231,7 @@ class BagSequence(Sequence):
             gt = gt_bag
         poses: list[np.ndarray | None] = [None] * len(stamps)
         if gt is not None and len(gt[0]):
-            poses = interpolate_pose_matrices(stamps, *gt, max_gap, nearest_tolerance)
+            poses = pose_matrices(*interpolate_poses(stamps, *gt, max_gap, nearest_tolerance))
             missing = sum(p is None for p in poses)
             if missing:
                 _LOG.warning(

@@ -81,18 +81,9 @@ def interpolate_poses(
     return out_t, out_q
 
 
-def interpolate_pose_matrices(
-    query_times: np.ndarray,
-    stamps: np.ndarray,
-    positions: np.ndarray,
-    quaternions: np.ndarray,
-    max_gap: float = DEFAULT_MAX_GAP,
-    nearest_tolerance: float = 0.0,
-) -> list[np.ndarray | None]:
-    """Like :func:`interpolate_poses` but returns one (4, 4) camera-to-world or None per query."""
-    t, q = interpolate_poses(
-        query_times, stamps, positions, quaternions, max_gap, nearest_tolerance
-    )
+def pose_matrices(t: np.ndarray, q: np.ndarray) -> list[np.ndarray | None]:
+    """The (4, 4) camera-to-world of each row of :func:`interpolate_poses`' output, None
+    where the row is NaN."""
     valid = ~np.isnan(t[:, 0])
     out: list[np.ndarray | None] = [None] * len(t)
     if np.any(valid):
@@ -104,6 +95,6 @@ def interpolate_pose_matrices(
 
 __all__ = [
     'DEFAULT_MAX_GAP',
-    'interpolate_pose_matrices',
     'interpolate_poses',
+    'pose_matrices',
 ]

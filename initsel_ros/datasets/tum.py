@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_pose_matrices
+from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
 from initsel_ros.datasets.timestamps import ns_to_seconds, parse_seconds_ns
 from initsel_ros.errors import ConfigError, DatasetError
@@ -245,8 +245,10 @@ class TumSequence(Sequence):
         poses: list[np.ndarray | None] = [None] * len(rgb_stamps)
         if groundtruth is not None or gt_path.exists():
             stamps, positions, quats = read_trajectory(gt_path)
-            poses = interpolate_pose_matrices(
-                rgb_stamps, stamps, positions, quats, max_gap, nearest_tolerance
+            poses = pose_matrices(
+                *interpolate_poses(
+                    rgb_stamps, stamps, positions, quats, max_gap, nearest_tolerance
+                )
             )
             n_missing = sum(p is None for p in poses)
             if n_missing:

@@ -621,6 +621,19 @@ def report_markdown(report: EvalReport) -> str:
     return '\n'.join(parts) + '\n'
 
 
+def _score_fields(s: Any) -> dict[str, Any]:
+    """The CSV columns of one set of scores."""
+    return {
+        'accuracy': s.accuracy,
+        'precision': s.precision,
+        'recall': s.recall,
+        'f1': s.f1,
+        'predicted_yes': s.predicted,
+        'positives': s.positives,
+        'pairs': s.n,
+    }
+
+
 def results_csv_rows(report: EvalReport) -> list[dict[str, Any]]:
     """Pair-level table as row dicts (for CSV)."""
     out = []
@@ -632,13 +645,7 @@ def results_csv_rows(report: EvalReport) -> list[dict[str, Any]]:
                 'classifier': r.name,
                 'group': r.group,
                 'label': r.label,
-                'accuracy': s.accuracy,
-                'precision': s.precision,
-                'recall': s.recall,
-                'f1': s.f1,
-                'predicted_yes': s.predicted,
-                'positives': s.positives,
-                'pairs': s.n,
+                **_score_fields(s),
                 'paper_accuracy': p[0],
                 'paper_precision': p[1],
                 'paper_recall': p[2],
@@ -653,13 +660,7 @@ def results_csv_rows(report: EvalReport) -> list[dict[str, Any]]:
                 'classifier': f'{c.candidate} {c.model}',
                 'group': 'candidate',
                 'label': c.model,
-                'accuracy': s.accuracy,
-                'precision': s.precision,
-                'recall': s.recall,
-                'f1': s.f1,
-                'predicted_yes': s.predicted,
-                'positives': s.positives,
-                'pairs': s.n,
+                **_score_fields(s),
                 'paper_accuracy': math.nan,
                 'paper_precision': math.nan,
                 'paper_recall': math.nan,

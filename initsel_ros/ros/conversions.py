@@ -368,12 +368,14 @@ def camera_pose_in_reference(R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, 
 def make_pose_stamped(R: np.ndarray, t: np.ndarray, header: Header) -> PoseStamped:
     """PoseStamped of the current camera in the reference frame (``header.frame_id``)."""
     rotation, position = camera_pose_in_reference(R, t)
+    return pose_stamped(rotation, position, header)
+
+
+def pose_stamped(rotation: np.ndarray, position: np.ndarray, header: Header) -> PoseStamped:
+    """PoseStamped of a (3, 3) ``rotation`` and (3,) ``position`` in ``header.frame_id``."""
     msg = PoseStamped()
     msg.header = header
-    msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = map(float, position)
-    q = rotation_to_quaternion(rotation)
-    o = msg.pose.orientation
-    o.x, o.y, o.z, o.w = map(float, q)
+    set_pose(msg.pose.position, msg.pose.orientation, position, rotation)
     return msg
 
 
@@ -385,12 +387,18 @@ def make_transform(
     msg = TransformStamped()
     msg.header = header
     msg.child_frame_id = child_frame_id
-    tr = msg.transform.translation
-    tr.x, tr.y, tr.z = map(float, position)
-    q = rotation_to_quaternion(rotation)
-    rot = msg.transform.rotation
-    rot.x, rot.y, rot.z, rot.w = map(float, q)
+    set_pose(msg.transform.translation, msg.transform.rotation, position, rotation)
     return msg
+
+
+def set_pose(
+    position_msg: object, orientation_msg: object, position: np.ndarray, rotation: np.ndarray
+) -> None:
+    """Write ``position`` (3,) and the (3, 3) ``rotation`` as a quaternion into the fields of a
+    Point or Vector3 and of a Quaternion message."""
+    position_msg.x, position_msg.y, position_msg.z = map(float, position)
+    q = rotation_to_quaternion(rotation)
+    orientation_msg.x, orientation_msg.y, orientation_msg.z, orientation_msg.w = map(float, q)
 
 
 __all__ = [
@@ -412,9 +420,11 @@ __all__ = [
     'numpy_to_compressed',
     'numpy_to_image',
     'point_cloud_to_array',
+    'pose_stamped',
     'quaternion_to_rotation',
     'rotation_to_quaternion',
     'seconds_to_stamp',
+    'set_pose',
     'significant_bits',
     'stamp_to_ns',
     'stamp_to_seconds',

@@ -275,19 +275,27 @@ def check_node_callbacks(probe: NodeProbe, image: ImageCase, info: InfoCase | No
     return 'skipped' if status.reason is Reason.SKIPPED_IMAGE else 'processed'
 
 
-def run_conversion_fuzz(max_examples: int, seed: int | None = None) -> dict[str, int]:
-    """Run :func:`check_conversion` on ``max_examples`` cases; counts of outcomes."""
-    from hypothesis import HealthCheck, given, settings
+def _settings(max_examples: int, seed: int | None) -> Any:
+    """The hypothesis settings of a fuzz run: no deadline, no example database, every health
+    check off, derandomized when ``seed`` is given."""
+    from hypothesis import HealthCheck, settings
 
-    counts: dict[str, int] = {}
-
-    @settings(
+    return settings(
         max_examples=max_examples,
         deadline=None,
         database=None,
         suppress_health_check=list(HealthCheck),
         derandomize=seed is not None,
     )
+
+
+def run_conversion_fuzz(max_examples: int, seed: int | None = None) -> dict[str, int]:
+    """Run :func:`check_conversion` on ``max_examples`` cases; counts of outcomes."""
+    from hypothesis import given
+
+    counts: dict[str, int] = {}
+
+    @_settings(max_examples, seed)
     @given(image_cases())
     def prop(case: ImageCase) -> None:
         outcome = check_conversion(case)
@@ -301,19 +309,13 @@ def run_node_fuzz(
     model_path: str, max_examples: int, seed: int | None = None, extreme: bool = False
 ) -> dict[str, int]:
     """Run :func:`check_node_callbacks` on ``max_examples`` cases; counts of outcomes."""
-    from hypothesis import HealthCheck, given, settings
+    from hypothesis import given
 
     counts: dict[str, int] = {}
     probe = NodeProbe(model_path)
     try:
 
-        @settings(
-            max_examples=max_examples,
-            deadline=None,
-            database=None,
-            suppress_health_check=list(HealthCheck),
-            derandomize=seed is not None,
-        )
+        @_settings(max_examples, seed)
         @given(image_cases(), info_cases(extreme))
         def prop(case: ImageCase, info: InfoCase | None) -> None:
             outcome = check_node_callbacks(probe, case, info)

@@ -253,11 +253,9 @@ def run(options: ReplayOptions) -> int:
                 image_pub.publish(message)
                 info_pub.publish(info_template)
                 if gt_pub is not None and frame.pose is not None:
-                    gt_pub.publish(
-                        _pose_message(
-                            frame.pose, Header(stamp=stamp, frame_id=options.world_frame_id)
-                        )
-                    )
+                    world = Header(stamp=stamp, frame_id=options.world_frame_id)
+                    T_w_c = frame.pose  # camera-to-world
+                    gt_pub.publish(conv.pose_stamped(T_w_c[:3, :3], T_w_c[:3, 3], world))
                 published += 1
             else:
                 passes += 1
@@ -303,21 +301,6 @@ def _sleep_until(deadline: float) -> bool:
         if remaining <= 0:
             return True
         time.sleep(min(remaining, 0.05))
-
-
-def _pose_message(T_w_c: np.ndarray, header: object) -> object:
-    """PoseStamped of a (4, 4) camera-to-world matrix."""
-    from geometry_msgs.msg import PoseStamped
-
-    from initsel_ros.ros.conversions import rotation_to_quaternion
-
-    msg = PoseStamped()
-    msg.header = header
-    msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = map(float, T_w_c[:3, 3])
-    q = rotation_to_quaternion(T_w_c[:3, :3])
-    o = msg.pose.orientation
-    o.x, o.y, o.z, o.w = map(float, q)
-    return msg
 
 
 __all__ = [

@@ -47,17 +47,15 @@ def photo_noise(
     return np.clip(acc * 255 * tint + rng.uniform(0, 60), 0, 255).astype(np.uint8)
 
 
+#: A rectangle of a texture, pixels: (x0, y0, x1, y1), x1 and y1 excluded.
+Box = tuple[int, int, int, int]
+
+
 def _text_block(
-    img: np.ndarray,
-    rng: np.random.Generator,
-    x0: int,
-    y0: int,
-    x1: int,
-    y1: int,
-    ink: tuple[int, int, int],
-    scale: float,
+    img: np.ndarray, rng: np.random.Generator, box: Box, ink: tuple[int, int, int], scale: float
 ) -> None:
-    """Lines of random words between (x0, y0) and (x1, y1)."""
+    """Lines of random words in ``box``."""
+    x0, y0, x1, y1 = box
     font = int(rng.choice(_FONTS))
     thickness = max(1, round(scale * 1.6))
     (_, h), _ = cv2.getTextSize('Ag', font, scale, thickness)
@@ -76,15 +74,10 @@ def _text_block(
 
 
 def _figure(
-    img: np.ndarray,
-    rng: np.random.Generator,
-    x0: int,
-    y0: int,
-    x1: int,
-    y1: int,
-    ink: tuple[int, int, int],
+    img: np.ndarray, rng: np.random.Generator, box: Box, ink: tuple[int, int, int]
 ) -> None:
-    """A framed figure: a photo patch, a plot with axes and curves, or a diagram."""
+    """A framed figure in ``box``: a photo patch, a plot with axes and curves, or a diagram."""
+    x0, y0, x1, y1 = box
     w, h = x1 - x0, y1 - y0
     if w < 8 or h < 8:
         return
@@ -158,9 +151,8 @@ def paper_texture(
     margin = int(0.06 * min(w, h))
     # title
     title_h = int(h * rng.uniform(0.06, 0.12))
-    _text_block(
-        img, rng, margin, margin, w - margin, margin + title_h, ink, scale=max(0.8, title_h / 40)
-    )
+    title = (margin, margin, w - margin, margin + title_h)
+    _text_block(img, rng, title, ink, scale=max(0.8, title_h / 40))
     y = margin + title_h + margin // 2
     n_cols = int(rng.integers(1, 3))
     col_w = (w - 2 * margin - (n_cols - 1) * margin // 2) // n_cols
@@ -170,19 +162,11 @@ def paper_texture(
         while yy < h - margin - 20:
             block = int(rng.uniform(0.12, 0.35) * h)
             y1 = min(yy + block, h - margin)
+            box = (x0, yy, x0 + col_w, y1)
             if rng.random() < 0.45:
-                _figure(img, rng, x0, yy, x0 + col_w, y1, ink)
+                _figure(img, rng, box, ink)
             else:
-                _text_block(
-                    img,
-                    rng,
-                    x0,
-                    yy,
-                    x0 + col_w,
-                    y1,
-                    ink,
-                    scale=float(rng.uniform(0.45, 1.1)) * ppm / 1000,
-                )
+                _text_block(img, rng, box, ink, scale=float(rng.uniform(0.45, 1.1)) * ppm / 1000)
             yy = y1 + margin // 3
     return img
 
@@ -202,7 +186,7 @@ def poster_texture(
     for _ in range(int(rng.integers(6, 10))):  # pictures
         pw, ph = int(rng.uniform(0.08, 0.2) * w), int(rng.uniform(0.15, 0.35) * h)
         x0, y0 = int(rng.integers(0, w - pw)), int(rng.integers(0, h - ph))
-        _figure(img, rng, x0, y0, x0 + pw, y0 + ph, (20, 20, 20))
+        _figure(img, rng, (x0, y0, x0 + pw, y0 + ph), (20, 20, 20))
     for _ in range(int(rng.integers(14, 20))):  # big words
         word = _word(rng, 4, 11)
         scale = float(rng.uniform(1.2, 3.5)) * ppm / 1000
@@ -212,16 +196,8 @@ def poster_texture(
         x, y = int(rng.integers(0, max(1, w - tw))), int(rng.integers(th, h))
         cv2.putText(img, word, (x + 3, y + 3), font, scale, (60, 30, 20), thick + 2, cv2.LINE_AA)
         cv2.putText(img, word, (x, y), font, scale, (250, 245, 240), thick, cv2.LINE_AA)
-    _text_block(
-        img,
-        rng,
-        int(0.05 * w),
-        int(0.8 * h),
-        int(0.95 * w),
-        h - 5,
-        (40, 20, 20),
-        scale=0.9 * ppm / 1000,
-    )
+    caption = (int(0.05 * w), int(0.8 * h), int(0.95 * w), h - 5)
+    _text_block(img, rng, caption, (40, 20, 20), scale=0.9 * ppm / 1000)
     return img
 
 
