@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, options_from
+from initsel_ros.cli.options import add_models_option, add_work_option, options_from
 
 #: Sections of the default run, each of which ``--skip`` can leave out.
 SECTIONS = ('decision', 'frame', 'node', 'core', 'memory', 'dataset')
@@ -17,11 +17,9 @@ SECTIONS = ('decision', 'frame', 'node', 'core', 'memory', 'dataset')
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel bench``."""
-    parser.add_argument(
-        '--work',
-        type=Path,
-        default=None,
-        help='folder for the rendered sequence (default: temporary; reused '
+    add_work_option(
+        parser,
+        'folder for the rendered sequence (default: temporary; reused '
         'when it already holds enough frames)',
     )
     parser.add_argument('--frames', type=int, default=90, help='frames to render (default 90)')

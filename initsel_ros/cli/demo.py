@@ -9,17 +9,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, model_path
+from initsel_ros.cli.options import add_models_option, add_work_option, model_path
 from initsel_ros.names import Mode
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel demo``."""
-    parser.add_argument(
-        '--work',
-        type=Path,
-        default=None,
-        help='folder for the rendered sequence (default: a temporary folder, '
+    add_work_option(
+        parser,
+        'folder for the rendered sequence (default: a temporary folder, '
         'removed afterwards); reused when it already holds enough frames',
     )
     parser.add_argument(

@@ -6,17 +6,13 @@ import argparse
 import contextlib
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, model_path
+from initsel_ros.cli.options import add_inputs_argument, add_models_option, model_path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel eval``."""
-    parser.add_argument(
-        'tables',
-        nargs='+',
-        type=Path,
-        metavar='PAIRS_CSV',
-        help='test pair tables written by `initsel dataset`',
+    add_inputs_argument(
+        parser, 'tables', 'PAIRS_CSV', 'test pair tables written by `initsel dataset`'
     )
     add_models_option(parser)
     parser.add_argument(

@@ -19,6 +19,18 @@ def add_models_option(
     parser.add_argument('--models', type=Path, default=None, metavar='PATH', help=help_text)
 
 
+def add_inputs_argument(
+    parser: argparse.ArgumentParser, name: str, metavar: str, help_text: str
+) -> None:
+    """Positional ``name``: one or more files or folders (paths)."""
+    parser.add_argument(name, nargs='+', type=Path, metavar=metavar, help=help_text)
+
+
+def add_work_option(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """``--work``: the folder for rendered sequences (None: the command uses a temporary one)."""
+    parser.add_argument('--work', type=Path, default=None, help=help_text)
+
+
 def add_named_models_option(parser: argparse.ArgumentParser) -> None:
     """``--models [NAME=]PATH``, repeatable: several model files compared in one run."""
     parser.add_argument(
@@ -65,8 +77,10 @@ def options_from(args: argparse.Namespace, cls: type[Options], **overrides: Any)
 
 
 __all__ = [
+    'add_inputs_argument',
     'add_models_option',
     'add_named_models_option',
+    'add_work_option',
     'model_path',
     'named_model_paths',
     'options_from',

@@ -6,15 +6,16 @@ import argparse
 import sys
 from pathlib import Path
 
+from initsel_ros.cli.options import add_inputs_argument
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel orbvocab``."""
-    parser.add_argument(
+    add_inputs_argument(
+        parser,
         'sequences',
-        nargs='+',
-        type=Path,
-        metavar='SEQUENCE',
-        help='sequences whose frames give the ORB descriptors (e.g. initsel synth renders)',
+        'SEQUENCE',
+        'sequences whose frames give the ORB descriptors (e.g. initsel synth renders)',
     )
     parser.add_argument('--out', type=Path, required=True, help='vocabulary file (text format)')
     parser.add_argument('--k', type=int, default=10, help='branching factor (default 10)')

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, model_path
+from initsel_ros.cli.options import add_models_option, add_work_option, model_path
 from initsel_ros.names import Mode
 
 
@@ -23,12 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '(rotation_veto.png, initialization.png, probabilities.png; default '
         'docs/images under the working directory)',
     )
-    parser.add_argument(
-        '--work',
-        type=Path,
-        default=None,
-        help='folder for rendered sequences (reused; default: temporary)',
-    )
+    add_work_option(parser, 'folder for rendered sequences (reused; default: temporary)')
     parser.add_argument(
         '--source',
         type=Path,

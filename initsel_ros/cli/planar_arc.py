@@ -5,17 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option
+from initsel_ros.cli.options import add_inputs_argument, add_models_option, model_path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel planar_arc``."""
-    parser.add_argument(
+    add_inputs_argument(
+        parser,
         'sequences',
-        nargs='+',
-        type=Path,
-        metavar='SEQUENCE',
-        help="rendered sequences (scripts/planar_arc.sh); names starting 'rotation' or "
+        'SEQUENCE',
+        "rendered sequences (scripts/planar_arc.sh); names starting 'rotation' or "
         "'static' must not initialize",
     )
     add_models_option(parser)
@@ -28,8 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Evaluate the sequences, print the table and write it."""
     from initsel_ros.learn.planar_arc import evaluate_arcs, write_outputs
-    from initsel_ros.models import default_model_path
 
-    outcomes = evaluate_arcs(args.sequences, args.models or default_model_path(), jobs=args.jobs)
+    outcomes = evaluate_arcs(args.sequences, model_path(args.models), jobs=args.jobs)
     print(write_outputs(outcomes, args.out_dir))
     return 0

@@ -6,17 +6,16 @@ import argparse
 import sys
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, model_path
+from initsel_ros.cli.options import add_inputs_argument, add_models_option, model_path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel seedmap``."""
-    parser.add_argument(
+    add_inputs_argument(
+        parser,
         'sequences',
-        nargs='+',
-        type=Path,
-        metavar='SEQUENCE',
-        help='sequences with ground truth and depth (TUM folders, bags); grouped by --group, '
+        'SEQUENCE',
+        'sequences with ground truth and depth (TUM folders, bags); grouped by --group, '
         "else by name: 'rotation' or 'static' -> rotation/static, 'wall', 'floor' or "
         "'planar' -> planar, anything else non-planar",
     )

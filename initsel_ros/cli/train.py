@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from initsel_ros.cli.options import add_inputs_argument
+
 FAMILIES = ('logistic', 'logistic+extra', 'trees', 'trees+extra')
 EXTRA = (
     'x_disp_p10',
@@ -19,13 +21,7 @@ EXTRA = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel train``."""
-    parser.add_argument(
-        'tables',
-        nargs='+',
-        type=Path,
-        metavar='PAIRS_CSV',
-        help='pair tables written by `initsel dataset`',
-    )
+    add_inputs_argument(parser, 'tables', 'PAIRS_CSV', 'pair tables written by `initsel dataset`')
     parser.add_argument('--out', required=True, type=Path, help='model file to write (JSON)')
     parser.add_argument(
         '--target-precision',
