@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -126,15 +126,7 @@ class Intrinsics:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for YAML/JSON)."""
-        return {
-            'fx': self.fx,
-            'fy': self.fy,
-            'cx': self.cx,
-            'cy': self.cy,
-            'width': self.width,
-            'height': self.height,
-            'distortion': list(self.distortion),
-        }
+        return asdict(self) | {'distortion': list(self.distortion)}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = '<dict>') -> Intrinsics:

@@ -30,7 +30,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
-from initsel_ros.datasets.sequence import Frame, Sequence
+from initsel_ros.datasets.sequence import Sequence, paired_frames
 from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
 from initsel_ros.errors import ConfigError, DatasetError, ImageConversionError
@@ -246,16 +246,7 @@ class BagSequence(Sequence):
         self.groundtruth_source = gt_source if gt is not None else None
         if intrinsics is None:
             intrinsics = info if info is not None else Intrinsics.tum_fr3()
-        frames = [
-            Frame(
-                i,
-                float(s),
-                poses[i],
-                float(depth_stamps_arr[match[i]]) if match[i] >= 0 else None,
-                stamp_ns=stamps_ns[i],
-            )
-            for i, s in enumerate(stamps)
-        ]
+        frames = paired_frames(stamps, stamps_ns, poses, depth_stamps_arr, match)
         name = path.stem if path.is_file() else path.name
         super().__init__(name, intrinsics, frames, path)
         self._depth_topic = depth_topic

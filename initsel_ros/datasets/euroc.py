@@ -31,7 +31,7 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
 from initsel_ros.datasets.timestamps import ns_to_seconds
-from initsel_ros.datasets.tum import read_text
+from initsel_ros.datasets.tum import content_lines
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.transforms import matrix_to_pose, pose_matrix
 
@@ -61,12 +61,8 @@ def is_euroc_folder(path: Path) -> bool:
 
 def _csv_rows(path: Path, min_columns: int, expected: str) -> list[tuple[int, list[str]]]:
     """(line number, fields) of a EuRoC csv; '#' lines are comments."""
-    text = read_text(path)
     rows = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        stripped = line.strip()
-        if not stripped or stripped.startswith('#'):
-            continue
+    for number, stripped in content_lines(path):
         fields = [f.strip() for f in stripped.split(',')]
         if len(fields) < min_columns:
             raise DatasetError(

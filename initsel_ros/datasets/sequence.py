@@ -47,6 +47,27 @@ class Frame:
             object.__setattr__(self, 'stamp_ns', int(self.stamp_ns))
 
 
+def paired_frames(
+    stamps: np.ndarray,
+    stamps_ns: np.ndarray | list[int],
+    poses: list[np.ndarray | None],
+    depth_stamps: np.ndarray,
+    depth_match: np.ndarray,
+) -> list[Frame]:
+    """The frames of colour images at ``stamps`` (seconds; exact ``stamps_ns``) with their
+    ``poses`` and the depth map ``depth_match[i]`` of ``depth_stamps`` (-1: none)."""
+    return [
+        Frame(
+            i,
+            float(s),
+            poses[i],
+            float(depth_stamps[depth_match[i]]) if depth_match[i] >= 0 else None,
+            stamp_ns=stamps_ns[i],
+        )
+        for i, s in enumerate(stamps)
+    ]
+
+
 class Sequence:
     """Base class: frames, intrinsics and lazy image access.
 
@@ -167,4 +188,4 @@ def without_alpha(img: np.ndarray) -> np.ndarray:
 bgr_from_any = to_bgr
 
 
-__all__ = ['Frame', 'Sequence', 'bgr_from_any', 'read_image_file', 'without_alpha']
+__all__ = ['Frame', 'Sequence', 'bgr_from_any', 'paired_frames', 'read_image_file', 'without_alpha']

@@ -18,7 +18,12 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
-from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
+from initsel_ros.datasets.sequence import (
+    Sequence,
+    paired_frames,
+    read_image_file,
+    without_alpha,
+)
 from initsel_ros.datasets.timestamps import ns_to_seconds, parse_seconds_ns
 from initsel_ros.errors import ConfigError, DatasetError
 
@@ -44,16 +49,20 @@ def read_text(path: Path) -> str:
         raise DatasetError(f'{path}: cannot read: {exc}') from exc
 
 
+def content_lines(path: Path) -> list[tuple[int, str]]:
+    """(line number, stripped text) of the lines of a text file that are neither blank nor
+    '#' comments."""
+    out = []
+    for number, line in enumerate(read_text(path).splitlines(), start=1):
+        stripped = line.strip()
+        if stripped and not stripped.startswith('#'):
+            out.append((number, stripped))
+    return out
+
+
 def _data_lines(path: Path) -> list[tuple[int, list[str]]]:
     """(line number, fields) of the non-comment, non-blank lines of a text file."""
-    text = read_text(path)
-    out = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        stripped = line.strip()
-        if not stripped or stripped.startswith('#'):
-            continue
-        out.append((number, stripped.replace(',', ' ').split()))
-    return out
+    return [(number, text.replace(',', ' ').split()) for number, text in content_lines(path)]
 
 
 def _float(path: Path, number: int, value: str, expected: str) -> float:
@@ -264,16 +273,7 @@ class TumSequence(Sequence):
         else:
             _LOG.info('%s: no groundtruth.txt; frames have no poses', path)
 
-        frames = [
-            Frame(
-                i,
-                float(s),
-                poses[i],
-                float(depth_stamps[depth_match[i]]) if depth_match[i] >= 0 else None,
-                stamp_ns=rgb_ns[i],
-            )
-            for i, s in enumerate(rgb_stamps)
-        ]
+        frames = paired_frames(rgb_stamps, rgb_ns, poses, depth_stamps, depth_match)
         super().__init__(path.resolve().name, intrinsics, frames, path)
         self.depth_scale = float(depth_scale)
         self.rgb_files = [path / n for n in rgb_names]
