@@ -188,4 +188,11 @@ def without_alpha(img: np.ndarray) -> np.ndarray:
 bgr_from_any = to_bgr
 
 
-__all__ = ['Frame', 'Sequence', 'bgr_from_any', 'paired_frames', 'read_image_file', 'without_alpha']
+__all__ = [
+    'Frame',
+    'Sequence',
+    'bgr_from_any',
+    'paired_frames',
+    'read_image_file',
+    'without_alpha',
+]
