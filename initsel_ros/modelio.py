@@ -1,7 +1,12 @@
 """Reading model files safely: bounded, non-blocking reads, bounded JSON nesting, and the
 schema's primitive checks (flat lists of finite numbers, numbers in range).
 
-Everything here raises :class:`~initsel_ros.errors.ModelFileError` with a one-line message.
+Numbers are checked as the values they must become: every float a finite float64 (an integer
+literal such as 10^400 is not), every index an integer within its bounds (checked as a Python
+int, before any conversion to int64). Integer literals too long for Python to convert (over
+4300 digits) are read as infinite floats, so they too are refused naming their field.
+Everything here raises :class:`~initsel_ros.errors.ModelFileError` with a one-line message,
+whatever the JSON holds.
 """
 
 from __future__ import annotations
@@ -22,6 +27,16 @@ from initsel_ros.errors import ModelFileError
 MAX_FILE_BYTES = 16 * 1024 * 1024
 #: Deepest JSON nesting a model file may have (real ones nest about 5 levels).
 MAX_JSON_DEPTH = 64
+#: Longest integer literal read as an int; longer ones cannot be a finite float64 (the
+#: largest has 309 digits) nor a usable index, and become infinite floats.
+MAX_INT_DIGITS = 400
+
+
+def _parse_int(text: str) -> int | float:
+    """JSON integer literal -> int, or +-inf beyond :data:`MAX_INT_DIGITS` digits."""
+    if len(text) > MAX_INT_DIGITS:
+        return -math.inf if text.startswith('-') else math.inf
+    return int(text)
 
 
 def read_bounded(path: Path, max_bytes: int = MAX_FILE_BYTES) -> bytes:
@@ -112,15 +127,25 @@ def parse_json_bounded(data: bytes, max_depth: int = MAX_JSON_DEPTH) -> Any:
             f'JSON nested deeper than {max_depth} levels ({depth}); not a model file'
         )
     try:
-        return json.loads(text)
+        return json.loads(text, parse_int=_parse_int)
     except json.JSONDecodeError as exc:
         raise ModelFileError(f'not valid JSON (line {exc.lineno}): {exc.msg}') from exc
+    except (ValueError, OverflowError) as exc:  # e.g. a number the float parser rejects
+        raise ModelFileError(f'not a readable JSON number: {str(exc)[:80]}') from exc
     except RecursionError as exc:  # unreachable after the depth check; kept as a guard
         raise ModelFileError('JSON nested too deeply; not a model file') from exc
 
 
 def _is_number(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _as_float(value: Any) -> float:
+    """A JSON number as float64; +-inf when it lies beyond float64's range (10^400)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def number_list(value: Any, what: str, length: int) -> np.ndarray:
@@ -133,24 +158,39 @@ def number_list(value: Any, what: str, length: int) -> np.ndarray:
         raise ModelFileError(f'{what} must be a flat list of {length} numbers')
     if len(value) != length:
         raise ModelFileError(f'{what} must have {length} values, got {len(value)}')
-    arr = np.asarray(value, dtype=np.float64)
+    arr = np.array([_as_float(v) for v in value], dtype=np.float64)
     if not np.all(np.isfinite(arr)):
-        raise ModelFileError(f'{what} contains NaN or infinity')
+        bad = int(np.flatnonzero(~np.isfinite(arr))[0])
+        raise ModelFileError(
+            f'{what} contains NaN or infinity, or a number beyond float64 (value {bad}: '
+            f'{_brief(value[bad])})'
+        )
     return arr
 
 
+def _brief(value: Any) -> str:
+    """A JSON value for a one-line message (huge integers by their size only)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**20:
+        return f'an integer of {len(str(abs(value)))} digits'
+    if isinstance(value, float) and math.isinf(value):
+        return 'infinite, or an integer literal of more than 400 digits'
+    return f'{value!r:.40}'
+
+
 def finite_number(value: Any, what: str) -> float:
-    """A finite JSON number as float; raises ModelFileError otherwise."""
-    if not _is_number(value) or not math.isfinite(float(value)):
+    """A JSON number that is a finite float64, as float; raises ModelFileError otherwise."""
+    if not _is_number(value):
         raise ModelFileError(f'{what} must be a finite number (non-numeric: {value!r:.40})')
-    return float(value)
+    if not math.isfinite(_as_float(value)):
+        raise ModelFileError(f'{what} must be a finite number (float64), got {_brief(value)}')
+    return _as_float(value)
 
 
 def unit_number(value: Any, what: str) -> float:
     """A JSON number in [0, 1] as float; raises ModelFileError otherwise."""
     if not _is_number(value):
-        raise ModelFileError(f'{what} must be a number in [0, 1], got {value!r:.40}')
-    v = float(value)
+        raise ModelFileError(f'{what} must be a number in [0, 1], got {_brief(value)}')
+    v = _as_float(value)
     if not 0.0 <= v <= 1.0:
         raise ModelFileError(f'{what} must be in [0, 1], got {v}')
     return v
@@ -168,10 +208,10 @@ def int_list(value: Any, what: str, length: int, low: int, high: int) -> np.ndar
         raise ModelFileError(f'{what} must be a flat list of {length} integers')
     if len(value) != length:
         raise ModelFileError(f'{what} must have {length} values, got {len(value)}')
-    arr = np.asarray(value, dtype=np.int64)
-    if arr.size and (arr.min() < low or arr.max() > high):
-        raise ModelFileError(f'{what} must lie in [{low}, {high}]')
-    return arr
+    for i, v in enumerate(value):  # Python ints: no overflow, whatever their size
+        if not low <= v <= high:
+            raise ModelFileError(f'{what} must lie in [{low}, {high}]; value {i} is {_brief(v)}')
+    return np.asarray(value, dtype=np.int64)
 
 
 def name_list(value: Any, what: str, allowed: tuple[str, ...]) -> tuple[str, ...]:

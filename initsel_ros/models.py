@@ -211,6 +211,12 @@ class ModelSet:
                 'feature_names do not match the 23 features this version computes '
                 f'(first difference at {_first_difference(self.feature_names, FEATURE_NAMES)})'
             )
+        unknown = [m for m in self.models if m not in METHODS]
+        if unknown:
+            raise ModelFileError(
+                f'unknown models: {", ".join(repr(m)[:40] for m in unknown[:5])} '
+                '(a model file holds exactly F, E, H and R)'
+            )
         missing = [m for m in METHODS if m not in self.models]
         if missing:
             raise ModelFileError(f'missing models: {", ".join(missing)} (need F, E, H and R)')

@@ -7,6 +7,7 @@ bounded memory and the newest frame processed.
 
 from __future__ import annotations
 
+import json
 import os
 import pickle
 import shutil
@@ -461,6 +462,128 @@ def test_model_file_with_yaml_tags_is_rejected_and_never_executed(tmp_path, text
     with pytest.raises(ModelFileError, match=r'models\.yaml'):
         ModelSet.load(path)
     assert not marker.exists()
+
+
+_SHIPPED_MODELS = Path(__file__).resolve().parent.parent / 'config' / 'models.json'
+_BIG = '"@@NUMBER@@"'
+
+
+def _model_file_with(tmp_path: Path, edit, literal: str = '') -> Path:
+    """The shipped model file with ``edit(data)`` applied; ``_BIG`` becomes ``literal``."""
+    data = json.loads(_SHIPPED_MODELS.read_text())
+    edit(data)
+    path = tmp_path / 'odd_models.json'
+    path.write_text(json.dumps(data).replace(_BIG, literal))
+    return path
+
+
+def _first_tree(data: dict) -> dict:
+    return data['models']['F']['trees'][0]
+
+
+def _set_value(data: dict) -> None:
+    _first_tree(data)['value'][-1] = json.loads(_BIG)
+
+
+def _set_feature(data: dict) -> None:
+    _first_tree(data)['feature'][0] = json.loads(_BIG)
+
+
+def _set_bias(data: dict) -> None:
+    data['models']['E']['bias'] = json.loads(_BIG)
+
+
+def _set_split(data: dict) -> None:
+    _first_tree(data)['split'][0] = json.loads(_BIG)
+
+
+def _set_threshold(data: dict) -> None:
+    data['models']['H']['threshold'] = json.loads(_BIG)
+
+
+def _add_model_x(data: dict) -> None:
+    data['models']['X'] = data['models']['R']
+
+
+#: Issue 22 case 2: each used to end in a traceback (OverflowError, ValueError) or, for "X",
+#: in a model loaded, shown in the ready line and never used.
+ODD_MODEL_FILES = [
+    pytest.param(
+        _set_value,
+        '1' + '0' * 400,
+        "model 'F': tree 0: value contains NaN or infinity",
+        id='10^400-value',
+    ),
+    pytest.param(
+        _set_bias,
+        '7' * 5000,
+        "model 'E': bias must be a finite number (float64), got infinite, or an integer literal",
+        id='5000-digit-bias',
+    ),
+    pytest.param(
+        _set_feature, '1' + '0' * 30, "model 'F': tree 0: feature must lie in", id='10^30-index'
+    ),
+    pytest.param(
+        _set_split,
+        '-' + '9' * 320,
+        "model 'F': tree 0: split contains NaN or infinity",
+        id='-10^320-split',
+    ),
+    pytest.param(
+        _set_threshold,
+        '1' + '0' * 400,
+        "model 'H': threshold must be in [0, 1]",
+        id='10^400-threshold',
+    ),
+    pytest.param(_add_model_x, '', "unknown models: 'X'", id='model-X'),
+]
+
+
+@pytest.mark.parametrize(('edit', 'literal', 'message'), ODD_MODEL_FILES)
+def test_odd_numbers_or_models_in_a_model_file_are_one_line_naming_the_field(
+    tmp_path, edit, literal, message
+):
+    from initsel_ros.models import ModelSet
+
+    path = _model_file_with(tmp_path, edit, literal)
+    with pytest.raises(ModelFileError) as info:
+        ModelSet.load(path)
+    text = str(info.value)
+    assert message in text and str(path) in text and '\n' not in text and len(text) < 400
+
+
+@pytest.mark.parametrize(('edit', 'literal', 'message'), ODD_MODEL_FILES)
+def test_initsel_eval_refuses_an_odd_model_file_with_one_line(
+    tmp_path, capsys, edit, literal, message
+):
+    from initsel_ros.cli import main
+
+    path = _model_file_with(tmp_path, edit, literal)
+    code = main(['eval', str(tmp_path / 'unused_pairs.csv'), '--models', str(path)])
+    err = capsys.readouterr().err.strip()
+    assert code == 1
+    assert err.startswith('initsel eval: error: ') and message in err and '\n' not in err
+
+
+@pytest.mark.parametrize(
+    ('edit', 'literal', 'message'), [ODD_MODEL_FILES[1], ODD_MODEL_FILES[2], ODD_MODEL_FILES[5]]
+)
+def test_the_node_refuses_to_start_on_an_odd_model_file_with_one_line(
+    tmp_path, edit, literal, message
+):
+    pytest.importorskip('rclpy')
+    path = _model_file_with(tmp_path, edit, literal)
+    proc = subprocess.run(
+        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p', f'model_file:={path}'],
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        env=_node_env(),
+    )
+    output = (proc.stdout + proc.stderr).strip()
+    assert proc.returncode == 1, output
+    assert 'Traceback' not in output and message in output
+    assert len([line for line in output.splitlines() if 'odd_models.json' in line]) == 1
 
 
 def _node_env() -> dict[str, str]:

@@ -101,7 +101,7 @@ def config_like(metadata: dict, scaling: object) -> object:
         kwargs['target_precision'] = float(target)
     trees = training.get('trees')
     if isinstance(trees, dict):
-        with contextlib.suppress(KeyError, TypeError, ValueError, ConfigError):
+        with contextlib.suppress(KeyError, TypeError, ValueError, OverflowError, ConfigError):
             kwargs['trees'] = TreeConfig(
                 int(trees['n_trees']), int(trees['depth']), float(trees['learning_rate'])
             )
