@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
+from typing import Any
 
 SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall', 'repeated')
 #: Keys of ``initsel_ros.synth.realism.EFFECT_LEVELS`` (not imported: ``--help`` stays light;
@@ -43,6 +45,35 @@ def _gain_ramp(text: str) -> tuple[float, ...]:
     if len(values) not in (3, 4):
         raise argparse.ArgumentTypeError('gain ramp takes FROM,TO,SECONDS[,START]')
     return values
+
+
+#: The single-effect options, each an :class:`initsel_ros.synth.effects.Effects` field:
+#: name -> (type, metavar or None, help). Off unless given; a value given replaces the one
+#: ``--effect`` or ``--realism`` sets.
+EFFECT_OPTIONS: dict[str, tuple[Callable[[str], Any], str | None, str]] = {
+    'noise': (float, None, 'Gaussian read noise sigma, grey levels (default 1.5; 0 = off)'),
+    'full_well': (
+        float,
+        'ELECTRONS',
+        'electrons at grey level 255: shot noise (default 0 = off; a small sensor: 5000-20000)',
+    ),
+    'blur': (float, None, 'Gaussian defocus blur sigma, pixels'),
+    'exposure_time': (
+        float,
+        'SECONDS',
+        'shutter open time: motion blur along the trajectory (e.g. 0.01)',
+    ),
+    'line_delay': (float, 'SECONDS', 'rolling shutter, seconds per row (e.g. 3e-5)'),
+    'gain_ramp': (
+        _gain_ramp,
+        'FROM,TO,SECONDS[,START]',
+        'linear gain ramp, e.g. 0.6,1.4,2 (auto-exposure)',
+    ),
+    'exposure': (float, None, 'slow random exposure changes, relative amplitude (e.g. 0.15)'),
+    'vignetting': (float, None, 'fraction of the cos^4 falloff, 0-1'),
+    'jpeg_quality': (int, '1-100', 'write the colour frames as JPEG of this quality'),
+    'movers': (int, None, 'independently moving textured boards in front of the scene'),
+}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -141,66 +172,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default='default',
         help="strength of the --effect ones: 'default' (a common camera) or 'strong'",
     )
-    effects.add_argument(
-        '--noise',
-        type=float,
-        default=None,
-        help='Gaussian read noise sigma, grey levels (default 1.5; 0 = off)',
-    )
-    effects.add_argument(
-        '--full-well',
-        type=float,
-        default=None,
-        metavar='ELECTRONS',
-        help='electrons at grey level 255: shot noise (default 0 = off; '
-        'a small sensor: 5000-20000)',
-    )
-    effects.add_argument(
-        '--blur', type=float, default=None, help='Gaussian defocus blur sigma, pixels'
-    )
-    effects.add_argument(
-        '--exposure-time',
-        type=float,
-        default=None,
-        metavar='SECONDS',
-        help='shutter open time: motion blur along the trajectory (e.g. 0.01)',
-    )
-    effects.add_argument(
-        '--line-delay',
-        type=float,
-        default=None,
-        metavar='SECONDS',
-        help='rolling shutter, seconds per row (e.g. 3e-5)',
-    )
-    effects.add_argument(
-        '--gain-ramp',
-        type=_gain_ramp,
-        default=None,
-        metavar='FROM,TO,SECONDS[,START]',
-        help='linear gain ramp, e.g. 0.6,1.4,2 (auto-exposure)',
-    )
-    effects.add_argument(
-        '--exposure',
-        type=float,
-        default=None,
-        help='slow random exposure changes, relative amplitude (e.g. 0.15)',
-    )
-    effects.add_argument(
-        '--vignetting', type=float, default=None, help='fraction of the cos^4 falloff, 0-1'
-    )
-    effects.add_argument(
-        '--jpeg-quality',
-        type=int,
-        default=None,
-        metavar='1-100',
-        help='write the colour frames as JPEG of this quality',
-    )
-    effects.add_argument(
-        '--movers',
-        type=int,
-        default=None,
-        help='independently moving textured boards in front of the scene',
-    )
+    for name, (kind, metavar, help_text) in EFFECT_OPTIONS.items():
+        flag = '--' + name.replace('_', '-')
+        effects.add_argument(flag, type=kind, default=None, metavar=metavar, help=help_text)
     effects.add_argument(
         '--distortion',
         type=_coefficients,
@@ -219,20 +193,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
-_EFFECT_OPTIONS = (
-    'noise',
-    'full_well',
-    'blur',
-    'exposure_time',
-    'line_delay',
-    'gain_ramp',
-    'exposure',
-    'vignetting',
-    'jpeg_quality',
-    'movers',
-)
-
-
 def run(args: argparse.Namespace) -> int:
     """Render and print the effects and the measured speed."""
     import dataclasses
@@ -246,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
         effect_fields(args.effect, args.strength) if args.effect else ({}, (), None)
     )
     given = named | {
-        name: getattr(args, name) for name in _EFFECT_OPTIONS if getattr(args, name) is not None
+        name: getattr(args, name) for name in EFFECT_OPTIONS if getattr(args, name) is not None
     }
     distortion = tuple(args.distortion or ()) or named_distortion
     if args.realism:
