@@ -18,6 +18,7 @@ from enum import Enum
 
 import cv2
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from initsel_ros.errors import ImageConversionError
 
@@ -365,7 +366,7 @@ def _patch_means_at(
         inside = _inside(xy[:, 0], xy[:, 1], img.shape, window_px)
         index, xy = index[inside], xy[inside]
         patches = _inside_patches(img, xy[:, 0], xy[:, 1], window_px)
-        means[index] = _patch_mean(patches.sum(axis=1, dtype=np.int64), window_px)
+        means[index] = _patch_mean(_patch_sums(patches), window_px)
         unclipped[index] = _unclipped(patches)
     return means, unclipped
 
@@ -486,12 +487,19 @@ def _inside(x: np.ndarray, y: np.ndarray, shape: tuple[int, ...], k: int) -> np.
 
 def _inside_patches(img: np.ndarray, x: np.ndarray, y: np.ndarray, k: int) -> np.ndarray:
     """(N, k * k) uint8 pixels of the k x k windows at the integer pixels ``(x, y)``, every
-    window inside the image: one gather from the flat frame."""
-    w = img.shape[1]
+    window inside the image: one gather of whole windows from a strided view of the frame
+    (a quarter of the time of gathering N k^2 flat indices, which must be built first)."""
+    if len(x) == 0:  # (no window fits a frame smaller than k: nothing to view)
+        return np.empty((0, k * k), dtype=img.dtype)
     before = k // 2
-    offsets = (np.arange(k)[:, None] * w + np.arange(k)).ravel()
-    base = (y - before) * w + (x - before)
-    return np.ravel(img).take(base[:, None] + offsets)
+    windows = sliding_window_view(img, (k, k))
+    return windows[y - before, x - before].reshape(len(x), k * k)
+
+
+def _patch_sums(patches: np.ndarray) -> np.ndarray:
+    """(N,) exact integer sums of (N, k * k) uint8 patches (in uint32: exact below k = 4104,
+    and cheaper to accumulate than int64)."""
+    return patches.sum(axis=1, dtype=np.uint32)
 
 
 def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.ndarray, np.ndarray]:
@@ -526,7 +534,7 @@ def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.nd
     inside = _inside(x, y, img.shape, k)
     if inside.any():
         patches = _inside_patches(img, x[inside], y[inside], k)
-        sums[inside] = patches.sum(axis=1, dtype=np.int64)
+        sums[inside] = _patch_sums(patches)
         unclipped[inside] = _unclipped(patches)
     border = ~inside
     if border.any():
@@ -541,7 +549,7 @@ def patch_means(img: np.ndarray, pts: np.ndarray, window_px: int) -> tuple[np.nd
         cols = np.abs(cols)
         cols = np.where(cols > w - 1, 2 * (w - 1) - cols, cols)
         patches = img[rows[:, :, None], cols[:, None, :]].reshape(len(rows), -1)
-        sums[border] = patches.sum(axis=1, dtype=np.int64)
+        sums[border] = _patch_sums(patches)
         unclipped[border] = _unclipped(np.where(valid.reshape(len(rows), -1), patches, 128))
     return _patch_mean(sums, k), unclipped
 
