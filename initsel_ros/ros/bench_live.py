@@ -44,6 +44,9 @@ from initsel_ros.ros.harness import NodeHarness
 
 #: How long the node and the harness may take to discover each other, seconds.
 DISCOVERY_S = 10.0
+#: Wait after the publisher sees the node's subscription, before the first frame: the node's
+#: side of the match can lag (at load 8, 0.5 s lost the first frame of a replay).
+DISCOVERY_SETTLE_S = 1.5
 
 
 def _node_under_test(model_path: Path, mode: str = 'continuous') -> NodeHarness:
@@ -299,7 +302,7 @@ def node_in_own_process(
                     f'the node did not start or was not discovered: {stop_process(proc)[1][-500:]}'
                 )
             time.sleep(0.05)
-        time.sleep(0.5)  # let discovery settle both ways
+        time.sleep(DISCOVERY_SETTLE_S)  # the node must match the publisher too
         n = len(images)
         order = [k % (2 * n - 2) if n > 1 else 0 for k in range(frames)]
         order = [i if i < n else 2 * n - 2 - i for i in order]
