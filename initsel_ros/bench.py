@@ -559,7 +559,7 @@ def _flood(options: BenchOptions, work: Path) -> dict[str, Any]:
 def _fuzz(options: BenchOptions, work: Path) -> dict[str, Any]:
     from initsel_ros.benchmarks.common import bench_models
     from initsel_ros.ros import ros_available
-    from initsel_ros.ros.fuzz import run_conversion_fuzz, run_node_fuzz
+    from initsel_ros.ros.fuzz import run_compressed_fuzz, run_conversion_fuzz, run_node_fuzz
 
     n = options.fuzz
     start = time.perf_counter()
@@ -580,6 +580,13 @@ def _fuzz(options: BenchOptions, work: Path) -> dict[str, Any]:
         f'examples passed {node} ({time.perf_counter() - start:.0f} s)'
     )
     out['node'] = node
+    start = time.perf_counter()
+    compressed = run_compressed_fuzz(str(model_path), n)
+    print(
+        f'compressed node callbacks: {n} examples passed {compressed} '
+        f'({time.perf_counter() - start:.0f} s)'
+    )
+    out['compressed'] = compressed
     return out
 
 

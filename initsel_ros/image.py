@@ -413,7 +413,7 @@ def decode_compressed(
     except ImageConversionError as exc:
         raise ImageConversionError(f'{what}: {exc}') from exc
     if width == 0 or height == 0:
-        raise ImageConversionError(f'{what}: its header says {width}x{height}')
+        raise ImageConversionError(f'{what}: its header says {width}x{height}: not decoded')
     check_size(width, height, min(int(max_pixels), MAX_DECODED_PIXELS), f'{what}: a frame')
     if size is not None and (width, height) != tuple(size):
         raise ImageConversionError(

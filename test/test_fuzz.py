@@ -16,11 +16,15 @@ from hypothesis import strategies as st
 pytest.importorskip('sensor_msgs.msg')
 
 from initsel_ros.ros.fuzz import (
+    GOOD_SIZE,
     INTERNAL_ERROR_REASON,
+    CompressedCase,
     ImageCase,
     InfoCase,
+    check_compressed_callbacks,
     check_conversion,
     check_node_callbacks,
+    compressed_cases,
     image_cases,
     info_cases,
 )
@@ -67,18 +71,33 @@ def test_conversion_check_catches_a_wrong_shape(monkeypatch):
 
 
 @pytest.fixture(scope='module')
-def probe(tmp_path_factory):
+def fuzz_models(tmp_path_factory):
     pytest.importorskip('rclpy')
     from ros_helpers import configure_this_process
 
     from initsel_ros.benchmarks.common import random_models
-    from initsel_ros.ros.fuzz import NodeProbe
 
     configure_this_process()
     os.environ['ROS_DOMAIN_ID'] = str(os.getpid() % 50 + 150)
     path = tmp_path_factory.mktemp('fuzz_models') / 'models.json'
     random_models().save(path)
-    p = NodeProbe(str(path))
+    return str(path)
+
+
+@pytest.fixture(scope='module')
+def probe(fuzz_models):
+    from initsel_ros.ros.fuzz import NodeProbe
+
+    p = NodeProbe(fuzz_models)
+    yield p
+    p.close()
+
+
+@pytest.fixture(scope='module')
+def compressed_probe(fuzz_models):
+    from initsel_ros.ros.fuzz import NodeProbe
+
+    p = NodeProbe(fuzz_models, compressed=True)
     yield p
     p.close()
 
@@ -102,6 +121,10 @@ PLAUSIBLE_K = (525.0, 0.0, 320.0, 0.0, 525.0, 240.0, 0.0, 0.0, 1.0)
 @example(
     case=ImageCase('mono16', 5, 7, 14, 70, True, 1),
     info=InfoCase(PLAUSIBLE_K, 640, 480, (NAN, 0, 0, 0, 0), 'plumb_bob'),
+)
+@example(  # issue 22: a principal point far outside a 640x480 image
+    case=ImageCase('mono8', 4, 4, 4, 16, False, 0),
+    info=InfoCase((525.0, 0.0, 1e6, 0.0, 525.0, -5e5, 0.0, 0.0, 1.0), 640, 480, (), 'plumb_bob'),
 )
 def test_node_survives_any_image_and_camera_info_and_processes_the_next_good_frame(
     probe,
@@ -131,6 +154,54 @@ def test_node_check_catches_an_internal_error(probe, monkeypatch):
 )
 def test_node_survives_camera_info_with_absurd_finite_focal_lengths(probe, info):
     check_node_callbacks(probe, ImageCase('mono8', 1, 1, 1, 1, False, 0), info)
+
+
+def test_node_check_catches_intrinsics_taken_from_an_implausible_camera_info(probe, monkeypatch):
+    """The property itself can fail: a node that takes any camera_info is caught."""
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.ros import node as node_module
+
+    monkeypatch.setattr(
+        node_module.conv,
+        'camera_info_to_intrinsics',
+        lambda msg: Intrinsics(600.0, 600.0, 320.0, 240.0, 640, 480),
+    )
+    bad = InfoCase((525.0, 0.0, 1e6, 0.0, 525.0, -5e5, 0.0, 0.0, 1.0), 640, 480, (), '')
+    with pytest.raises(AssertionError, match='implausible camera_info'):
+        check_node_callbacks(probe, ImageCase('mono8', 8, 8, 8, 64, False, 0), bad)
+
+
+def _compressed(mutation: str, claim=(0, 0), size=GOOD_SIZE, fmt='', codec='jpeg'):
+    return CompressedCase(codec, *size, True, False, mutation, claim, 300, fmt, 7)
+
+
+@PROFILE
+@given(case=compressed_cases())
+@example(case=_compressed('none'))
+@example(case=_compressed('none', size=(32, 24)))  # another size than camera_info's
+@example(case=_compressed('claim', (8000, 8000)))  # the 64 KB JPEG that decoded to 192 MB
+@example(case=_compressed('claim', (0, 0), codec='png'))
+@example(case=_compressed('truncate'))
+@example(case=_compressed('flip'))  # corrupt entropy-coded data
+@example(case=_compressed('format', fmt='16UC1; compressedDepth png', codec='png'))
+@example(case=_compressed('garbage'))
+def test_compressed_node_refuses_mis_sized_frames_before_decoding_and_survives_any_frame(
+    compressed_probe, case: CompressedCase
+):
+    check_compressed_callbacks(compressed_probe, case)
+
+
+def test_compressed_check_catches_a_frame_decoded_despite_its_size(compressed_probe, monkeypatch):
+    """The property itself can fail: a node that decodes a mis-sized frame is caught."""
+    import initsel_ros.image as image_module
+    from initsel_ros.ros import node as node_module
+
+    def decode_anything(data, fmt='', bit_depth=0, *, max_pixels=0, size=None):
+        return image_module.compressed_to_cv(data, fmt, bit_depth)
+
+    monkeypatch.setattr(node_module, 'compressed_to_cv', decode_anything)
+    with pytest.raises(AssertionError, match='not refused before decoding'):
+        check_compressed_callbacks(compressed_probe, _compressed('none', size=(32, 24)))
 
 
 def _encoded_samples() -> list[bytes]:
