@@ -53,6 +53,8 @@ PROFILE = settings.get_profile(os.environ.get('INITSEL_FUZZ_PROFILE', 'initsel-c
 @example(ImageCase('bayer_rggb8', 1, 1, 1, 1, False, 0))  # a 1-pixel mosaic
 @example(ImageCase('rgb8', 2**31, 2**31, 2**32 - 1, 16, False, 0))
 @example(ImageCase('16UC1', 4, 4, 8, 32, False, 0))
+@example(ImageCase('MONO8', 1, 1, 1, 1, False, 0))  # encoding names in any case
+@example(ImageCase('32FC1', 2, 2, 8, 16, False, 0))  # a depth encoding: refused
 def test_image_conversion_returns_the_documented_array_or_raises_image_conversion_error(
     case: ImageCase,
 ):

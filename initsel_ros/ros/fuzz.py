@@ -35,7 +35,7 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 from initsel_ros.benchmarks.live import configure_ros_environment, textured_frames
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ImageConversionError
-from initsel_ros.image import encode_compressed
+from initsel_ros.image import encode_compressed, encoding_info
 from initsel_ros.names import Mode
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
@@ -81,8 +81,11 @@ class ImageCase:
 
 
 def _bytes_per_pixel(encoding: str) -> int:
-    info = ENCODINGS.get(encoding)
-    return 1 if info is None else info.channels * np.dtype(info.dtype).itemsize
+    try:
+        _, info = encoding_info(encoding)
+    except ImageConversionError:
+        return 1
+    return info.channels * np.dtype(info.dtype).itemsize
 
 
 def image_cases() -> Any:
@@ -155,7 +158,7 @@ def check_conversion(case: ImageCase) -> str:
         assert raw is None, f'image_to_cv rejected what image_to_numpy accepted: {case}'
         return 'rejected'
     assert raw is not None, f'image_to_numpy rejected what image_to_cv accepted: {case}'
-    info = ENCODINGS[case.encoding]
+    _, info = encoding_info(case.encoding)
     assert raw.shape[:2] == (case.height, case.width), (raw.shape, case)
     assert raw.dtype == np.dtype(info.dtype), (raw.dtype, case)
     assert cv.dtype == np.uint8, (cv.dtype, case)
