@@ -112,6 +112,7 @@ def test_bench_fuzz_mode_runs_the_requested_number_of_examples(tmp_path, capsys)
     figures = json.loads(out.read_text())
     assert sum(figures['conversion'].values()) == 30
     assert sum(figures['node'].values()) == 30
+    assert sum(figures['compressed'].values()) == 30
 
 
 @pytest.mark.parametrize('solver', ['scipy', 'ceres'])
