@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Iterable
 from enum import Enum
 from functools import lru_cache
 
@@ -94,22 +93,6 @@ def _as_points(p: np.ndarray, name: str) -> np.ndarray:
     if arr.ndim != 2 or arr.shape[1] != 2:
         raise GeometryError(f'{name} must be (N, 2) pixel coordinates, got shape {arr.shape}')
     return arr
-
-
-def direction_bins(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    """Counts of motion directions in the 8 bins centred on 0, 45, ..., 315 degrees.
-
-    Args:
-        p0: (N, 2) reference pixels.
-        p1: (N, 2) current pixels.
-
-    Returns:
-        (8,) float64 counts; image y points down, so the angle uses ``-(y1 - y0)``.
-    """
-    d = _as_points(p1, 'p1') - _as_points(p0, 'p0')
-    angle = np.arctan2(-d[:, 1], d[:, 0])
-    bins = np.rint(angle / (np.pi / 4)).astype(np.int64) % 8
-    return np.bincount(bins, minlength=8).astype(np.float64)
 
 
 def raw_features(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
@@ -206,29 +189,6 @@ def pair_features(
         (10.0, 1.0)
     """
     return scale_features(raw_features(p0, p1), width, height, scaling)
-
-
-def batch_features(
-    pairs: Iterable[tuple[np.ndarray, np.ndarray]],
-    width: int = 640,
-    height: int = 480,
-    scaling: Scaling | str = Scaling.RESOLUTION_FREE,
-) -> np.ndarray:
-    """Scaled features of many correspondence sets.
-
-    Args:
-        pairs: iterable of (p0, p1), each (N_i, 2) pixels.
-        width: image width, pixels.
-        height: image height, pixels.
-        scaling: which normalization to apply.
-
-    Returns:
-        (M, 23) float64, one row per pair.
-    """
-    raw = [raw_features(p0, p1) for p0, p1 in pairs]
-    if not raw:
-        return np.zeros((0, N_FEATURES))
-    return scale_features(np.stack(raw), width, height, scaling)
 
 
 def mean_disparity(p0: np.ndarray, p1: np.ndarray) -> float:

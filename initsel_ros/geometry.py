@@ -184,17 +184,16 @@ def choose_homography_decomposition(
     p1: np.ndarray,
     inliers: np.ndarray,
     max_reprojection_px: float,
-    min_point_parallax_deg: float,
     min_baseline_ratio: float,
 ) -> HomographyChoice:
     """Choose among the decompositions of H by triangulating its inliers (as ORB-SLAM does).
 
     Every solution of ``cv2.decomposeHomographyMat`` (up to four) triangulates the inliers;
     a point is good when it lies in front of both cameras and reprojects within
-    ``max_reprojection_px`` (``min_point_parallax_deg`` is kept for the caller's filter). The
-    solution with the most good points wins only when it is clearly ahead: the runner-up
-    keeps fewer than :data:`HOMOGRAPHY_AMBIGUITY_RATIO` of its points. Otherwise the pair is
-    ambiguous (planar two-fold ambiguity at small baselines) and nothing is chosen.
+    ``max_reprojection_px`` (the caller filters by parallax afterwards). The solution with the
+    most good points wins only when it is clearly ahead: the runner-up keeps fewer than
+    :data:`HOMOGRAPHY_AMBIGUITY_RATIO` of its points. Otherwise the pair is ambiguous (planar
+    two-fold ambiguity at small baselines) and nothing is chosen.
     Solutions whose translation (baseline over plane distance) is below
     ``min_baseline_ratio`` are rotations and are skipped.
     """
@@ -313,7 +312,6 @@ def estimate_pose(
             b,
             inliers,
             max_reprojection_px,
-            min_point_parallax_deg,
             min_homography_baseline_ratio,
         )
         if choice.reason:

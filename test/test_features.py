@@ -9,8 +9,6 @@ from initsel_ros.errors import GeometryError
 from initsel_ros.features import (
     FEATURE_NAMES,
     Scaling,
-    batch_features,
-    direction_bins,
     pair_features,
     raw_features,
     scale_features,
@@ -49,7 +47,7 @@ def test_raw_features_match_hand_computed_values():
     ],
 )
 def test_direction_bins_use_image_y_up_and_centre_on_multiples_of_45(dx, dy, expected_bin):
-    bins = direction_bins(np.zeros((1, 2)), np.array([[dx, dy]]))
+    bins = raw_features(np.zeros((1, 2)), np.array([[dx, dy]]))[15:23]
     assert np.flatnonzero(bins).tolist() == [expected_bin]
 
 
@@ -85,15 +83,6 @@ def test_empty_set_gives_zeros_and_bad_shapes_raise():
         raw_features(np.zeros((3, 2)), np.zeros((4, 2)))
     with pytest.raises(GeometryError, match=r'\(N, 2\)'):
         raw_features(np.zeros((3, 3)), np.zeros((3, 3)))
-
-
-def test_batch_features_equal_per_pair_features():
-    rng = np.random.default_rng(3)
-    pairs = [(a := rng.uniform(0, 400, (n, 2)), a + rng.normal(0, 5, (n, 2))) for n in (5, 50, 9)]
-    batch = batch_features(pairs, 640, 480)
-    assert batch.shape == (3, 23)
-    for row, (p0, p1) in zip(batch, pairs, strict=True):
-        np.testing.assert_allclose(row, pair_features(p0, p1, 640, 480))
 
 
 # ------------------------------------------------------------------ extra features (issue 10)
@@ -220,7 +209,11 @@ def test_raw_features_equal_the_straightforward_numpy_computation():
                 [n, disparity.mean(), disparity.std()],
                 np.c_[rows.min(axis=1), rows.max(axis=1)].ravel(),
                 rows.max(axis=1) - rows.min(axis=1),
-                direction_bins(p0, p1),
+                # 8 direction bins centred on 0, 45, ..., 315 degrees, image y up
+                np.bincount(
+                    np.rint(np.arctan2(-d[:, 1], d[:, 0]) / (np.pi / 4)).astype(int) % 8,
+                    minlength=8,
+                ),
             )
         )
         f = raw_features(p0, p1)

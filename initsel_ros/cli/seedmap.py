@@ -114,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
     from dataclasses import replace
 
+    from tqdm import tqdm
+
     from initsel_ros.errors import ConfigError
     from initsel_ros.learn.seedmap import (
         evaluate_sequences,
@@ -140,22 +142,24 @@ def run(args: argparse.Namespace) -> int:
         print(f'initsel seedmap: error: {exc}', file=sys.stderr)
         return 2
 
-    def progress(done: int, total: int) -> None:
-        print(f'\rbatches {done}/{total}', end='', file=sys.stderr, flush=True)
+    with tqdm(desc='batches', unit='batch', disable=None) as bar:
 
-    outcomes = evaluate_sequences(
-        args.sequences,
-        model_path(args.models),
-        config,
-        length=args.length,
-        step=args.step,
-        jobs=args.jobs,
-        baselines=options,
-        groups=groups,
-        noise_seeds=args.noise_seed,
-        progress=progress,
-    )
-    print(file=sys.stderr)
+        def progress(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        outcomes = evaluate_sequences(
+            args.sequences,
+            model_path(args.models),
+            config,
+            length=args.length,
+            step=args.step,
+            jobs=args.jobs,
+            baselines=options,
+            groups=groups,
+            noise_seeds=args.noise_seed,
+            progress=progress,
+        )
     table = summary_markdown(summarize(outcomes))
     print(table)
     if args.out_dir is not None:

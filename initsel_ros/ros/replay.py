@@ -204,7 +204,7 @@ def run(options: ReplayOptions) -> int:
             else None
         )
         if options.wait_for_subscriber > 0 and not _wait_for_subscriber(
-            node, image_pub, options.wait_for_subscriber
+            image_pub, options.wait_for_subscriber
         ):
             log.warning(
                 'no subscriber on %s after %.1f s; publishing anyway',
@@ -277,7 +277,7 @@ def run(options: ReplayOptions) -> int:
     return 0
 
 
-def _wait_for_subscriber(node: object, publisher: object, timeout: float) -> bool:
+def _wait_for_subscriber(publisher: object, timeout: float) -> bool:
     """Poll the graph until the publisher has a matched subscriber, at most ``timeout`` s."""
     import rclpy
 
