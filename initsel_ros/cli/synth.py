@@ -25,26 +25,24 @@ EFFECT_NAMES = (
 TRAJECTORIES = ('near', 'far', 'rotation', 'forward', 'static', 'random', 'arc')
 
 
-def _coefficients(text: str) -> tuple[float, ...]:
+def _numbers(text: str, counts: tuple[int, ...], wrong_count: str) -> tuple[float, ...]:
+    """Comma-separated numbers, as many as one of ``counts``; argparse's error otherwise."""
     try:
         values = tuple(float(v) for v in text.split(','))
     except ValueError as exc:
         msg = f'expected comma-separated numbers, got {text!r}'
         raise argparse.ArgumentTypeError(msg) from exc
-    if len(values) not in (4, 5, 8):
-        raise argparse.ArgumentTypeError('distortion takes 4, 5 or 8 coefficients (OpenCV order)')
+    if len(values) not in counts:
+        raise argparse.ArgumentTypeError(wrong_count)
     return values
+
+
+def _coefficients(text: str) -> tuple[float, ...]:
+    return _numbers(text, (4, 5, 8), 'distortion takes 4, 5 or 8 coefficients (OpenCV order)')
 
 
 def _gain_ramp(text: str) -> tuple[float, ...]:
-    try:
-        values = tuple(float(v) for v in text.split(','))
-    except ValueError as exc:
-        msg = f'expected comma-separated numbers, got {text!r}'
-        raise argparse.ArgumentTypeError(msg) from exc
-    if len(values) not in (3, 4):
-        raise argparse.ArgumentTypeError('gain ramp takes FROM,TO,SECONDS[,START]')
-    return values
+    return _numbers(text, (3, 4), 'gain ramp takes FROM,TO,SECONDS[,START]')
 
 
 #: The single-effect options, each an :class:`initsel_ros.synth.effects.Effects` field:

@@ -9,6 +9,7 @@ from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -261,16 +262,9 @@ def _save_effects(
     path.write_text(yaml.safe_dump(data, sort_keys=False))
 
 
-def render_sequence(
-    out_dir: Path | str,
-    scene: str = 'structure_texture',
-    trajectory: str = 'near',
-    frames: int | None = None,
-    seed: int = 0,
-    **options: object,
-) -> Path:
-    """Render a TUM folder (see :func:`render` for the options) and return its path."""
-    return render(out_dir, scene, trajectory, frames, seed, **options).path  # type: ignore[arg-type]
+def render_sequence(out_dir: Path | str, *args: Any, **options: Any) -> Path:
+    """Render a TUM folder (the arguments of :func:`render`) and return its path."""
+    return render(out_dir, *args, **options).path
 
 
 __all__ = ['SynthResult', 'render', 'render_sequence']
