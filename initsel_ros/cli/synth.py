@@ -45,6 +45,26 @@ def _gain_ramp(text: str) -> tuple[float, ...]:
     return _numbers(text, (3, 4), 'gain ramp takes FROM,TO,SECONDS[,START]')
 
 
+#: The arc geometry options, each an :class:`initsel_ros.synth.trajectories.ArcPath` field:
+#: name -> (option, metavar, help).
+ARC_OPTIONS: dict[str, tuple[str, str, str]] = {
+    'distance': ('--arc-distance', 'M', 'start distance from the target, metres (default 3.5)'),
+    'extent': (
+        '--arc-extent',
+        'M',
+        'sideways amplitude, metres, reached at frame 75 (default 0.3)',
+    ),
+    'centring': (
+        '--arc-centring',
+        '0-1',
+        'share of the rotation keeping the target centred (default 1; 0 = pure translation)',
+    ),
+    'elevation_deg': (
+        '--arc-elevation',
+        'DEG',
+        'viewing elevation, degrees (default: the nominal 33; 70: from above)',
+    ),
+}
 #: The single-effect options, each an :class:`initsel_ros.synth.effects.Effects` field:
 #: name -> (type, metavar or None, help). Off unless given; a value given replaces the one
 #: ``--effect`` or ``--realism`` sets.
@@ -98,34 +118,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'arc geometry (any of these: the arc trajectory about the scene target, '
         'initsel_ros.synth.trajectories.ArcPath; none: the fixed 1.3 m, +-25 deg swing)'
     )
-    arc.add_argument(
-        '--arc-distance',
-        type=float,
-        default=None,
-        metavar='M',
-        help='start distance from the target, metres (default 3.5)',
-    )
-    arc.add_argument(
-        '--arc-extent',
-        type=float,
-        default=None,
-        metavar='M',
-        help='sideways amplitude, metres, reached at frame 75 (default 0.3)',
-    )
-    arc.add_argument(
-        '--arc-centring',
-        type=float,
-        default=None,
-        metavar='0-1',
-        help='share of the rotation keeping the target centred (default 1; 0 = pure translation)',
-    )
-    arc.add_argument(
-        '--arc-elevation',
-        type=float,
-        default=None,
-        metavar='DEG',
-        help='viewing elevation, degrees (default: the nominal 33; 70: from above)',
-    )
+    for name, (flag, metavar, help_text) in ARC_OPTIONS.items():
+        arc.add_argument(
+            flag, type=float, default=None, metavar=metavar, dest=f'arc_{name}', help=help_text
+        )
     arc.add_argument(
         '--arc-straight',
         action='store_true',
@@ -213,12 +209,7 @@ def run(args: argparse.Namespace) -> int:
         distortion = distortion or drawn.distortion
     else:
         effects = Effects(**given)
-    arc_options = {
-        'distance': args.arc_distance,
-        'extent': args.arc_extent,
-        'centring': args.arc_centring,
-        'elevation_deg': args.arc_elevation,
-    }
+    arc_options = {name: getattr(args, f'arc_{name}') for name in ARC_OPTIONS}
     arc_given = {k: v for k, v in arc_options.items() if v is not None}
     arc = None
     if arc_given or args.arc_straight:
