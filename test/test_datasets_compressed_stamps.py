@@ -194,3 +194,20 @@ def test_dataset_on_a_png_compressed_bag_gives_the_folder_s_table(
     for column in ('n_tracks', 'E_label', 'H_label', 'F_label', 'R_label'):
         np.testing.assert_array_equal(bag_table[column], folder_table[column])
     np.testing.assert_allclose(bag_table['E_et'], folder_table['E_et'])
+
+
+def test_a_bag_frame_claiming_a_huge_size_is_refused_before_decoding():
+    """The bag reader decodes through image.py, with its decompression-bomb check."""
+    import cv2
+
+    from initsel_ros.datasets.bags import image_from_compressed
+
+    data = bytearray(cv2.imencode('.png', np.zeros((4, 4), np.uint8))[1].tobytes())
+    data[16:24] = (1 << 14).to_bytes(4, 'big') * 2
+
+    class Msg:
+        format = 'png'
+
+    Msg.data = bytes(data)
+    with pytest.raises(DatasetError, match=r'16384x16384 .* is larger than'):
+        image_from_compressed(Msg)

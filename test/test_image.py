@@ -85,3 +85,50 @@ def test_decompression_bomb_is_refused_before_decoding():
     head[20:24] = (1 << 14).to_bytes(4, 'big')
     with pytest.raises(ImageConversionError, match='larger than'):
         image.decode_compressed(bytes(head), 'png')
+
+
+def test_significant_bits_ignore_a_few_hot_pixels_but_not_many():
+    twelve = np.full((100, 100), 4000, np.uint16)
+    assert image.significant_bits(twelve) == 12
+    twelve[0, :10] = 65535  # 0.1 % of the pixels: hot pixels, ignored
+    assert image.significant_bits(twelve) == 12
+    twelve[1, :] = 65535  # 1 %: the image really uses 16 bits
+    assert image.significant_bits(twelve) == 16
+    assert image.significant_bits(np.array([[3, 65535]], np.uint16)) == 16  # tiny: the maximum
+
+
+def test_a_stream_bit_depth_rises_only_after_several_frames_and_resets():
+    depth = image.BitDepth()
+    ten = np.full((10, 10), 1000, np.uint16)
+    sixteen = np.full((10, 10), 60000, np.uint16)
+    assert depth.update(ten) == 10
+    assert [depth.update(sixteen) for _ in range(image.BIT_DEPTH_FRAMES)][-2:] == [10, 16]
+    assert depth.update(ten) == 16  # never falls by itself
+    depth.reset()
+    assert depth.bits == 0 and depth.update(ten) == 10
+    fixed = image.BitDepth(12)
+    assert fixed.update(sixteen) == 12 and fixed.scale(ten).dtype == np.uint8
+    assert image.BitDepth().scale(np.zeros((2, 2), np.uint8)).dtype == np.uint8
+    with pytest.raises(ImageConversionError):
+        image.BitDepth(7)
+
+
+def test_compressed_size_comes_from_the_header_and_limits_apply_before_decoding():
+    jpeg = cv2.imencode('.jpg', np.zeros((24, 32, 3), np.uint8))[1].tobytes()
+    png = cv2.imencode('.png', np.zeros((5, 7), np.uint16))[1].tobytes()
+    assert image.compressed_size(jpeg) == (32, 24) and image.compressed_size(png) == (7, 5)
+    with pytest.raises(ImageConversionError, match='larger than the 700 pixels'):
+        image.decode_compressed(jpeg, max_pixels=700)
+    with pytest.raises(ImageConversionError, match='header says 32x24 but camera_info is'):
+        image.decode_compressed(jpeg, size=(640, 480))
+    assert image.decode_compressed(jpeg, size=(32, 24)).shape == (24, 32, 3)
+    with pytest.raises(ImageConversionError, match='larger than the 10 pixels'):
+        image.raw_to_cv(bytes(16), 'mono8', 4, 4, 4, max_pixels=10)
+
+
+def test_encoding_names_are_read_in_any_case_and_depth_only_where_asked():
+    assert image.raw_to_cv(bytes([7]), 'MONO8', 1, 1, 1).tolist() == [[7]]
+    depth = np.array([[1.5, np.nan]], np.float32).tobytes()
+    with pytest.raises(ImageConversionError, match='unsupported image encoding'):
+        image.decode_raw(depth, '32FC1', 2, 1, 8)
+    assert image.decode_raw(depth, '32fc1', 2, 1, 8, depth=True).dtype == np.float32

@@ -100,7 +100,10 @@ def image_from_compressed(msg: Any) -> np.ndarray:
     Raises:
         DatasetError: empty, too large, or not decodable as an image.
     """
-    data = np.asarray(msg.data, dtype=np.uint8)
+    raw = msg.data
+    data = (
+        raw.view(np.uint8).ravel() if isinstance(raw, np.ndarray) else np.frombuffer(raw, np.uint8)
+    )
     fmt = str(getattr(msg, 'format', ''))
     if data.size == 0:
         raise DatasetError(f'empty CompressedImage (format {fmt!r})')
