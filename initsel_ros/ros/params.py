@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -470,34 +470,18 @@ class NodeSettings:
             )
         except ConfigError as exc:
             raise ConfigError(f'camera.* parameters: {exc}') from exc
-        return cls(
-            model_file=v['model_file'],
-            thresholds={
+        converted = {
+            'thresholds': {
                 m: v[f'thresholds.{m}'] for m in MODEL_NAMES if v[f'thresholds.{m}'] >= 0.0
             },
-            r_veto=v['r_veto'],
-            max_features=v['max_features'],
-            min_tracks=v['min_tracks'],
-            min_points=v['min_points'],
-            min_parallax_deg=v['min_parallax_deg'],
-            min_rotation_residual_px=v['min_rotation_residual_px'],
-            max_frames_since_reference=v['max_frames_since_reference'],
-            mode=Mode(v['mode']),
-            refine=v['refine'],
-            verify_frames=v['verify_frames'],
-            verify_min_fraction=v['verify_min_fraction'],
-            verify_max_rms_px=v['verify_max_rms_px'],
-            reference_frame_id=v['reference_frame_id'],
-            camera_frame_id=v['camera_frame_id'],
-            publish_tf=v['publish_tf'],
-            image_transport=ImageTransport(v['image_transport']),
-            bit_depth=v['bit_depth'],
-            max_image_pixels=v['max_image_pixels'],
-            restart_tolerance_s=v['restart_tolerance_s'],
-            use_camera_info=v['use_camera_info'],
-            intrinsics=intrinsics,
-            values=raw,
-        )
+            'mode': Mode(v['mode']),
+            'image_transport': ImageTransport(v['image_transport']),
+            'intrinsics': intrinsics,
+            'values': raw,
+        }
+        # every other field is the parameter of the same name as checked
+        checked = {f.name: v[f.name] for f in fields(cls) if f.name not in converted}
+        return cls(**checked, **converted)
 
     @property
     def default_intrinsics(self) -> bool:
