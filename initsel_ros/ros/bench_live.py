@@ -19,7 +19,7 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -211,13 +211,8 @@ class CoreRun:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for --json."""
-        return {
-            'pinned': self.pinned,
-            'cpu_seconds': self.cpu_seconds,
-            'cpu_share': self.cpu_share,
-            'initializations': self.initializations,
-            **self.run.to_dict(),
-        }
+        own = {f.name: getattr(self, f.name) for f in fields(self) if f.name != 'run'}
+        return own | self.run.to_dict()
 
 
 def _cpu_seconds(pid: int) -> float:
