@@ -167,3 +167,10 @@ def test_argparse_is_imported_only_by_the_command_line_modules():
         str(p.relative_to(package)) for p in importers - allowed if p.parent.name != 'cli'
     )
     assert outside == []
+
+
+def test_scale_rule_choices_are_the_label_rules():
+    from initsel_ros.cli.options import SCALE_RULES
+    from initsel_ros.learn.labels import ScaleRule
+
+    assert set(SCALE_RULES) == {r.value for r in ScaleRule}

@@ -7,6 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from initsel_ros.cli.options import add_scale_rule_option
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel dataset``."""
@@ -71,11 +73,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=8,
         help='skip pairs with fewer correspondences (default 8)',
     )
-    parser.add_argument(
-        '--scale-rule',
-        choices=('median', 'first_two'),
-        default='median',
-        help='E_R scale alignment feeding the labels (both are stored; default median)',
+    add_scale_rule_option(
+        parser,
+        'median',
+        'E_R scale alignment feeding the labels (both are stored; default median)',
     )
     parser.add_argument(
         '--nearest-tolerance',

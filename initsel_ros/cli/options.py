@@ -10,6 +10,10 @@ from typing import Any, TypeVar
 
 Options = TypeVar('Options')
 
+#: The values of ``--scale-rule``: those of :class:`initsel_ros.learn.labels.ScaleRule` (not
+#: imported: ``--help`` stays light; a test holds the two equal).
+SCALE_RULES = ('median', 'first_two')
+
 
 def add_models_option(
     parser: argparse.ArgumentParser,
@@ -29,6 +33,13 @@ def add_inputs_argument(
 def add_work_option(parser: argparse.ArgumentParser, help_text: str) -> None:
     """``--work``: the folder for rendered sequences (None: the command uses a temporary one)."""
     parser.add_argument('--work', type=Path, default=None, help=help_text)
+
+
+def add_scale_rule_option(
+    parser: argparse.ArgumentParser | argparse._ArgumentGroup, default: str | None, help_text: str
+) -> None:
+    """``--scale-rule``: how E_R removes the monocular scale (``SCALE_RULES``)."""
+    parser.add_argument('--scale-rule', choices=SCALE_RULES, default=default, help=help_text)
 
 
 def add_named_models_option(parser: argparse.ArgumentParser) -> None:
@@ -77,9 +88,11 @@ def options_from(args: argparse.Namespace, cls: type[Options], **overrides: Any)
 
 
 __all__ = [
+    'SCALE_RULES',
     'add_inputs_argument',
     'add_models_option',
     'add_named_models_option',
+    'add_scale_rule_option',
     'add_work_option',
     'model_path',
     'named_model_paths',

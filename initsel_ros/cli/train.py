@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_inputs_argument
+from initsel_ros.cli.options import add_inputs_argument, add_scale_rule_option
 
 FAMILIES = ('logistic', 'logistic+extra', 'trees', 'trees+extra')
 EXTRA = (
@@ -97,9 +97,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='R label: baseline at most this, m (0.05)',
     )
-    labels.add_argument(
-        '--scale-rule', choices=('median', 'first_two'), default=None, help='E_R scale rule'
-    )
+    add_scale_rule_option(labels, None, 'E_R scale rule')
 
 
 def run(args: argparse.Namespace) -> int:
