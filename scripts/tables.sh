@@ -4,6 +4,7 @@
 #   scripts/tables.sh seedmap    [DATA_DIR] [OUT_DIR] [initsel seedmap options...]
 #   scripts/tables.sh protocol   [DATA_DIR] [OUT_DIR]
 #   scripts/tables.sh robustness [DATA_DIR] [OUT_DIR]
+#   scripts/tables.sh real       [DATA_DIR] [OUT_DIR]   (sets up the ORB-SLAM3 venv when absent)
 # Renders are kept in DATA_DIR (default /tmp/initsel-tables) and reused; OUT_DIR (default
 # DATA_DIR/out) gets TABLE/*.md (+ CSVs). The script sets up and enters the project's
 # environment through scripts/run.sh when it is not already inside it.
@@ -12,7 +13,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
     exec "$root/scripts/run.sh" bash "$root/scripts/tables.sh" "$@"
 fi
-table=${1:?usage: scripts/tables.sh seedmap|protocol|robustness [DATA_DIR] [OUT_DIR]}
+table=${1:?usage: scripts/tables.sh seedmap|protocol|robustness|real [DATA_DIR] [OUT_DIR]}
 D=${2:-/tmp/initsel-tables}
 OUT=${3:-$D/out}
 shift $(( $# > 3 ? 3 : $# ))
@@ -29,15 +30,33 @@ test_sequences() {
     render rotation_test --trajectory rotation --frames 120 --seed 12
     render static_test --trajectory static --frames 60 --seed 13
 }
+# The seed-map sequences: the test sequences plus three planar ones, grouped explicitly (a
+# renamed folder keeps its group).
+seedmap_sequences() {
+    test_sequences
+    render wall_arc_test --scene wall --trajectory arc --frames 300 --seed 21
+    render wall_forward_test --scene wall --trajectory forward --frames 300 --seed 22
+    render floor_near_test --scene floor --trajectory near --frames 300 --start 80 --seed 23
+    seqs=("$D/wall_arc_test" "$D/wall_forward_test" "$D/floor_near_test" \
+        "$D/near_test" "$D/rotation_test" "$D/static_test")
+    groups=(--group wall_arc_test=planar --group wall_forward_test=planar \
+        --group floor_near_test=planar --group near_test=non-planar \
+        --group rotation_test=rotation/static --group static_test=rotation/static)
+}
 case "$table" in
     seedmap)  # README "The seed map a SLAM front end receives" (about 2 minutes here)
-        test_sequences
-        render wall_arc_test --scene wall --trajectory arc --frames 300 --seed 21
-        render wall_forward_test --scene wall --trajectory forward --frames 300 --seed 22
-        render floor_near_test --scene floor --trajectory near --frames 300 --start 80 --seed 23
-        initsel seedmap "$D/wall_arc_test" "$D/wall_forward_test" "$D/floor_near_test" \
-            "$D/near_test" "$D/rotation_test" "$D/static_test" --out-dir "$OUT/seedmap" "$@"
+        seedmap_sequences
+        initsel seedmap "${seqs[@]}" "${groups[@]}" --out-dir "$OUT/seedmap" "$@"
         echo "wrote $OUT/seedmap/seedmap.md" >&2
+        ;;
+    real)  # README "Against the real ORB-SLAM3 and COLMAP" (about 12 minutes here, 2 cores)
+        seedmap_sequences
+        bash "$root/scripts/setup_orbslam3.sh"  # once: the venv and its vocabulary
+        initsel seedmap "${seqs[@]}" "${groups[@]}" --baselines orbslam3,colmap \
+            --jobs 2 --out-dir "$OUT/real" "$@"
+        initsel seedmap "${seqs[@]}" "${groups[@]}" --baselines orbslam3,colmap \
+            --sensor-noise 2 --noise-seed 1 2 3 --jobs 2 --out-dir "$OUT/real_noise" "$@"
+        echo "wrote $OUT/real/seedmap.md and $OUT/real_noise/seedmap.md" >&2
         ;;
     protocol)  # README "Results against the paper and the baselines" (about 1 minute here)
         test_sequences
@@ -52,5 +71,5 @@ case "$table" in
         bash "$root/scripts/seedmap_effects.sh" "$D/effects" "$OUT/robustness" "$@"
         echo "wrote $OUT/robustness/*/seedmap.md" >&2
         ;;
-    *) echo "unknown table $table: seedmap, protocol or robustness" >&2; exit 2 ;;
+    *) echo "unknown table $table: seedmap, protocol, robustness or real" >&2; exit 2 ;;
 esac

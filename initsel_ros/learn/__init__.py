@@ -8,7 +8,11 @@ Modules (imported on demand, so ``initsel --help`` stays light):
 - :mod:`~initsel_ros.learn.train`: logistic models, thresholds for a target precision, richer
   in-memory candidates.
 - :mod:`~initsel_ros.learn.evaluate`: the paper's tables, baselines, sequence-level figures.
-- :mod:`~initsel_ros.learn.baselines`: Butt et al. 2020, VINS-Mono, ORB-SLAM2/3 rules.
+- :mod:`~initsel_ros.learn.baselines`: Butt et al. 2020, VINS-Mono, ORB-SLAM2/3 rules
+  (re-implemented).
+- :mod:`~initsel_ros.learn.seedmap`: the published seed map against the baselines.
+- :mod:`~initsel_ros.learn.real_baselines`: the real ORB-SLAM3 (own venv, subprocess) and
+  COLMAP (pycolmap) as seed-map baselines; the substitute ORB vocabulary.
 - :mod:`~initsel_ros.learn.plots`: precision-recall and error-vs-baseline figures.
 """
 
