@@ -328,7 +328,7 @@ def _fire_rows(table: Table, fire: Any) -> dict[str, Any]:
         _ms(guard.median),
         _ms(guard.percentile(99)),
         '',
-        f'{fire.guard_share:.0%} of the fire time (issue 20 replaces it)',
+        f'{fire.guard_share:.0%} of the fire time',
     )
     table.add(f'    {baseline.name}', _ms(baseline.median), _ms(baseline.percentile(99)))
     estimates, selection, refit, adjustment = rest

@@ -3,8 +3,9 @@
 One pure function, :func:`initialize_pair`, runs every step a pair goes through at fire time,
 for the live selector and for the offline tools alike (labels, seed-map judging, robustness):
 
-1. the rotation test: a flow that one rotation explains has no baseline, whatever the
-   estimators make of it (``geometry.rotation_only_residual_px``);
+1. the rotation test: a flow that one rotation explains to within the tracking noise has no
+   baseline, whatever the estimators make of it (``geometry.rotation_test``: the residual of
+   the best rotation against the noise of a fundamental matrix on the same tracks);
 2. the estimates of the candidate methods (``geometry.estimate_pose``);
 3. the pose check of each (``policy.check_pose``);
 4. the choice among those that pass, by GRIC (``model_selection.select_method``);
@@ -23,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from initsel_ros.geometry import Method, PoseEstimate, estimate_pose, rotation_only_residual_px
+from initsel_ros.geometry import Method, PoseEstimate, RotationTest, estimate_pose, rotation_test
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.policy import Decision, PolicyConfig, Reason, check_pose
 from initsel_ros.refine import Refinement, refine_two_view
@@ -39,7 +40,7 @@ class FireConfig:
 
     Attributes:
         policy: the pose check (``min_points``, ``min_parallax_deg``) and the rotation
-            test's threshold (``min_rotation_residual_px``).
+            test's threshold (``min_rotation_residual_sigma``).
         ransac_threshold_px: RANSAC inlier threshold of the estimators, pixels.
         rotation_test: run the rotation test first (a rotation stops the path).
         select: choose a winner by GRIC among the estimates that pass the pose check.
@@ -95,20 +96,30 @@ class FireResult:
             the refined map kept too few points; INITIALIZED with no seed when selection was
             off and at least one estimate passed.
         detail: one line on why, for the status and the log.
-        rotation_residual_px: the rotation test's median residual, pixels (NaN when off).
+        rotation: the rotation test (None when off): the best rotation's residual, the
+            noise and their ratio.
         estimates: every method's estimate, in the order tried (empty after a rotation).
         checks: per estimate, :func:`policy.check_pose`'s reason, or None when it passed.
         selection: the GRIC choice (None when selection was off or never reached).
         seed: the winner's seed map (None when there is none).
+        alternatives: seed maps of the winner's rival poses that fit the pair as well (H's
+            two-fold planar ambiguity: the runner-up decomposition, when it passes the pose
+            check too); the frames after the pair decide between them and ``seed``.
     """
 
     reason: Reason
     detail: str = ''
-    rotation_residual_px: float = math.nan
+    rotation: RotationTest | None = None
     estimates: tuple[PoseEstimate, ...] = ()
     checks: tuple[Reason | None, ...] = ()
     selection: Selection | None = None
     seed: SeedMap | None = None
+    alternatives: tuple[SeedMap, ...] = ()
+
+    @property
+    def rotation_residual_px(self) -> float:
+        """The rotation test's median residual, pixels (NaN when off)."""
+        return math.nan if self.rotation is None else self.rotation.residual_px
 
     def estimate(self, method: Method | str) -> PoseEstimate | None:
         """The estimate of ``method``, or None when it was not tried."""
@@ -192,19 +203,27 @@ def initialize_pair(
     """
     config = config or FireConfig()
     policy = config.policy
-    residual = math.nan
+    residual = None
     if config.rotation_test:
-        threshold = policy.min_rotation_residual_px
-        residual = rotation_only_residual_px(ref, cur, K, enough_below_px=threshold)
-        if not residual >= threshold:
+        threshold = policy.min_rotation_residual_sigma
+        residual = rotation_test(ref, cur, K)
+        if not residual.statistic >= threshold:
             return FireResult(
                 Reason.ROTATION,
-                f'a rotation alone explains the flow (median residual {residual:.2f} px < '
-                f'{threshold:g} px)',
+                f'a rotation alone explains the flow (median residual {residual.residual_px:.2f}'
+                f' px, {residual.statistic:.1f} x the noise {residual.noise_px:.2f} px < '
+                f'{threshold:g} x)',
                 residual,
             )
     estimates = tuple(
-        estimate_pose(Method(m), ref, cur, K, ransac_threshold_px=config.ransac_threshold_px)
+        estimate_pose(
+            Method(m),
+            ref,
+            cur,
+            K,
+            ransac_threshold_px=config.ransac_threshold_px,
+            keep_ambiguous=True,
+        )
         for m in methods
     )
     checks = tuple(check_pose(e, policy) for e in estimates)
@@ -228,13 +247,29 @@ def initialize_pair(
         refine=config.refine,
         max_reprojection_px=config.map_max_reprojection_px,
     )
+    rival = winner.alternative
+    alternatives: tuple[SeedMap, ...] = ()
+    if rival is not None and check_pose(rival, policy) is None:
+        other = seed_map(
+            rival,
+            ref,
+            cur,
+            K,
+            refine=config.refine,
+            max_reprojection_px=config.map_max_reprojection_px,
+        )
+        if other.n_points >= policy.min_points:
+            alternatives = (other,)
     if seed.n_points < policy.min_points:
         detail = f'{seed.n_points} points left after refinement; ' + selection.summary()
         return FireResult(
             Reason.TOO_FEW_POINTS, detail, residual, estimates, checks, selection, seed
         )
+    why = selection.why
+    if alternatives:
+        why += '; its two decompositions are close: the next frames choose'
     return FireResult(
-        Reason.INITIALIZED, selection.why, residual, estimates, checks, selection, seed
+        Reason.INITIALIZED, why, residual, estimates, checks, selection, seed, alternatives
     )
 
 

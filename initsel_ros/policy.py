@@ -45,11 +45,12 @@ class PolicyConfig:
             selector picks a new reference).
         min_points: a pose needs at least this many triangulated points.
         min_parallax_deg: a pose needs at least this median parallax, degrees.
-        min_rotation_residual_px: when a model fires, the flow must leave at least this median
-            residual, pixels, after the best pure rotation is taken out
-            (``geometry.rotation_only_residual_px``, a least-median fit that independently
-            moving objects on under half of the tracks do not sway): a rotation alone explains
-            any flow with less, whatever the pose estimators make of it.
+        min_rotation_residual_sigma: when a model fires, the flow left after the best pure
+            rotation is taken out must reach this many times the tracking noise
+            (``geometry.rotation_test``: a least-median rotation fit that independently moving
+            objects on under half of the tracks do not sway, under focal lengths up to 20 %
+            off, against the noise of a fundamental matrix on the same tracks): a rotation
+            alone explains any flow with less, whatever the pose estimators make of it.
     """
 
     thresholds: Mapping[str, float] = field(default_factory=dict)
@@ -57,7 +58,7 @@ class PolicyConfig:
     min_tracks: int = 50
     min_points: int = 50
     min_parallax_deg: float = 1.0
-    min_rotation_residual_px: float = 3.0
+    min_rotation_residual_sigma: float = 3.0
 
 
 @dataclass(frozen=True)

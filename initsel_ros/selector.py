@@ -15,7 +15,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
-from initsel_ros.geometry import Method
+from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize_pair
 from initsel_ros.model_selection import Selection
@@ -33,6 +33,12 @@ from initsel_ros.tracking import KltTracker, TrackerConfig, Tracks
 from initsel_ros.verify import VerifyConfig, VerifyStep, check_frame
 
 log = logging.getLogger(__name__)
+
+#: The last verification frame's own seed map replaces the verified one when its pose is
+#: within these of that frame's PnP pose against the verified map (degrees; chordal distance
+#: of the translation directions, as E_t).
+LAST_FRAME_MAX_ROTATION_DEG = 1.0
+LAST_FRAME_MAX_E_T = 0.1
 
 
 @dataclass(frozen=True)
@@ -117,11 +123,22 @@ class Initialization:
 
 @dataclass(frozen=True)
 class _Candidate:
-    """An initialization held back until the next frames confirm it."""
+    """An initialization held back until the next frames confirm it.
+
+    ``rivals`` are the other poses of the same pair that fit it as well (H's two-fold planar
+    ambiguity): each is checked on the same frames, those that fail drop out, and of the
+    ones left at the end the lowest RMS reprojection is published.
+    """
 
     initialization: Initialization
     track_ids: np.ndarray  # (M,) sorted tracker ids of the map points
     steps: tuple[VerifyStep, ...] = ()
+    rivals: tuple[_Candidate, ...] = ()
+    methods: tuple[Method, ...] = ()  # what the fire path tried (the last frame tries again)
+
+    def mean_rms_px(self) -> float:
+        """Mean RMS reprojection error over the frames checked so far, pixels."""
+        return float(np.mean([s.rms_px for s in self.steps])) if self.steps else np.inf
 
 
 @dataclass(frozen=True)
@@ -143,6 +160,7 @@ class FrameResult:
             undistorted: what an overlay draws on the image); None on skipped frames.
         tracks_cur: (N, 2) float32 their pixels in this frame.
         thresholds: the per-model thresholds the decision used.
+        rotation: on frames where a model fired, the rotation test (residual, noise, ratio).
     """
 
     frame_index: int
@@ -157,6 +175,7 @@ class FrameResult:
     tracks_ref: np.ndarray | None = field(default=None, repr=False, compare=False)
     tracks_cur: np.ndarray | None = field(default=None, repr=False, compare=False)
     thresholds: Mapping[str, float] = field(default_factory=dict, compare=False)
+    rotation: RotationTest | None = None
 
 
 def decide_pair(
@@ -329,7 +348,7 @@ class Selector:
             return replace(result, reference_stamp_ns=stamp_ns)
 
         if self._candidate is not None:
-            result = self._verify(tracks, cur, decision, index, stamp_ns, since)
+            result = self._verify(tracks, ref, cur, decision, index, stamp_ns, since)
         else:
             result = FrameResult(
                 index, stamp_ns, self._reference_stamp_ns, decision, None, False, since
@@ -359,18 +378,9 @@ class Selector:
     ) -> FrameResult:
         """A model fired: run the fire path (initialize.py); hold the seed map for verification."""
         decision = result.decision
-        policy = self.config.policy
-        fire = initialize_pair(
-            ref,
-            cur,
-            self.intrinsics.K,
-            fire_methods(decision, self.thresholds, policy),
-            FireConfig(
-                policy=policy,
-                ransac_threshold_px=self.config.ransac_threshold_px,
-                refine=self.config.refine,
-            ),
-        )
+        methods = fire_methods(decision, self.thresholds, self.config.policy)
+        fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
+        result = replace(result, rotation=fire.rotation)
         if fire.reason is Reason.ROTATION:
             fired = '/'.join(m.value for m in decision.candidates)
             return replace(
@@ -387,7 +397,18 @@ class Selector:
         init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
         detail = f'{init.method.value}: {fire.detail}'
         if self.config.verify.frames > 0:
-            self._candidate = _Candidate(init, np.asarray(ids)[fire.seed.indices])
+            rivals = tuple(
+                _Candidate(
+                    self._initialization(
+                        seed, ref, cur, decision, stamp_ns, since, fire.selection
+                    ),
+                    np.asarray(ids)[seed.indices],
+                )
+                for seed in fire.alternatives
+            )
+            self._candidate = _Candidate(
+                init, np.asarray(ids)[fire.seed.indices], rivals=rivals, methods=methods
+            )
             return replace(
                 result,
                 decision=replace(
@@ -402,9 +423,17 @@ class Selector:
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
 
+    def _fire_config(self) -> FireConfig:
+        return FireConfig(
+            policy=self.config.policy,
+            ransac_threshold_px=self.config.ransac_threshold_px,
+            refine=self.config.refine,
+        )
+
     def _verify(
         self,
         tracks: Tracks,
+        ref: np.ndarray,
         cur: np.ndarray,
         decision: Decision,
         index: int,
@@ -412,15 +441,16 @@ class Selector:
         since: int,
     ) -> FrameResult:
         """Check the held-back candidate on this frame; publish it once enough frames agree."""
-        candidate = self._candidate
-        assert candidate is not None
+        assert self._candidate is not None
+        # Every rival pose of the pair is checked on this frame; the first that holds leads.
+        checked = [
+            (c, self._check(c, tracks, cur)) for c in (self._candidate, *self._candidate.rivals)
+        ]
+        holding = [(c, s) for c, s in checked if s.ok]
+        candidate, step = holding[0] if holding else checked[0]
+        rivals = tuple(replace(c, steps=(*c.steps, s), rivals=()) for c, s in holding[1:])
+        candidate = replace(candidate, rivals=rivals)
         init = candidate.initialization
-        ids = candidate.track_ids
-        pos = np.minimum(np.searchsorted(tracks.ids, ids), max(len(tracks.ids) - 1, 0))
-        tracked = (tracks.ids[pos] == ids) if len(tracks.ids) else np.zeros(len(ids), bool)
-        pixels = np.zeros((len(ids), 2))
-        pixels[tracked] = cur[pos[tracked]]
-        step = check_frame(init.points, pixels, tracked, self.intrinsics.K, self.config.verify)
         base = FrameResult(
             index,
             stamp_ns,
@@ -453,10 +483,16 @@ class Selector:
                     decision,
                     reason=Reason.VERIFYING,
                     detail=f'{init.method.value} candidate: frame {done} of {wanted} ok, '
-                    f'{step.detail}',
+                    f'{step.detail}'
+                    + (f'; {len(rivals)} rival decomposition(s) hold too' if rivals else ''),
                 ),
             )
         self._candidate = None
+        best = replace(candidate, steps=steps)
+        if rivals:  # more than one pose held on every frame: the smallest reprojection wins
+            best = min((best, *rivals), key=_Candidate.mean_rms_px)
+            init, steps = best.initialization, best.steps
+        init = self._on_last_frame(best, ref, cur, decision, stamp_ns, since, steps[-1]) or init
         verified = replace(init, verification=steps)
         return replace(
             base,
@@ -468,6 +504,52 @@ class Selector:
                 detail=f'{init.method.value} verified on {wanted} frames (last: {step.detail})',
             ),
         )
+
+    def _on_last_frame(
+        self,
+        candidate: _Candidate,
+        ref: np.ndarray,
+        cur: np.ndarray,
+        decision: Decision,
+        stamp_ns: int,
+        since: int,
+        step: VerifyStep,
+    ) -> Initialization | None:
+        """The verified map again, from the last verification frame's longer baseline.
+
+        The fire path runs once more on the reference and this frame, with the methods it
+        tried at fire time. A seed map of the same method whose pose agrees with this frame's
+        PnP pose against the verified map (rotation within
+        :data:`LAST_FRAME_MAX_ROTATION_DEG`, translation direction within
+        :data:`LAST_FRAME_MAX_E_T`) replaces the candidate: the same geometry, confirmed,
+        seen with a few frames more baseline. None when there is none.
+        """
+        init = candidate.initialization
+        fire = initialize_pair(ref, cur, self.intrinsics.K, candidate.methods, self._fire_config())
+        if fire.reason is not Reason.INITIALIZED or fire.seed is None:
+            return None
+        t_pnp = step.t / max(float(np.linalg.norm(step.t)), 1e-12)
+        for seed in (fire.seed, *fire.alternatives):
+            agrees = (
+                seed.method is init.method
+                and rotation_angle_deg(seed.R.T @ step.R) <= LAST_FRAME_MAX_ROTATION_DEG
+                and float(np.linalg.norm(seed.t - t_pnp)) <= LAST_FRAME_MAX_E_T
+            )
+            if agrees:
+                return self._initialization(
+                    seed, ref, cur, decision, stamp_ns, since, fire.selection
+                )
+        return None
+
+    def _check(self, candidate: _Candidate, tracks: Tracks, cur: np.ndarray) -> VerifyStep:
+        """PnP of one candidate's map points against their tracks in this frame."""
+        ids = candidate.track_ids
+        pos = np.minimum(np.searchsorted(tracks.ids, ids), max(len(tracks.ids) - 1, 0))
+        tracked = (tracks.ids[pos] == ids) if len(tracks.ids) else np.zeros(len(ids), bool)
+        pixels = np.zeros((len(ids), 2))
+        pixels[tracked] = cur[pos[tracked]]
+        points = candidate.initialization.points
+        return check_frame(points, pixels, tracked, self.intrinsics.K, self.config.verify)
 
     def _initialization(
         self,

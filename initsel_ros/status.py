@@ -153,6 +153,7 @@ class FrameStatus:
     stamp_issues: Mapping[str, int]
     selection: Mapping[str, Any] | None
     verification: VerificationStatus | None
+    rotation_test: Mapping[str, float | None] | None = None
 
     # ------------------------------------------------------------------------------ building
     @classmethod
@@ -234,6 +235,11 @@ class FrameStatus:
             stamp_issues=dict(counters.stamp_issues),
             selection=None if selection is None else selection.to_dict(),
             verification=None if step is None else VerificationStatus.from_step(step),
+            rotation_test=(
+                result.rotation.to_dict()
+                if result is not None and result.rotation is not None
+                else None
+            ),
         )
 
     # --------------------------------------------------------------------------------- reading
@@ -286,6 +292,7 @@ class FrameStatus:
         out['intrinsics'] = None if self.intrinsics is None else dict(self.intrinsics)
         out['selection'] = None if self.selection is None else dict(self.selection)
         out['verification'] = None if self.verification is None else self.verification.to_dict()
+        out['rotation_test'] = None if self.rotation_test is None else dict(self.rotation_test)
         return out
 
     def to_json(self) -> str:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from geometry_fixtures import K, two_view
 
-from initsel_ros.geometry import Method
+from initsel_ros.geometry import Method, rotation_only_residual_px
 from initsel_ros.initialize import FireConfig, fire_methods, initialize_pair
 from initsel_ros.metrics import translation_chordal_error
 from initsel_ros.policy import Decision, PolicyConfig, Reason
@@ -83,3 +83,92 @@ def test_no_candidate_passing_reports_the_first_failing_reason():
 def test_fire_methods_add_h_unless_r_vetoes_it(veto, p_r, expected):
     decision = Decision(Reason.INITIALIZED, {'E': 0.9, 'R': p_r}, candidates=(Method.E,))
     assert fire_methods(decision, {'R': 0.5}, PolicyConfig(r_veto=veto)) == expected
+
+
+def _arc_on_a_wall(
+    baseline: float = 0.2, distance: float = 3.5, noise_px: float = 0.2, n: int = 300
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A wall ``distance`` m ahead, seen 30 degrees from its normal (a phone held up and
+    looking down at it), the camera slid sideways by ``baseline`` and turned back toward the
+    wall's centre (issue 20's sideways arc). Returns p0, p1 and the unit translation."""
+    rng = np.random.default_rng(11)
+    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
+    rays = np.column_stack([p0, np.ones(n)]) @ np.linalg.inv(K).T
+    normal = np.array([0.0, np.sin(np.radians(30.0)), -np.cos(np.radians(30.0))])
+    X = rays * (-distance / (rays @ normal))[:, None]
+    centre = np.array([baseline, 0.0, 0.0])  # camera centre in the reference frame
+    R = cv2.Rodrigues(np.array([0.0, -np.arctan2(baseline, distance), 0.0]))[0]
+    t = -R @ centre
+    proj = (X @ R.T + t) @ K.T
+    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, noise_px, (n, 2))
+    return p0 + rng.normal(0, noise_px, (n, 2)), p1, t / np.linalg.norm(t)
+
+
+def test_a_plane_from_a_sideways_arc_is_parallax_against_the_noise_and_initializes_with_h():
+    p0, p1, t = _arc_on_a_wall()
+    # The old fixed guard is wrong here: the arc's perspective change is under 3 px ...
+    assert rotation_only_residual_px(p0, p1, K) < 3.0
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H))
+    # ... but several times the tracking noise, measured on the same tracks.
+    assert fire.rotation is not None
+    assert fire.rotation.noise_px == pytest.approx(0.2, rel=0.5)
+    assert fire.rotation.statistic > 1.5 * PolicyConfig().min_rotation_residual_sigma
+    assert fire.reason is Reason.INITIALIZED
+    assert fire.seed is not None and fire.seed.method is Method.H
+    assert translation_chordal_error(t, fire.seed.t) < 0.1
+
+
+def test_a_noisy_miscalibrated_pan_is_a_rotation_at_the_noise_level():
+    # 2 px of tracking noise and a focal length 10 % off: a rotation leaves more than 3 px
+    # under the nominal K (the old fixed guard would let it through to the estimators) ...
+    rng = np.random.default_rng(5)
+    n = 300
+    K_true = K.copy()
+    K_true[:2, :2] *= 1.1
+    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
+    R = cv2.Rodrigues(np.array([0.02, np.radians(8.0), 0.0]))[0]
+    proj = (np.column_stack([p0, np.ones(n)]) @ np.linalg.inv(K_true).T) @ (K_true @ R).T
+    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 2.0, (n, 2))
+    p0 = p0 + rng.normal(0, 2.0, (n, 2))
+    assert rotation_only_residual_px(p0, p1, K) >= 3.0
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.F, Method.H))
+    # ... yet it is the noise level once the focal scale is free and the noise measured.
+    assert fire.reason is Reason.ROTATION and fire.seed is None
+    assert fire.rotation is not None and fire.rotation.statistic < 1.5
+    assert fire.rotation.noise_px == pytest.approx(2.0, rel=0.3)
+    assert 'x the noise' in fire.detail
+
+
+def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_them_apart():
+    from initsel_ros.verify import VerifyConfig, check_frame
+
+    baseline = 0.1
+    p0, p1, _, t, X = two_view(planar=True, baseline=baseline, seed=1)
+    # The mirrored solution puts the plane far away, with 0.3 degrees of parallax and 48
+    # points: the default pose check would drop it; a laxer one keeps both, as happens when
+    # the two are closer. (The rotation test is not what this is about.)
+    policy = PolicyConfig(min_points=30, min_parallax_deg=0.2)
+    config = FireConfig(policy=policy, rotation_test=False)
+    fire = initialize_pair(p0, p1, K, (Method.H,), config)
+    assert fire.reason is Reason.INITIALIZED and fire.seed is not None
+    assert 'the next frames choose' in fire.detail
+    assert len(fire.alternatives) == 1
+    seeds = (fire.seed, *fire.alternatives)
+    errors = [translation_chordal_error(t, s.t) for s in seeds]
+    assert min(errors) < 0.1 and max(errors) > 0.5  # one is the mirrored plane
+    # The camera goes on, three times as far.
+    R3 = cv2.Rodrigues(3 * np.array([0.01, -0.06, 0.005]))[0]
+    t3 = 3 * np.array([-baseline, 0.01, 0.02]) / np.linalg.norm([-baseline, 0.01, 0.02])
+    proj = (X @ R3.T + t3) @ K.T
+    p2 = proj[:, :2] / proj[:, 2:3] + np.random.default_rng(2).normal(0, 0.3, (len(X), 2))
+    steps = [
+        check_frame(s.points, p2[s.indices], np.ones(s.n_points, bool), K, VerifyConfig())
+        for s in seeds
+    ]
+    # Both maps may hold on a plane (PnP on a plane has the same two-fold ambiguity), but
+    # the right one reprojects better and keeps more inliers: the selector publishes the
+    # smallest RMS among those that held.
+    right = int(np.argmin(errors))
+    assert steps[right].ok
+    assert int(np.argmin([st.rms_px for st in steps])) == right
+    assert steps[right].fraction > steps[1 - right].fraction

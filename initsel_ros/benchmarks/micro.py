@@ -133,7 +133,7 @@ class FireTimes:
         pairs: distinct pairs timed.
         total: :func:`~initsel_ros.initialize.initialize_pair` with F, E and H, per call.
         parts: its steps, each timed alone on the same pairs (:data:`FIRE_PARTS`); the
-            rotation guard's least-squares fit alone is not a step of the total.
+            rotation test's single fit under the nominal K is not a step of the total.
         solvers: the bundle adjustment by the general solvers on the same pairs
             (:mod:`initsel_ros.benchmarks.solvers`), name -> timing (Ceres only when pyceres
             is installed).
@@ -149,14 +149,14 @@ class FireTimes:
 
     @property
     def guard_share(self) -> float:
-        """The rotation guard's median over the fire time's median."""
+        """The rotation test's median over the fire time's median."""
         return self.parts[0].median / self.total.median
 
 
 #: Names of the fire path's steps, in :attr:`FireTimes.parts` order.
 FIRE_PARTS = (
-    'rotation guard (least-median fit)',
-    'its least-squares fit alone (the cost on a plain pan; not in the total)',
+    'rotation test (least-median fits under 13 focal scales, F-RANSAC noise)',
+    'one least-median rotation fit under the nominal K (not in the total)',
     'F + E + H estimates',
     'GRIC selection (with the E refit)',
     'E refit (refine_essential)',
@@ -174,7 +174,12 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
     measured before refinement and after each solver.
     """
     from initsel_ros.benchmarks.solvers import ceres_available, ceres_two_view, scipy_two_view
-    from initsel_ros.geometry import Method, estimate_pose, rotation_only_residual_px
+    from initsel_ros.geometry import (
+        Method,
+        estimate_pose,
+        rotation_only_residual_px,
+        rotation_test,
+    )
     from initsel_ros.initialize import FireConfig, initialize_pair
     from initsel_ros.metrics import translation_chordal_error
     from initsel_ros.model_selection import select_method
@@ -192,10 +197,11 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
         pair = pairs[i % m]
         return initialize_pair(pair.p0, pair.p1, K, methods, config)
 
-    def guard(i: int, enough: float = policy.min_rotation_residual_px) -> float:
-        return rotation_only_residual_px(
-            pairs[i % m].p0, pairs[i % m].p1, K, enough_below_px=enough
-        )
+    def guard(i: int) -> float:
+        return rotation_test(pairs[i % m].p0, pairs[i % m].p1, K).statistic
+
+    def one_fit(i: int) -> float:
+        return rotation_only_residual_px(pairs[i % m].p0, pairs[i % m].p1, K)
 
     def estimates(i: int) -> list[Any]:
         ests = [estimate_pose(method, pairs[i % m].p0, pairs[i % m].p1, K) for method in methods]
@@ -217,7 +223,7 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
 
     parts = [
         Timing(FIRE_PARTS[0], time_calls(guard, repeat, warmup=1)),
-        Timing(FIRE_PARTS[1], time_calls(lambda i: guard(i, np.inf), repeat, warmup=1)),
+        Timing(FIRE_PARTS[1], time_calls(one_fit, repeat, warmup=1)),
         Timing(FIRE_PARTS[2], time_calls(estimates, repeat, warmup=1)),
         Timing(FIRE_PARTS[3], time_calls(select, repeat, warmup=1)),
         Timing(FIRE_PARTS[4], time_calls(e_refit, repeat, warmup=1)),

@@ -95,11 +95,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'the table pools them (default 0)',
     )
     parser.add_argument(
-        '--min-rotation-residual',
+        '--min-rotation-residual-sigma',
         type=float,
         default=None,
-        metavar='PX',
-        help="override the policy's min_rotation_residual_px",
+        metavar='RATIO',
+        help="override the policy's min_rotation_residual_sigma",
     )
     parser.add_argument('--jobs', type=int, default=2, help='worker processes')
     parser.add_argument(
@@ -126,10 +126,12 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.selector import SelectorConfig
 
     config = SelectorConfig(refine=not args.no_refine)
-    if args.min_rotation_residual is not None:
+    if args.min_rotation_residual_sigma is not None:
         config = replace(
             config,
-            policy=replace(config.policy, min_rotation_residual_px=args.min_rotation_residual),
+            policy=replace(
+                config.policy, min_rotation_residual_sigma=args.min_rotation_residual_sigma
+            ),
         )
     if args.r_veto is not None:
         config = replace(config, policy=replace(config.policy, r_veto=frozenset(args.r_veto)))

@@ -277,10 +277,10 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0.0, 90.0),
     ),
     ParameterSpec(
-        'min_rotation_residual_px',
-        _POLICY.min_rotation_residual_px,
-        'flow left after the best pure rotation must reach this median, pixels '
-        '(less: a rotation alone explains it)',
+        'min_rotation_residual_sigma',
+        _POLICY.min_rotation_residual_sigma,
+        'flow left after the best pure rotation must reach this many times the tracking '
+        'noise measured on the same tracks (less: a rotation alone explains it)',
         Number(0.0, 100.0),
     ),
     ParameterSpec(
@@ -419,7 +419,7 @@ class NodeSettings:
     min_tracks: int
     min_points: int
     min_parallax_deg: float
-    min_rotation_residual_px: float
+    min_rotation_residual_sigma: float
     max_frames_since_reference: int
     mode: Mode
     refine: bool
@@ -511,7 +511,7 @@ class NodeSettings:
                 min_tracks=self.min_tracks,
                 min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
-                min_rotation_residual_px=self.min_rotation_residual_px,
+                min_rotation_residual_sigma=self.min_rotation_residual_sigma,
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
