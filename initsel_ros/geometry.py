@@ -286,8 +286,10 @@ def estimate_pose(
         min_homography_baseline_ratio: H decompositions with baseline / plane distance
             below this are treated as pure rotation.
         keep_ambiguous: when H's two best decompositions are close, return the one with
-            the most good points with the runner-up as its ``alternative`` (both triangulated
-            and checked alike) instead of refusing the pair.
+            the most good points (or the one that is ``ok``) with the other as its
+            ``alternative`` (both triangulated and checked alike) instead of refusing the
+            pair; the caller decides (``initialize.py`` keeps both only when both pass its
+            pose check).
 
     Returns:
         A :class:`PoseEstimate`; ``ok`` False with a ``reason`` for degenerate input
@@ -338,10 +340,8 @@ def estimate_pose(
             )
             first = _triangulated(method, choice.R, choice.t, K, a, b, inliers, matrix, **kept)
             second = _triangulated(method, *choice.runner_up, K, a, b, inliers, matrix, **kept)
-            if not second.ok:
-                return first
-            if not first.ok:
-                return second
+            if not first.ok and second.ok:
+                return replace(second, alternative=first)
             return replace(first, alternative=second)
         R, t = choice.R, choice.t
     else:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -181,6 +181,27 @@ def _problem_text(estimate: PoseEstimate, problem: Reason | None) -> str:
     )
 
 
+def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEstimate:
+    """An H whose close runner-up decomposition fails the pose check is refused, as before.
+
+    Both are kept only when both pass: then the frames after the pair choose. A runner-up
+    that fails (too few points with parallax) does not make the winner right: on depth
+    variation seen at a small baseline such a winner was the mirrored one as often as not.
+    """
+    rival = estimate.alternative
+    if rival is None or check_pose(rival, policy) is None:
+        return estimate
+    return replace(
+        estimate,
+        ok=False,
+        reason=(
+            f'homography decomposition ambiguous: {estimate.n_points} vs {rival.n_points} '
+            'points, and the runner-up fails the pose check'
+        ),
+        alternative=None,
+    )
+
+
 def initialize_pair(
     ref: np.ndarray,
     cur: np.ndarray,
@@ -226,6 +247,7 @@ def initialize_pair(
         )
         for m in methods
     )
+    estimates = tuple(_resolve_ambiguity(e, policy) for e in estimates)
     checks = tuple(check_pose(e, policy) for e in estimates)
     passed = [e for e, c in zip(estimates, checks, strict=True) if c is None]
     first_problem = next((c for c in checks if c is not None), Reason.POSE_FAILED)
@@ -247,9 +269,9 @@ def initialize_pair(
         refine=config.refine,
         max_reprojection_px=config.map_max_reprojection_px,
     )
-    rival = winner.alternative
+    rival = winner.alternative  # (it passed the pose check, or it would be None)
     alternatives: tuple[SeedMap, ...] = ()
-    if rival is not None and check_pose(rival, policy) is None:
+    if rival is not None:
         other = seed_map(
             rival,
             ref,
