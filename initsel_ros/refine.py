@@ -140,6 +140,80 @@ def _rms(e0: np.ndarray, e1: np.ndarray) -> float:
     return float(np.sqrt(np.mean(both**2))) if both.size else float('nan')
 
 
+@dataclass(frozen=True)
+class TwoViewProblem:
+    """A seed map as bundle adjustment starts from it: float64, at the scale ``|t| = 1``.
+
+    :func:`two_view_problem` builds it from :func:`refine_two_view`'s arguments; the bench's
+    yardstick solvers (:mod:`initsel_ros.benchmarks.solvers`) start from the same one.
+
+    Attributes:
+        R: (3, 3) rotation, reference to current.
+        t: (3,) unit translation.
+        points: (N, 3) points, reference camera frame, at the scale ``|t| = 1``.
+        p0: (N, 2) their pixels in the reference image.
+        p1: (N, 2) their pixels in the current image.
+        K: (3, 3) camera matrix.
+        rms_before_px: RMS reprojection error (both images) of the start, pixels.
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    points: np.ndarray
+    p0: np.ndarray
+    p1: np.ndarray
+    K: np.ndarray
+    rms_before_px: float
+
+    def refinement(
+        self,
+        R: np.ndarray,
+        t: np.ndarray,
+        points: np.ndarray,
+        iterations: int,
+        converged: bool,
+        max_reprojection_px: float,
+    ) -> Refinement:
+        """The record of a solution (``points`` (N, 3) at the unit scale, NaN where lost):
+        the points reprojecting worse than ``max_reprojection_px`` in either image dropped."""
+        e0, e1 = reprojection_errors(R, t, points, self.K, self.p0, self.p1)
+        kept = (e0 <= max_reprojection_px) & (e1 <= max_reprojection_px)
+        return Refinement(
+            R=R,
+            t=t,
+            points=points[kept],
+            kept=kept,
+            rms_before_px=self.rms_before_px,
+            rms_after_px=_rms(e0[kept], e1[kept]),
+            iterations=iterations,
+            converged=converged,
+        )
+
+
+def two_view_problem(
+    R: np.ndarray, t: np.ndarray, points: np.ndarray, p0: np.ndarray, p1: np.ndarray, K: np.ndarray
+) -> TwoViewProblem:
+    """The arguments of :func:`refine_two_view` checked, as float64, at the scale ``|t| = 1``.
+
+    Raises:
+        GeometryError: inconsistent shapes or a zero translation.
+    """
+    R = np.asarray(R, dtype=np.float64).reshape(3, 3)
+    t = np.asarray(t, dtype=np.float64).reshape(3)
+    X = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
+    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
+    K = np.asarray(K, dtype=np.float64)
+    n = X.shape[0]
+    if p0.shape[0] != n or p1.shape[0] != n:
+        raise GeometryError(f'{n} points but {p0.shape[0]} and {p1.shape[0]} pixels')
+    norm = float(np.linalg.norm(t))
+    if not np.isfinite(norm) or norm < 1e-12:
+        raise GeometryError('refinement needs a non-zero translation')
+    t, X = t / norm, X / norm
+    return TwoViewProblem(R, t, X, p0, p1, K, _rms(*reprojection_errors(R, t, X, K, p0, p1)))
+
+
 def soft_l1(residuals: np.ndarray, scale: float) -> tuple[float, np.ndarray]:
     """The pseudo-Huber cost of residuals and its IRLS weights.
 
@@ -493,33 +567,16 @@ def refine_two_view(
     Raises:
         GeometryError: inconsistent shapes or a zero translation.
     """
-    R = np.asarray(R, dtype=np.float64).reshape(3, 3)
-    t = np.asarray(t, dtype=np.float64).reshape(3)
-    X0 = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
-    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
-    K = np.asarray(K, dtype=np.float64)
-    n = X0.shape[0]
-    if p0.shape[0] != n or p1.shape[0] != n:
-        raise GeometryError(f'{n} points but {p0.shape[0]} and {p1.shape[0]} pixels')
-    norm = float(np.linalg.norm(t))
-    if not np.isfinite(norm) or norm < 1e-12:
-        raise GeometryError('refinement needs a non-zero translation')
-    t_unit = t / norm
-    X0 = X0 / norm  # the map at the scale |t| = 1
-    e0, e1 = reprojection_errors(R, t_unit, X0, K, p0, p1)
-    rms_before = _rms(e0, e1)
-    if n < 6 or np.count_nonzero(np.isfinite(X0).all(axis=1) & (X0[:, 2] > 1e-9)) < 6:
-        kept = (e0 <= max_reprojection_px) & (e1 <= max_reprojection_px)
-        return Refinement(
-            R, t_unit, X0[kept], kept, rms_before, _rms(e0[kept], e1[kept]), 0, False
-        )
-    scale = float(huber_px)
+    problem = two_view_problem(R, t, points, p0, p1, K)
+    X0, K = problem.points, problem.K
     # points behind (or on) the reference camera's plane have no inverse depth: they stay out
     # of the adjustment and are dropped (they would be dropped afterwards anyway)
     usable = np.isfinite(X0).all(axis=1) & (X0[:, 2] > 1e-9)
+    if np.count_nonzero(usable) < 6:
+        return problem.refinement(problem.R, problem.t, X0, 0, False, max_reprojection_px)
+    scale = float(huber_px)
     Xu = X0[usable]
-    q0, q1 = p0[usable].T.copy(), p1[usable].T.copy()
+    q0, q1 = problem.p0[usable].T.copy(), problem.p1[usable].T.copy()
 
     def linearize(state: State) -> _Linearization:
         Rk, tk, Q = state
@@ -540,20 +597,9 @@ def refine_two_view(
 
     Q0 = np.vstack([Xu[:, 0] / Xu[:, 2], Xu[:, 1] / Xu[:, 2], 1.0 / Xu[:, 2]])
     (Rk, tk, Q), evaluations, converged = _levenberg_marquardt(
-        (R, t_unit, Q0), linearize, propose, max_evaluations
+        (problem.R, problem.t, Q0), linearize, propose, max_evaluations
     )
-    X = np.full((n, 3), np.nan)
+    X = np.full_like(X0, np.nan)
     with np.errstate(divide='ignore', invalid='ignore'):  # inf/NaN where rho ended at 0
         X[usable] = np.column_stack([Q[0], Q[1], np.ones(Q.shape[1])]) / Q[2][:, None]
-    e0, e1 = reprojection_errors(Rk, tk, X, K, p0, p1)
-    kept = (e0 <= max_reprojection_px) & (e1 <= max_reprojection_px)
-    return Refinement(
-        R=Rk,
-        t=tk,
-        points=X[kept],
-        kept=kept,
-        rms_before_px=rms_before,
-        rms_after_px=_rms(e0[kept], e1[kept]),
-        iterations=evaluations,
-        converged=converged,
-    )
+    return problem.refinement(Rk, tk, X, evaluations, converged, max_reprojection_px)

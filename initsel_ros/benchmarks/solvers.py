@@ -26,49 +26,14 @@ import numpy as np
 from initsel_ros.refine import (
     Refinement,
     _pixels_and_jacobian,
-    _rms,
     _tangent_basis,
-    reprojection_errors,
+    two_view_problem,
 )
 
 #: As refine_two_view: robust loss scale, reprojection cut-off, evaluation cap.
 HUBER_PX = 1.0
 MAX_REPROJECTION_PX = 2.0
 MAX_EVALUATIONS = 30
-
-
-def _result(
-    R: np.ndarray,
-    t: np.ndarray,
-    X: np.ndarray,
-    K: np.ndarray,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    rms_before: float,
-    evaluations: int,
-    converged: bool,
-) -> Refinement:
-    """The Refinement record of a solution, points kept as refine_two_view keeps them."""
-    e0, e1 = reprojection_errors(R, t, X, K, p0, p1)
-    kept = (e0 <= MAX_REPROJECTION_PX) & (e1 <= MAX_REPROJECTION_PX)
-    return Refinement(
-        R, t, X[kept], kept, rms_before, _rms(e0[kept], e1[kept]), evaluations, converged
-    )
-
-
-def _start(
-    R: np.ndarray, t: np.ndarray, points: np.ndarray, p0: np.ndarray, p1: np.ndarray, K: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
-    """The inputs as float64 at the scale ``|t| = 1``, and the RMS error before, pixels."""
-    R = np.asarray(R, dtype=np.float64).reshape(3, 3)
-    t = np.asarray(t, dtype=np.float64).reshape(3)
-    norm = float(np.linalg.norm(t))
-    X = np.asarray(points, dtype=np.float64).reshape(-1, 3) / norm
-    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
-    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
-    K = np.asarray(K, dtype=np.float64)
-    rms = _rms(*reprojection_errors(R, t / norm, X, K, p0, p1))
-    return R, t / norm, X, p0, p1, K, rms
 
 
 def scipy_two_view(
@@ -86,7 +51,8 @@ def scipy_two_view(
     from scipy.optimize import least_squares
     from scipy.sparse import csr_matrix
 
-    R, t_unit, X0, p0, p1, K, rms_before = _start(R, t, points, p0, p1, K)
+    start = two_view_problem(R, t, points, p0, p1, K)
+    R, t_unit, X0, p0, p1, K = start.R, start.t, start.points, start.p0, start.p1, start.K
     n = X0.shape[0]
     basis = _tangent_basis(t_unit)
 
@@ -143,16 +109,8 @@ def scipy_two_view(
         xtol=1e-5,
     )
     Rk, tk, flat = unpack(solution.x)
-    return _result(
-        Rk,
-        tk,
-        flat.reshape(n, 3),
-        K,
-        p0,
-        p1,
-        rms_before,
-        int(solution.nfev),
-        bool(solution.success),
+    return start.refinement(
+        Rk, tk, flat.reshape(n, 3), int(solution.nfev), bool(solution.success), MAX_REPROJECTION_PX
     )
 
 
@@ -218,15 +176,15 @@ def ceres_two_view(
         import pyceres
     except ImportError:
         return None
-    R, t_unit, X0, p0, p1, K, rms_before = _start(R, t, points, p0, p1, K)
-    rvec = cv2.Rodrigues(R)[0].ravel().copy()
-    t_param = t_unit.copy()
-    X = [x.copy() for x in X0]
+    start = two_view_problem(R, t, points, p0, p1, K)
+    rvec = cv2.Rodrigues(start.R)[0].ravel().copy()
+    t_param = start.t.copy()
+    X = [x.copy() for x in start.points]
     problem = pyceres.Problem()
     loss = pyceres.SoftLOneLoss(HUBER_PX)
     costs = []  # kept alive while the problem is solved
     for i in range(len(X)):
-        cost = _ceres_point_cost(pyceres, K, p0[i], p1[i])
+        cost = _ceres_point_cost(pyceres, start.K, start.p0[i], start.p1[i])
         costs.append(cost)
         problem.add_residual_block(cost, loss, [rvec, t_param, X[i]])
     problem.set_manifold(t_param, pyceres.SphereManifold(3))
@@ -243,7 +201,7 @@ def ceres_two_view(
     tk = t_param / np.linalg.norm(t_param)
     converged = summary.termination_type == pyceres.TerminationType.CONVERGENCE
     evaluations = int(summary.num_successful_steps + summary.num_unsuccessful_steps)
-    return _result(Rk, tk, np.array(X), K, p0, p1, rms_before, evaluations, converged)
+    return start.refinement(Rk, tk, np.array(X), evaluations, converged, MAX_REPROJECTION_PX)
 
 
 __all__ = ['ceres_available', 'ceres_two_view', 'scipy_two_view']
