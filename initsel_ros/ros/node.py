@@ -482,7 +482,7 @@ class SelectorNode(Node):
         return image
 
     def _check_stamp(self, stamp: Time, stamp_ns: int) -> StampCheck:
-        """Log each kind of unusual stamp once, and every restart.
+        """Log each kind of unusual stamp once, and restarts (at most every 5 s).
 
         A frame a little older than the latest (within ``restart_tolerance_s``) is out of order
         (the caller skips it); a jump back further is a restart: a new reference, but in mode
@@ -507,7 +507,8 @@ class SelectorNode(Node):
                     if kept
                     else 'a new reference is taken'
                 )
-                + f' (restart {self._stamps.counts[StampIssue.RESTART.value]} of this stream)'
+                + f' (restart {self._stamps.counts[StampIssue.RESTART.value]} of this stream)',
+                throttle_duration_sec=WARN_THROTTLE_S,
             )
             self._selector.restart()
         return check
