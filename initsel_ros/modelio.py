@@ -196,6 +196,15 @@ def unit_number(value: Any, what: str) -> float:
     return v
 
 
+def metrics_mapping(data: dict[str, Any], where: str) -> dict[str, Any]:
+    """A model entry's optional ``"metrics"`` mapping (absent or null: empty), copied;
+    raises ModelFileError when it is something else."""
+    metrics = data.get('metrics', {}) or {}
+    if not isinstance(metrics, dict):
+        raise ModelFileError(f'{where}: "metrics" must be a mapping')
+    return dict(metrics)
+
+
 def int_list(value: Any, what: str, length: int, low: int, high: int) -> np.ndarray:
     """A flat JSON list of ``length`` integers in [low, high] as (length,) int64.
 

@@ -63,13 +63,21 @@ from initsel_ros.modelio import (
     MAX_FILE_BYTES,
     MAX_JSON_DEPTH,
     finite_number,
+    metrics_mapping,
     name_list,
     number_list,
     parse_json_bounded,
     read_bounded,
     unit_number,
 )
-from initsel_ros.trees import TABLE_DEPTH, FlatTrees, LeafTable, TreeEnsembleModel, sigmoid
+from initsel_ros.trees import (
+    TABLE_DEPTH,
+    FlatTrees,
+    LeafTable,
+    LogitModel,
+    TreeEnsembleModel,
+    sigmoid,
+)
 from initsel_ros.trees import prepare as prepare_tree_inputs
 
 METHODS: tuple[str, ...] = ('F', 'E', 'H', 'R')
@@ -83,7 +91,7 @@ KINDS = ('logistic', 'trees')
 
 
 @dataclass(frozen=True)
-class LogisticModel:
+class LogisticModel(LogitModel):
     """One logistic-regression classifier over standardized features.
 
     ``weights``, ``mean`` and ``scale`` follow ``features`` (default: the 23 paper features);
@@ -121,20 +129,13 @@ class LogisticModel:
                 raise ModelFileError(f'{where}: {attr} contains NaN or infinity')
         if np.any(self.scale <= 0):
             raise ModelFileError(f'{where}: every scale value must be positive')
-        if not np.isfinite(self.bias):
-            raise ModelFileError(f'{where}: bias must be finite, got {self.bias}')
-        if not 0.0 <= self.threshold <= 1.0:
-            raise ModelFileError(f'{where}: threshold must be in [0, 1], got {self.threshold}')
+        self.check_bias_threshold()
 
     def decision_function(self, X: np.ndarray) -> np.ndarray:
         """Logits of ``X`` ((N, D) or (D,) features in ``features`` order)."""
         return ((np.asarray(X, dtype=np.float64) - self.mean) / self.scale) @ self.weights + (
             self.bias
         )
-
-    def predict_proba(self, X: np.ndarray) -> np.ndarray:
-        """Probability of 'yes' for each row of ``X`` ((N, D) -> (N,))."""
-        return sigmoid(self.decision_function(X))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form for the model file."""
@@ -160,9 +161,6 @@ class LogisticModel:
         if missing:
             raise ModelFileError(f'model {name!r}: missing {", ".join(missing)}')
         where = f'model {name!r}'
-        metrics = data.get('metrics', {}) or {}
-        if not isinstance(metrics, dict):
-            raise ModelFileError(f'{where}: "metrics" must be a mapping')
         n = len(features)
         return cls(
             name=name,
@@ -171,7 +169,7 @@ class LogisticModel:
             threshold=unit_number(data.get('threshold', 0.5), f'{where}: threshold'),
             mean=number_list(data.get('mean', [0.0] * n), f'{where}: mean', n),
             scale=number_list(data.get('scale', [1.0] * n), f'{where}: scale', n),
-            metrics=dict(metrics),
+            metrics=metrics_mapping(data, where),
             features=features,
         )
 

@@ -32,7 +32,13 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.errors import ModelFileError
-from initsel_ros.modelio import finite_number, int_list, number_list, unit_number
+from initsel_ros.modelio import (
+    finite_number,
+    int_list,
+    metrics_mapping,
+    number_list,
+    unit_number,
+)
 
 #: Bounds that keep a hostile file from costing much memory or time.
 MAX_TREES = 2000
@@ -44,6 +50,31 @@ TREE_KEYS = ('feature', 'split', 'left', 'right', 'value')
 def sigmoid(z: np.ndarray) -> np.ndarray:
     """The logistic function, overflow-free (models.py uses it too)."""
     return 0.5 * (1.0 + np.tanh(0.5 * z))  # overflow-free logistic
+
+
+class LogitModel:
+    """What both model kinds share: a logit per row of features (:meth:`decision_function`),
+    whose sigmoid is the probability of 'yes', and a ``bias`` and ``threshold`` to check."""
+
+    name: str
+    bias: float
+    threshold: float
+
+    def decision_function(self, X: np.ndarray) -> np.ndarray:
+        """Logits of ``X`` ((N, D) or (D,) features in the model's order)."""
+        raise NotImplementedError
+
+    def predict_proba(self, X: np.ndarray) -> np.ndarray:
+        """Probability of 'yes' for each row of ``X`` ((N, D) -> (N,))."""
+        return sigmoid(self.decision_function(X))
+
+    def check_bias_threshold(self) -> None:
+        """Raises ModelFileError: a non-finite bias, or a threshold outside [0, 1]."""
+        where = f'model {self.name!r}'
+        if not math.isfinite(self.bias):
+            raise ModelFileError(f'{where}: bias must be finite, got {self.bias}')
+        if not 0.0 <= self.threshold <= 1.0:
+            raise ModelFileError(f'{where}: threshold must be in [0, 1], got {self.threshold}')
 
 
 @dataclass(frozen=True)
@@ -256,7 +287,7 @@ def prepare(X: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class TreeEnsembleModel:
+class TreeEnsembleModel(LogitModel):
     """A boosted tree ensemble over the named features (logit = bias + sum of leaves)."""
 
     name: str
@@ -279,10 +310,7 @@ class TreeEnsembleModel:
             tree.check(f'{where}: tree {i}')
             if tree.depth > MAX_DEPTH:
                 raise ModelFileError(f'{where}: tree {i} is deeper than {MAX_DEPTH}')
-        if not math.isfinite(self.bias):
-            raise ModelFileError(f'{where}: bias must be finite, got {self.bias}')
-        if not 0.0 <= self.threshold <= 1.0:
-            raise ModelFileError(f'{where}: threshold must be in [0, 1], got {self.threshold}')
+        self.check_bias_threshold()
         own = np.arange(len(self.features))
         flat = FlatTrees.build(self.trees, [own] * len(self.trees))
         object.__setattr__(self, '_flat', flat)
@@ -299,10 +327,6 @@ class TreeEnsembleModel:
         if X.ndim == 1:
             return np.asarray(self.bias + flat.leaf_values(prepare(X)).sum())
         return self.bias + flat.leaf_values_batch(prepare(X)).sum(axis=1)
-
-    def predict_proba(self, X: np.ndarray) -> np.ndarray:
-        """Probability of 'yes' for each row of ``X``."""
-        return sigmoid(self.decision_function(X))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form for the model file."""
@@ -324,9 +348,6 @@ class TreeEnsembleModel:
         trees = data.get('trees')
         if not isinstance(trees, list) or not 1 <= len(trees) <= MAX_TREES:
             raise ModelFileError(f'{where}: "trees" must be a list of 1 to {MAX_TREES} trees')
-        metrics = data.get('metrics', {}) or {}
-        if not isinstance(metrics, dict):
-            raise ModelFileError(f'{where}: "metrics" must be a mapping')
         if 'bias' not in data:
             raise ModelFileError(f'{where}: missing bias')
         return cls(
@@ -337,7 +358,7 @@ class TreeEnsembleModel:
             ),
             bias=finite_number(data['bias'], f'{where}: bias'),
             threshold=unit_number(data.get('threshold', 0.5), f'{where}: threshold'),
-            metrics=dict(metrics),
+            metrics=metrics_mapping(data, where),
         )
 
 
@@ -348,6 +369,7 @@ __all__ = [
     'TABLE_DEPTH',
     'FlatTrees',
     'LeafTable',
+    'LogitModel',
     'Tree',
     'TreeEnsembleModel',
     'float32_splits',
