@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, add_work_option, options_from
+from initsel_ros.cli import options
 
 #: Sections of the default run, each of which ``--skip`` can leave out.
 SECTIONS = ('decision', 'frame', 'node', 'core', 'memory', 'dataset')
@@ -17,13 +17,13 @@ SECTIONS = ('decision', 'frame', 'node', 'core', 'memory', 'dataset')
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel bench``."""
-    add_work_option(
+    options.add_work_option(
         parser,
         'folder for the rendered sequence (default: temporary; reused '
         'when it already holds enough frames)',
     )
     parser.add_argument('--frames', type=int, default=90, help='frames to render (default 90)')
-    add_models_option(
+    options.add_models_option(
         parser, 'model file (default: config/models.json, else models fitted on random features)'
     )
     parser.add_argument(
@@ -112,4 +112,4 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.bench import BenchOptions
     from initsel_ros.bench import run as bench
 
-    return bench(options_from(args, BenchOptions))
+    return bench(options.options_from(args, BenchOptions))

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from initsel_ros.cli.options import add_scale_rule_option
+from initsel_ros.cli import options
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='correspondences: KLT tracks through the batch, or ORB matches '
         '(sparse or distant frames) (default klt)',
     )
-    parser.add_argument('--jobs', type=int, default=2, help='worker processes (default 2)')
+    options.add_jobs_option(parser, 2, 'worker processes (default 2)')
     parser.add_argument(
         '--chunk',
         type=int,
@@ -73,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=8,
         help='skip pairs with fewer correspondences (default 8)',
     )
-    add_scale_rule_option(
+    options.add_scale_rule_option(
         parser,
         'median',
         'E_R scale alignment feeding the labels (both are stored; default median)',
@@ -86,11 +86,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='TUM, EuRoC, bags: frames outside the ground truth take the '
         'nearest pose within S seconds',
     )
-    parser.add_argument(
-        '--sequence',
-        default=None,
-        metavar='NN',
-        help='KITTI: the sequence, when a SOURCE is the odometry root',
+    options.add_kitti_sequence_option(
+        parser, 'KITTI: the sequence, when a SOURCE is the odometry root'
     )
     parser.add_argument(
         '--image-topic',

@@ -9,35 +9,29 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, add_work_option, model_path
+from initsel_ros.cli import options
 from initsel_ros.names import Mode
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel demo``."""
-    add_work_option(
+    options.add_work_option(
         parser,
         'folder for the rendered sequence (default: a temporary folder, '
         'removed afterwards); reused when it already holds enough frames',
     )
-    parser.add_argument(
-        '--source',
-        type=Path,
-        default=None,
-        help='use this TUM folder or bag instead of rendering one',
-    )
+    options.add_source_option(parser, 'use this TUM folder or bag instead of rendering one')
     parser.add_argument('--frames', type=int, default=240, help='frames to render and play')
     parser.add_argument('--scene', default='structure_texture', help='scene to render')
     parser.add_argument('--trajectory', default='near', help='camera trajectory to render')
     parser.add_argument('--seed', type=int, default=0, help='rendering seed')
-    parser.add_argument(
-        '--mode',
-        choices=tuple(m.value for m in Mode),
-        default=Mode.ONCE.value,
-        help='stop after the first initialization (default), or re-anchor '
-        'after each and judge every one',
+    options.add_mode_option(
+        parser,
+        Mode.ONCE,
+        'stop after the first initialization (default), or re-anchor after each and judge '
+        'every one',
     )
-    add_models_option(parser)
+    options.add_models_option(parser)
     parser.add_argument(
         '--rate',
         type=float,
@@ -67,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.errors import InitselError
     from initsel_ros.models import ModelSet
 
-    models_file = model_path(args.models)
+    models_file = options.model_path(args.models)
     models = ModelSet.load(models_file)
     work = args.work
     temporary = work is None

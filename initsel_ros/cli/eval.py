@@ -6,18 +6,16 @@ import argparse
 import contextlib
 from pathlib import Path
 
-from initsel_ros.cli.options import add_inputs_argument, add_models_option, model_path
+from initsel_ros.cli import options
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel eval``."""
-    add_inputs_argument(
+    options.add_inputs_argument(
         parser, 'tables', 'PAIRS_CSV', 'test pair tables written by `initsel dataset`'
     )
-    add_models_option(parser)
-    parser.add_argument(
-        '--out-dir', type=Path, default=None, help='write eval.md, eval.csv and the PNG plots here'
-    )
+    options.add_models_option(parser)
+    options.add_out_dir_option(parser, 'write eval.md, eval.csv and the PNG plots here')
     parser.add_argument(
         '--train',
         type=Path,
@@ -50,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.learn.train import prepare
     from initsel_ros.models import ModelSet
 
-    models = ModelSet.load(model_path(args.models))
+    models = ModelSet.load(options.model_path(args.models))
     test = read_tables(args.tables)
     train = None
     config = config_like(models.metadata, models.scaling)

@@ -8,6 +8,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from initsel_ros.names import Mode
+
 Options = TypeVar('Options')
 
 #: The values of ``--scale-rule``: those of :class:`initsel_ros.learn.labels.ScaleRule` (not
@@ -40,6 +42,37 @@ def add_scale_rule_option(
 ) -> None:
     """``--scale-rule``: how E_R removes the monocular scale (``SCALE_RULES``)."""
     parser.add_argument('--scale-rule', choices=SCALE_RULES, default=default, help=help_text)
+
+
+def add_jobs_option(
+    parser: argparse.ArgumentParser, default: int, help_text: str = 'worker processes'
+) -> None:
+    """``--jobs N``: worker processes."""
+    parser.add_argument('--jobs', type=int, default=default, help=help_text)
+
+
+def add_out_dir_option(
+    parser: argparse.ArgumentParser, help_text: str, *, required: bool = False
+) -> None:
+    """``--out-dir``: the folder for the command's Markdown and CSV tables (and figures)."""
+    parser.add_argument('--out-dir', type=Path, default=None, required=required, help=help_text)
+
+
+def add_source_option(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """``--source``: a recorded TUM folder or bag to use instead of a rendered sequence."""
+    parser.add_argument('--source', type=Path, default=None, help=help_text)
+
+
+def add_mode_option(parser: argparse.ArgumentParser, default: Mode, help_text: str) -> None:
+    """``--mode``: what the selector does after an initialization (:class:`Mode`)."""
+    parser.add_argument(
+        '--mode', choices=tuple(m.value for m in Mode), default=default.value, help=help_text
+    )
+
+
+def add_kitti_sequence_option(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """``--sequence NN``: the KITTI odometry sequence, when a source is the odometry root."""
+    parser.add_argument('--sequence', default=None, metavar='NN', help=help_text)
 
 
 def add_named_models_option(parser: argparse.ArgumentParser) -> None:
@@ -90,9 +123,14 @@ def options_from(args: argparse.Namespace, cls: type[Options], **overrides: Any)
 __all__ = [
     'SCALE_RULES',
     'add_inputs_argument',
+    'add_jobs_option',
+    'add_kitti_sequence_option',
+    'add_mode_option',
     'add_models_option',
     'add_named_models_option',
+    'add_out_dir_option',
     'add_scale_rule_option',
+    'add_source_option',
     'add_work_option',
     'model_path',
     'named_model_paths',

@@ -6,12 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from initsel_ros.cli.options import add_inputs_argument
+from initsel_ros.cli import options
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel orbvocab``."""
-    add_inputs_argument(
+    options.add_inputs_argument(
         parser,
         'sequences',
         'SEQUENCE',

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_models_option, add_work_option, model_path
+from initsel_ros.cli import options
 from initsel_ros.names import Mode
 
 
@@ -23,13 +23,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '(rotation_veto.png, initialization.png, probabilities.png; default '
         'docs/images under the working directory)',
     )
-    add_work_option(parser, 'folder for rendered sequences (reused; default: temporary)')
-    parser.add_argument(
-        '--source',
-        type=Path,
-        default=None,
-        help='a TUM folder or bag to draw instead of the README pictures',
-    )
+    options.add_work_option(parser, 'folder for rendered sequences (reused; default: temporary)')
+    options.add_source_option(parser, 'a TUM folder or bag to draw instead of the README pictures')
     parser.add_argument(
         '--video',
         type=Path,
@@ -42,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='with --source: probabilities-over-time figure (.png)',
     )
-    add_models_option(parser)
+    options.add_models_option(parser)
     parser.add_argument(
         '--frames',
         type=int,
@@ -50,12 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='frames to process (default: all; 240 for the README pictures)',
     )
     parser.add_argument('--start', type=int, default=0, help='first frame (with --source)')
-    parser.add_argument(
-        '--mode',
-        choices=tuple(m.value for m in Mode),
-        default=Mode.CONTINUOUS.value,
-        help='selector mode (with --source)',
-    )
+    options.add_mode_option(parser, Mode.CONTINUOUS, 'selector mode (with --source)')
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     )
     from initsel_ros.selector import SelectorConfig
 
-    models = ModelSet.load(model_path(args.models))
+    models = ModelSet.load(options.model_path(args.models))
     if args.source is None:
         out = args.out or README_IMAGES
         paths = make_readme_pictures(out, args.work, models, frames=args.frames or 240)

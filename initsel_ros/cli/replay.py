@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import options_from
+from initsel_ros.cli import options
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -20,11 +20,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'odometry sequence folder (or root with --sequence), ROS 1 .bag '
         'file or ROS 2 bag folder',
     )
-    parser.add_argument(
-        '--sequence',
-        default=None,
-        metavar='NN',
-        help='KITTI: the sequence, when SOURCE is the odometry root',
+    options.add_kitti_sequence_option(
+        parser, 'KITTI: the sequence, when SOURCE is the odometry root'
     )
     parser.add_argument(
         '--bag-image-topic',
@@ -119,4 +116,4 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.ros.replay import ReplayOptions
     from initsel_ros.ros.replay import run as replay
 
-    return replay(options_from(args, ReplayOptions))
+    return replay(options.options_from(args, ReplayOptions))

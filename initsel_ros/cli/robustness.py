@@ -7,7 +7,7 @@ import logging
 import sys
 from pathlib import Path
 
-from initsel_ros.cli.options import add_named_models_option, named_model_paths
+from initsel_ros.cli import options
 
 LOG = logging.getLogger(__name__)
 
@@ -23,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'models', help='model files and baselines per effect, and the file to ship'
     )
     mod.add_argument('--out', type=Path, required=True, help='folder for the rendered sequences')
-    add_named_models_option(mod)
+    options.add_named_models_option(mod)
     mod.add_argument(
         '--reference',
         default=None,
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         text = run_tracker(args.out, args.frames)
     else:
         try:
-            models = named_model_paths(args.models)
+            models = options.named_model_paths(args.models)
         except ValueError as exc:
             print(f'initsel robustness: {exc}', file=sys.stderr)
             return 2

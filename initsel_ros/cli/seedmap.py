@@ -6,12 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from initsel_ros.cli.options import add_inputs_argument, add_models_option, model_path
+from initsel_ros.cli import options
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel seedmap``."""
-    add_inputs_argument(
+    options.add_inputs_argument(
         parser,
         'sequences',
         'SEQUENCE',
@@ -27,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='put a sequence (its path as given, or its folder name) in a table group: '
         'planar, non-planar or rotation/static (repeatable; overrides the name rule)',
     )
-    add_models_option(parser)
+    options.add_models_option(parser)
     parser.add_argument(
         '--length',
         type=int,
@@ -101,12 +101,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='RATIO',
         help="override the policy's min_rotation_residual_sigma",
     )
-    parser.add_argument('--jobs', type=int, default=2, help='worker processes')
-    parser.add_argument(
-        '--out-dir',
-        type=Path,
-        default=None,
-        help='write seedmap.md and seedmap.csv (one row per batch and system)',
+    options.add_jobs_option(parser, 2)
+    options.add_out_dir_option(
+        parser, 'write seedmap.md and seedmap.csv (one row per batch and system)'
     )
 
 
@@ -138,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     if args.verify_frames is not None:
         config = replace(config, verify=replace(config.verify, frames=args.verify_frames))
     try:
-        options = baseline_options(args)
+        baselines = baseline_options(args)
         groups = parse_groups(args.group)
     except (ValueError, ConfigError) as exc:
         print(f'initsel seedmap: error: {exc}', file=sys.stderr)
@@ -152,12 +149,12 @@ def run(args: argparse.Namespace) -> int:
 
         outcomes = evaluate_sequences(
             args.sequences,
-            model_path(args.models),
+            options.model_path(args.models),
             config,
             length=args.length,
             step=args.step,
             jobs=args.jobs,
-            baselines=options,
+            baselines=baselines,
             groups=groups,
             noise_seeds=args.noise_seed,
             progress=progress,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from initsel_ros.cli.options import add_inputs_argument, add_scale_rule_option
+from initsel_ros.cli import options
 
 FAMILIES = ('logistic', 'logistic+extra', 'trees', 'trees+extra')
 EXTRA = (
@@ -21,7 +21,9 @@ EXTRA = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``initsel train``."""
-    add_inputs_argument(parser, 'tables', 'PAIRS_CSV', 'pair tables written by `initsel dataset`')
+    options.add_inputs_argument(
+        parser, 'tables', 'PAIRS_CSV', 'pair tables written by `initsel dataset`'
+    )
     parser.add_argument('--out', required=True, type=Path, help='model file to write (JSON)')
     parser.add_argument(
         '--target-precision',
@@ -97,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='R label: baseline at most this, m (0.05)',
     )
-    add_scale_rule_option(labels, None, 'E_R scale rule')
+    options.add_scale_rule_option(labels, None, 'E_R scale rule')
 
 
 def run(args: argparse.Namespace) -> int:
