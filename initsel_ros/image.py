@@ -159,13 +159,12 @@ def significant_bits(pixels: np.ndarray, fraction: float = HOT_PIXEL_FRACTION) -
     """
     if pixels.size == 0:
         return 0
-    high = np.asarray(pixels, dtype=np.uint16).ravel() >> 8
-    above = np.cumsum(np.bincount(high, minlength=256)[::-1])[::-1]  # [k]: high byte >= k
     allowed = int(fraction * pixels.size)
-    for bits in range(8, 16):
-        if above[1 << (bits - 8)] <= allowed:
-            return bits
-    return 16
+    bits = max(8, int(pixels.max()).bit_length())
+    # Drop the top bit while only ``allowed`` pixels need it (usually not once: one pass).
+    while bits > 8 and np.count_nonzero(pixels >= (1 << (bits - 1))) <= allowed:
+        bits -= 1
+    return bits
 
 
 def to_8bit(pixels: np.ndarray, bits: int = 0) -> np.ndarray:
