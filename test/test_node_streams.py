@@ -295,12 +295,23 @@ def test_received_frames_add_up_under_a_reset_hammer(harness_factory, tmp_path):
     assert last.received_frames == (
         last.processed_frames + last.dropped_frames + last.skipped_frames
     )
+    # A frame taken while applying a reset fails still ends in a counter.
+    reset = h.node._selector.reset
+
+    def broken_reset():
+        raise RuntimeError('boom')
+
+    h.node._selector.reset = broken_reset
+    assert h.reset().success
+    failed = h.send_array(img, 4.5)
+    h.node._selector.reset = reset
+    assert failed.reason == 'internal error' and 'boom' in failed.detail
     # Out-of-order and undecodable frames are counted as skipped, and still add up.
-    assert h.send_array(img, 4.99).reason == 'out of order'
+    assert h.send_array(img, 4.49).reason == 'out of order'
     bad = h.send(Image(height=2, width=2, encoding='mono8', step=2, data=b'\x00'))
     assert bad.reason == 'image skipped'
     final = h.send_array(img, 5.1)
-    assert final.received_frames == last.received_frames + 3 and final.skipped_frames >= 2
+    assert final.received_frames == last.received_frames + 4 and final.skipped_frames >= 3
     assert final.received_frames == (
         final.processed_frames + final.dropped_frames + final.skipped_frames
     )

@@ -357,13 +357,26 @@ class SelectorNode(Node):
                 settings, self._pending_settings = self._pending_settings, None
                 reset, self._reset_requested = self._reset_requested, False
                 dropped = self._dropped
-            if settings is not None:
-                self._apply_settings(settings)
-            if reset:
-                self._selector.reset()
-                self._stamps.forget_last()
-            if intrinsics is not None:
-                self._use_camera_info(intrinsics)
+            try:
+                if settings is not None:
+                    self._apply_settings(settings)
+                if reset:
+                    self._selector.reset()
+                    self._stamps.forget_last()
+                if intrinsics is not None:
+                    self._use_camera_info(intrinsics)
+            except Exception as exc:  # the frame taken must still end in a counter
+                self.get_logger().error(
+                    f'applying new settings, a reset or a camera_info failed: '
+                    f'{type(exc).__name__}: {exc}',
+                    throttle_duration_sec=WARN_THROTTLE_S,
+                )
+                if msg is not None:
+                    self._skipped += 1
+                    self._publish_status(
+                        msg.header.stamp, None, dropped, Reason.INTERNAL_ERROR, repr(exc)
+                    )
+                continue
             if msg is None:
                 return
             self._process(msg, dropped)
