@@ -568,6 +568,14 @@ def refine_two_view(
         GeometryError: inconsistent shapes or a zero translation.
     """
     problem = two_view_problem(R, t, points, p0, p1, K)
+    return solve_two_view(problem, huber_px, max_reprojection_px, max_evaluations)
+
+
+def solve_two_view(
+    problem: TwoViewProblem, huber_px: float, max_reprojection_px: float, max_evaluations: int
+) -> Refinement:
+    """:func:`refine_two_view` on a checked :class:`TwoViewProblem` (the other arguments as
+    there)."""
     X0, K = problem.points, problem.K
     # points behind (or on) the reference camera's plane have no inverse depth: they stay out
     # of the adjustment and are dropped (they would be dropped afterwards anyway)

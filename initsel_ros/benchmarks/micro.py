@@ -173,7 +173,12 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
     is installed) on the same estimates, twice per pair, and the median E_t of the winners is
     measured before refinement and after each solver.
     """
-    from initsel_ros.benchmarks.solvers import ceres_available, ceres_two_view, scipy_two_view
+    from initsel_ros.benchmarks.solvers import (
+        ceres_available,
+        ceres_two_view,
+        schur_two_view,
+        scipy_two_view,
+    )
     from initsel_ros.geometry import (
         Method,
         estimate_pose,
@@ -184,7 +189,7 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
     from initsel_ros.metrics import translation_chordal_error
     from initsel_ros.model_selection import select_method
     from initsel_ros.policy import check_pose
-    from initsel_ros.refine import refine_essential, refine_two_view
+    from initsel_ros.refine import refine_essential, two_view_problem
 
     config = FireConfig()
     policy = config.policy
@@ -219,7 +224,9 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
 
     def adjust(solver: Any, i: int) -> Any:
         w, pair = winners[i % m], pairs[i % m]
-        return solver(w.R, w.t, w.points, pair.p0[w.indices], pair.p1[w.indices], K)
+        return solver(
+            two_view_problem(w.R, w.t, w.points, pair.p0[w.indices], pair.p1[w.indices], K)
+        )
 
     parts = [
         Timing(FIRE_PARTS[0], time_calls(guard, repeat, warmup=1)),
@@ -227,12 +234,12 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
         Timing(FIRE_PARTS[2], time_calls(estimates, repeat, warmup=1)),
         Timing(FIRE_PARTS[3], time_calls(select, repeat, warmup=1)),
         Timing(FIRE_PARTS[4], time_calls(e_refit, repeat, warmup=1)),
-        Timing(FIRE_PARTS[5], time_calls(lambda i: adjust(refine_two_view, i), repeat, warmup=1)),
+        Timing(FIRE_PARTS[5], time_calls(lambda i: adjust(schur_two_view, i), repeat, warmup=1)),
     ]
     fire_time = Timing('fire time', time_calls(total, repeat, warmup=1))
     before = [translation_chordal_error(p.t_gt, w.t) for p, w in zip(pairs, winners, strict=True)]
     e_t = {'before': float(np.median(before))}
-    named = [('Schur LM', refine_two_view), ('scipy least_squares (trf, lsmr)', scipy_two_view)]
+    named = [('Schur LM', schur_two_view), ('scipy least_squares (trf, lsmr)', scipy_two_view)]
     if ceres_available():
         named.append(('Ceres (pyceres, dense Schur, a Python cost per point)', ceres_two_view))
     solvers: dict[str, Timing] = {}

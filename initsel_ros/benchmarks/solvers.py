@@ -1,9 +1,10 @@
 """Yardsticks for the two-view bundle adjustment of :mod:`initsel_ros.refine`, for the bench.
 
-The same problem (reference camera at ``[I | 0]``, the current camera's rotation and unit
-translation, every point; reprojection errors in both images under the ``soft_l1`` loss at
-``huber_px``) solved by two general solvers, so that the bench times them side by side with
-:func:`initsel_ros.refine.refine_two_view` on the same pairs:
+The same problem (a :class:`~initsel_ros.refine.TwoViewProblem`: reference camera at
+``[I | 0]``, the current camera's rotation and unit translation, every point; reprojection
+errors in both images under the ``soft_l1`` loss at ``huber_px``) solved by two general
+solvers, so that the bench times them side by side with the solver of
+:func:`initsel_ros.refine.refine_two_view` (:func:`schur_two_view`) on the same pairs:
 
 - :func:`scipy_two_view`: ``scipy.optimize.least_squares`` (trust region reflective, sparse
   Jacobian, ``lsmr``), the solver ``refine_two_view`` used before its Schur-complement
@@ -11,7 +12,8 @@ translation, every point; reprojection errors in both images under the ``soft_l1
 - :func:`ceres_two_view`: Ceres through ``pyceres`` (Levenberg-Marquardt, dense Schur
   complement), with one Python cost function per point; None when pyceres is not installed.
 
-Both return a :class:`~initsel_ros.refine.Refinement`, the points dropped by the same rule.
+Each takes the problem and returns a :class:`~initsel_ros.refine.Refinement`, the points
+dropped by the same rule.
 """
 
 from __future__ import annotations
@@ -25,9 +27,10 @@ import numpy as np
 # points kept
 from initsel_ros.refine import (
     Refinement,
+    TwoViewProblem,
     _pixels_and_jacobian,
     _tangent_basis,
-    two_view_problem,
+    solve_two_view,
 )
 
 #: As refine_two_view: robust loss scale, reprojection cut-off, evaluation cap.
@@ -36,23 +39,22 @@ MAX_REPROJECTION_PX = 2.0
 MAX_EVALUATIONS = 30
 
 
-def scipy_two_view(
-    R: np.ndarray,
-    t: np.ndarray,
-    points: np.ndarray,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    K: np.ndarray,
-) -> Refinement:
+def schur_two_view(problem: TwoViewProblem) -> Refinement:
+    """:func:`initsel_ros.refine.refine_two_view`'s own solver on ``problem``, at the settings
+    above."""
+    return solve_two_view(problem, HUBER_PX, MAX_REPROJECTION_PX, MAX_EVALUATIONS)
+
+
+def scipy_two_view(problem: TwoViewProblem) -> Refinement:
     """The two-view bundle adjustment by ``scipy.optimize.least_squares`` (trf, lsmr).
 
-    Arguments as :func:`initsel_ros.refine.refine_two_view`.
+    On ``problem`` as :func:`initsel_ros.refine.refine_two_view` builds it.
     """
     from scipy.optimize import least_squares
     from scipy.sparse import csr_matrix
 
-    start = two_view_problem(R, t, points, p0, p1, K)
-    R, t_unit, X0, p0, p1, K = start.R, start.t, start.points, start.p0, start.p1, start.K
+    R, t_unit, X0 = problem.R, problem.t, problem.points
+    p0, p1, K = problem.p0, problem.p1, problem.K
     n = X0.shape[0]
     basis = _tangent_basis(t_unit)
 
@@ -109,7 +111,7 @@ def scipy_two_view(
         xtol=1e-5,
     )
     Rk, tk, flat = unpack(solution.x)
-    return start.refinement(
+    return problem.refinement(
         Rk, tk, flat.reshape(n, 3), int(solution.nfev), bool(solution.success), MAX_REPROJECTION_PX
     )
 
@@ -158,36 +160,28 @@ def _ceres_point_cost(pyceres: Any, K: np.ndarray, q0: np.ndarray, q1: np.ndarra
     return PointCost()
 
 
-def ceres_two_view(
-    R: np.ndarray,
-    t: np.ndarray,
-    points: np.ndarray,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    K: np.ndarray,
-) -> Refinement | None:
+def ceres_two_view(problem: TwoViewProblem) -> Refinement | None:
     """The two-view bundle adjustment by Ceres (pyceres): LM, dense Schur, soft_l1.
 
     The rotation is a rotation vector, the translation lives on the unit sphere (Ceres's
     ``SphereManifold``); one Python cost function per point. None without pyceres.
-    Arguments as :func:`initsel_ros.refine.refine_two_view`.
+    On ``problem`` as :func:`initsel_ros.refine.refine_two_view` builds it.
     """
     try:
         import pyceres
     except ImportError:
         return None
-    start = two_view_problem(R, t, points, p0, p1, K)
-    rvec = cv2.Rodrigues(start.R)[0].ravel().copy()
-    t_param = start.t.copy()
-    X = [x.copy() for x in start.points]
-    problem = pyceres.Problem()
+    rvec = cv2.Rodrigues(problem.R)[0].ravel().copy()
+    t_param = problem.t.copy()
+    X = [x.copy() for x in problem.points]
+    ceres_problem = pyceres.Problem()
     loss = pyceres.SoftLOneLoss(HUBER_PX)
     costs = []  # kept alive while the problem is solved
     for i in range(len(X)):
-        cost = _ceres_point_cost(pyceres, start.K, start.p0[i], start.p1[i])
+        cost = _ceres_point_cost(pyceres, problem.K, problem.p0[i], problem.p1[i])
         costs.append(cost)
-        problem.add_residual_block(cost, loss, [rvec, t_param, X[i]])
-    problem.set_manifold(t_param, pyceres.SphereManifold(3))
+        ceres_problem.add_residual_block(cost, loss, [rvec, t_param, X[i]])
+    ceres_problem.set_manifold(t_param, pyceres.SphereManifold(3))
     options = pyceres.SolverOptions()
     options.linear_solver_type = pyceres.LinearSolverType.DENSE_SCHUR
     options.minimizer_progress_to_stdout = False
@@ -196,12 +190,12 @@ def ceres_two_view(
     options.parameter_tolerance = 1e-5
     options.num_threads = 1
     summary = pyceres.SolverSummary()
-    pyceres.solve(options, problem, summary)
+    pyceres.solve(options, ceres_problem, summary)
     Rk = cv2.Rodrigues(rvec.reshape(3, 1))[0]
     tk = t_param / np.linalg.norm(t_param)
     converged = summary.termination_type == pyceres.TerminationType.CONVERGENCE
     evaluations = int(summary.num_successful_steps + summary.num_unsuccessful_steps)
-    return start.refinement(Rk, tk, np.array(X), evaluations, converged, MAX_REPROJECTION_PX)
+    return problem.refinement(Rk, tk, np.array(X), evaluations, converged, MAX_REPROJECTION_PX)
 
 
-__all__ = ['ceres_available', 'ceres_two_view', 'scipy_two_view']
+__all__ = ['ceres_available', 'ceres_two_view', 'schur_two_view', 'scipy_two_view']
