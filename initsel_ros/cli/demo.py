@@ -32,12 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'every one',
     )
     options.add_models_option(parser)
-    parser.add_argument(
-        '--rate',
-        type=float,
-        default=1.0,
-        help='playback speed factor for the live run (1 = 30 Hz)',
-    )
+    options.add_rate_option(parser, 'playback speed factor for the live run (1 = 30 Hz)')
     parser.add_argument(
         '--offline', action='store_true', help='run the selector directly, without ROS 2'
     )

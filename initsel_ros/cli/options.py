@@ -70,6 +70,11 @@ def add_mode_option(parser: argparse.ArgumentParser, default: Mode, help_text: s
     )
 
 
+def add_rate_option(parser: argparse.ArgumentParser, help_text: str) -> None:
+    """``--rate``: the playback speed factor of a published sequence (1: its own timing)."""
+    parser.add_argument('--rate', type=float, default=1.0, help=help_text)
+
+
 def add_kitti_sequence_option(parser: argparse.ArgumentParser, help_text: str) -> None:
     """``--sequence NN``: the KITTI odometry sequence, when a source is the odometry root."""
     parser.add_argument('--sequence', default=None, metavar='NN', help=help_text)
@@ -129,6 +134,7 @@ __all__ = [
     'add_models_option',
     'add_named_models_option',
     'add_out_dir_option',
+    'add_rate_option',
     'add_scale_rule_option',
     'add_source_option',
     'add_work_option',
