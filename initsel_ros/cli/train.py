@@ -123,19 +123,15 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f'--target-precision must be in (0, 1], got {args.target_precision}')
     if args.C <= 0:
         raise ConfigError(f'--C must be positive, got {args.C}')
-    relabel = None
-    if any(
-        v is not None for v in (args.et_max, args.er_max, args.rotation_baseline, args.scale_rule)
-    ):
-        d = LabelConfig()
-        relabel = LabelConfig(
-            et_max=d.et_max if args.et_max is None else args.et_max,
-            er_max=d.er_max if args.er_max is None else args.er_max,
-            rotation_baseline_m=(
-                d.rotation_baseline_m if args.rotation_baseline is None else args.rotation_baseline
-            ),
-            scale_rule=d.scale_rule if args.scale_rule is None else ScaleRule(args.scale_rule),
-        )
+    relabel_given = {
+        'et_max': args.et_max,
+        'er_max': args.er_max,
+        'rotation_baseline_m': args.rotation_baseline,
+        'scale_rule': None if args.scale_rule is None else ScaleRule(args.scale_rule),
+    }
+    relabel_given = {k: v for k, v in relabel_given.items() if v is not None}
+    # the options not given keep LabelConfig's defaults; none given: the table's own labels
+    relabel = LabelConfig(**relabel_given) if relabel_given else None
     family, families = DEFAULT_FAMILY, {}
     for spec in args.family:
         model, _, name = spec.rpartition('=')
