@@ -30,7 +30,7 @@ class VerifyConfig:
         ransac_px: PnP RANSAC inlier threshold, pixels.
     """
 
-    frames: int = 3
+    frames: int = 5
     min_fraction: float = 0.5
     max_rms_px: float = 1.0
     ransac_px: float = 2.0

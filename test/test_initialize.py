@@ -172,3 +172,15 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     assert steps[right].ok
     assert int(np.argmin([st.rms_px for st in steps])) == right
     assert steps[right].fraction > steps[1 - right].fraction
+
+
+def test_a_pan_is_a_rotation_when_boards_moving_on_their_own_hold_more_than_half_the_tracks():
+    # Textured boards attract many corners: here 55 % of the tracks move with them.
+    p0, p1 = _pan(n=300)
+    board = np.arange(300) < 165
+    rng = np.random.default_rng(8)
+    p1[board] = p0[board] + np.array([9.0, -4.0]) + 0.02 * (p0[board] - 320) @ [[0, 1], [-1, 0]]
+    p1[board] += rng.normal(0, 0.2, (board.sum(), 2))
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H))
+    assert fire.reason is Reason.ROTATION
+    assert fire.rotation is not None and fire.rotation.statistic < 1.5
