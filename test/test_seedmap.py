@@ -26,7 +26,9 @@ def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence):
     wall = next(o for o in ours if o.planar)
     assert wall.method == 'H' and wall.e_t < 0.1 and wall.rotation_deg < 1.0
     assert wall.depth_error < 0.05 and wall.chosen_ok
-    assert wall.frames_to_publish > wall.frames_to_init  # verification delays publication
+    # the seed map published is the one of the last verification frame (208f7d6) when that
+    # frame's PnP pose agrees, so it initializes where it publishes, never before the fire
+    assert wall.frames_to_publish >= wall.frames_to_init > 0
     desk = next(o for o in ours if not o.planar)
     assert desk.e_t < 0.2 and math.isfinite(desk.e_t_e)
     rows = summarize(outcomes)
