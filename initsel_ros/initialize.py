@@ -43,7 +43,8 @@ class FireConfig:
             test's threshold (``min_rotation_residual_sigma``).
         ransac_threshold_px: RANSAC inlier threshold of the estimators, pixels.
         rotation_test: run the rotation test first (a rotation stops the path).
-        select: choose a winner by GRIC among the estimates that pass the pose check.
+        select: choose a winner by GRIC among the estimates that pass the pose check (and
+            keep both of an ambiguous H for the verification; without selection it is refused).
         refine: bundle-adjust the winner's seed map.
         map_max_reprojection_px: after refinement, points reprojecting worse than this in
             either image leave the map, pixels.
@@ -243,7 +244,9 @@ def initialize_pair(
             cur,
             K,
             ransac_threshold_px=config.ransac_threshold_px,
-            keep_ambiguous=True,
+            # only a selection goes on to verification, which can choose between the two;
+            # without one (labels, the baselines' rules) an ambiguous H is refused as before
+            keep_ambiguous=config.select,
         )
         for m in methods
     )
