@@ -646,6 +646,7 @@ def rotation_test(
     K: np.ndarray,
     focal_scales: tuple[float, ...] = ROTATION_FOCAL_SCALES,
     min_noise_px: float = 0.1,
+    enough_below: float | None = None,
 ) -> RotationTest:
     """Fit the best rotation (3 dof, ``x1 ~ K R K^-1 x0``) and weigh its residual by the noise.
 
@@ -659,6 +660,16 @@ def rotation_test(
     noise is bounded in ``model_selection``). Their ratio is the statistic:
     a plane's perspective change at ten times the noise gives about 10, a pan about 1.
 
+    Args:
+        p0: (N, 2) pixels in the first view; rows with a non-finite value are ignored.
+        p1: (N, 2) the same points in the second view.
+        K: (3, 3) camera matrix.
+        focal_scales: the focal scales tried (nearest 1 first).
+        min_noise_px: floor of the noise estimate, pixels.
+        enough_below: a caller comparing the statistic with this threshold passes it: the
+            search stops at the first scale (and least-squares fit) below it, since more
+            fits can only lower the statistic (a plain pan costs one fit, not nine).
+
     Returns:
         A :class:`RotationTest`; NaN fields for fewer than 8 finite correspondences.
     """
@@ -669,14 +680,6 @@ def rotation_test(
     nan = float('nan')
     if a.shape[0] < 8:
         return RotationTest(nan, nan, nan, nan)
-    best, scale = np.inf, 1.0
-    for s in focal_scales:
-        Ks = K.copy()
-        Ks[0, 0] *= s
-        Ks[1, 1] *= s
-        residual = _rotation_median_px(a, b, Ks, quantile=ROTATION_QUANTILE)
-        if residual < best:
-            best, scale = residual, float(s)
     F, _ = cv2.findFundamentalMat(
         a.reshape(-1, 1, 2), b.reshape(-1, 1, 2), cv2.FM_RANSAC, 1.0, 0.999, 500
     )
@@ -687,6 +690,21 @@ def rotation_test(
         noise = float(np.sqrt(np.median(errors) / _CHI2_1_MEDIAN))
     noise = max(noise, min_noise_px) if np.isfinite(noise) else nan
     # the quantile of a transfer residual of pure noise: 2 sigma^2 chi2(2) squared length
-    sigma_rotation = best / np.sqrt(2.0 * -2.0 * np.log(1.0 - ROTATION_QUANTILE))
-    statistic = float(sigma_rotation / noise) if np.isfinite(noise) else nan
+    per_sigma = float(np.sqrt(2.0 * -2.0 * np.log(1.0 - ROTATION_QUANTILE)))
+    stop_px = None
+    if enough_below is not None and np.isfinite(noise):
+        stop_px = enough_below * per_sigma * noise
+    best, scale = np.inf, 1.0
+    for s in sorted(focal_scales, key=lambda v: abs(np.log(v))):
+        Ks = K.copy()
+        Ks[0, 0] *= s
+        Ks[1, 1] *= s
+        residual = _rotation_median_px(
+            a, b, Ks, enough_below_px=stop_px, quantile=ROTATION_QUANTILE
+        )
+        if residual < best:
+            best, scale = residual, float(s)
+        if stop_px is not None and best < stop_px:
+            break
+    statistic = float(best / per_sigma / noise) if np.isfinite(noise) else nan
     return RotationTest(float(best), noise, statistic, scale)

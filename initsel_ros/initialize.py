@@ -228,7 +228,7 @@ def initialize_pair(
     residual = None
     if config.rotation_test:
         threshold = policy.min_rotation_residual_sigma
-        residual = rotation_test(ref, cur, K)
+        residual = rotation_test(ref, cur, K, enough_below=threshold)
         if not residual.statistic >= threshold:
             return FireResult(
                 Reason.ROTATION,
