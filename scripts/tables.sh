@@ -44,12 +44,13 @@ seedmap_sequences() {
         --group rotation_test=rotation/static --group static_test=rotation/static)
 }
 case "$table" in
-    seedmap)  # README "The seed map a SLAM front end receives" (about 2 minutes here)
+    seedmap)  # README "The seed map a SLAM front end receives" (4.5 minutes fresh, 2.5 rendered)
         seedmap_sequences
         initsel seedmap "${seqs[@]}" "${groups[@]}" --out-dir "$OUT/seedmap" "$@"
         echo "wrote $OUT/seedmap/seedmap.md" >&2
         ;;
-    real)  # README "Against the real ORB-SLAM3 and COLMAP" (about 12 minutes here, 2 cores)
+    real)  # README "Against the real ORB-SLAM3 and COLMAP" (15-18 minutes with the renders kept:
+        # 3-3.5 clean, 12-14.5 for the 3 noise seeds; 2 cores at load 6-13)
         seedmap_sequences
         bash "$root/scripts/setup_orbslam3.sh"  # once: the venv and its vocabulary
         initsel seedmap "${seqs[@]}" "${groups[@]}" --baselines orbslam3,colmap \

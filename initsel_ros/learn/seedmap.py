@@ -458,7 +458,7 @@ def _run_track_baselines(
     return [found.get(name, batch.missed(name)) for name in attempts]
 
 
-def _run_orbslam3(batch: _Batch, setup) -> BatchOutcome:
+def _run_orbslam3(batch: _Batch, setup: Orbslam3Setup) -> BatchOutcome:
     """The real ORB-SLAM3 on the batch's frames, judged at its first initialization."""
     from initsel_ros.learn.real_baselines.orbslam3_runner import run_orbslam3
 
