@@ -606,6 +606,93 @@ ROTATION_QUANTILE = 0.4
 _CHI2_1_MEDIAN = 0.4549
 
 
+def _lower_quantile(values: np.ndarray, quantile: float, axis: int = -1) -> np.ndarray:
+    """``np.quantile(values, quantile, axis, method='lower')`` by one partial sort (inf-safe;
+    a tenth of the time on the rotation test's arrays)."""
+    k = int(np.floor(quantile * (values.shape[axis] - 1)))
+    return np.take(np.partition(values, k, axis=axis), k, axis=axis)
+
+
+def _scaled_squared_residuals(
+    R: np.ndarray, b0: np.ndarray, pixels: np.ndarray, Ks: np.ndarray
+) -> np.ndarray:
+    """Squared :func:`_rotation_residuals_px` for S focal scales at once: (S, H, 3, 3)
+    rotations, (S, N, 3) bearings and (S, 3, 3) camera matrices -> (S, N, H) squared pixel
+    residuals (inf behind the camera). Squared: quantiles and the best hypothesis are the same
+    without the square roots, which only the returned residual needs."""
+    M = (Ks[:, None] @ R).transpose(0, 2, 3, 1)  # (S, row, j, H)
+    # one product per scale and image row: (N, 3) bearings against the H rows, contiguous
+    x, y, z = (b0 @ M[:, i] for i in range(3))  # each (S, N, H)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        w = 1.0 / z
+        x *= w
+        x -= pixels[:, :1]
+        y *= w
+        y -= pixels[:, 1:]
+        x *= x
+        y *= y
+        x += y
+    x[~(z > 0)] = np.inf
+    return x
+
+
+def _rotation_quantile_over_scales(
+    a: np.ndarray,
+    b: np.ndarray,
+    K: np.ndarray,
+    scales: list[float],
+    quantile: float,
+    stop_px: float | None,
+) -> tuple[float, float]:
+    """The least-quantile rotation residual of :func:`_rotation_median_px` under each focal
+    scale (``scales`` in the order they are preferred), all scales in one set of array
+    operations; returns (lowest residual in pixels, its scale).
+
+    Each scale runs the same steps as :func:`_rotation_median_px` (least-squares fit, the
+    same minimal samples scored on the same subset, the best refitted on its better part).
+    When ``stop_px`` is given and a scale's least-squares fit leaves less, the first such
+    scale is returned at once, as a sequential search stopping there would (a plain pan).
+    """
+    n, count = a.shape[0], len(scales)
+    Ks = np.repeat(K[None], count, axis=0)
+    Ks[:, 0, 0] *= np.asarray(scales)
+    Ks[:, 1, 1] *= np.asarray(scales)
+    K_inv = np.linalg.inv(Ks)
+    b0 = homogeneous(a) @ K_inv.transpose(0, 2, 1)  # (S, N, 3)
+    b1 = homogeneous(b) @ K_inv.transpose(0, 2, 1)
+    b0 /= np.linalg.norm(b0, axis=2, keepdims=True)
+    b1 /= np.linalg.norm(b1, axis=2, keepdims=True)
+
+    def quantile_of(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(S, 3, 3) rotations -> their squared residuals (S, N) and quantile (S,)."""
+        squared = _scaled_squared_residuals(R[:, None], b0, b, Ks)[:, :, 0]
+        return squared, _lower_quantile(squared, quantile)
+
+    least_squares = _kabsch(b0, b1)  # (S, 3, 3)
+    best = quantile_of(least_squares)[1]
+    if stop_px is not None and (best < stop_px * stop_px).any():
+        i = int(np.flatnonzero(best < stop_px * stop_px)[0])
+        return float(np.sqrt(best[i])), float(scales[i])
+    rng = np.random.default_rng(0)  # the samples of _rotation_median_px, for every scale
+    first = rng.integers(0, n, ROTATION_HYPOTHESES)
+    second = (first + rng.integers(1, n, ROTATION_HYPOTHESES)) % n
+    pairs = np.stack([first, second], axis=1)
+    rotations = np.concatenate(
+        [least_squares[:, None], _kabsch(b0[:, pairs], b1[:, pairs])], axis=1
+    )  # (S, H + 1, 3, 3)
+    subset = np.linspace(0, n - 1, min(n, ROTATION_SCORING_POINTS)).astype(np.int64)
+    scores = _lower_quantile(
+        _scaled_squared_residuals(rotations, b0[:, subset], b[subset], Ks), quantile, axis=1
+    )  # (S, H + 1)
+    err, at = quantile_of(rotations[np.arange(count), np.argmin(scores, axis=1)])
+    best = np.minimum(best, at)
+    better = (err <= at[:, None]).astype(np.float64)  # each scale's better part, as weights
+    refit = quantile_of(_kabsch(b0 * better[..., None], b1))[1]
+    best = np.where(better.sum(axis=1) >= 3, np.minimum(best, refit), best)
+    i = int(np.argmin(best))
+    return float(np.sqrt(best[i])), float(scales[i])
+
+
 @dataclass(frozen=True)
 class RotationTest:
     """Does one rotation explain the flow, judged against the noise of the same tracks?
@@ -694,17 +781,7 @@ def rotation_test(
     stop_px = None
     if enough_below is not None and np.isfinite(noise):
         stop_px = enough_below * per_sigma * noise
-    best, scale = np.inf, 1.0
-    for s in sorted(focal_scales, key=lambda v: abs(np.log(v))):
-        Ks = K.copy()
-        Ks[0, 0] *= s
-        Ks[1, 1] *= s
-        residual = _rotation_median_px(
-            a, b, Ks, enough_below_px=stop_px, quantile=ROTATION_QUANTILE
-        )
-        if residual < best:
-            best, scale = residual, float(s)
-        if stop_px is not None and best < stop_px:
-            break
+    order = sorted(focal_scales, key=lambda v: abs(np.log(v)))
+    best, scale = _rotation_quantile_over_scales(a, b, K, order, ROTATION_QUANTILE, stop_px)
     statistic = float(best / per_sigma / noise) if np.isfinite(noise) else nan
     return RotationTest(float(best), noise, statistic, scale)

@@ -157,3 +157,34 @@ def test_rotation_only_residual_skips_bad_rows_and_can_stop_at_a_threshold():
     assert rotation_only_residual_px(a, b, K, enough_below_px=1e-3) == clean
     least_squares = rotation_only_residual_px(a, b, K, enough_below_px=1e3)
     assert least_squares > clean + 0.5
+
+
+def test_the_rotation_test_searches_every_focal_scale_at_once_as_one_scale_at_a_time():
+    from initsel_ros.geometry import (
+        ROTATION_FOCAL_SCALES,
+        ROTATION_QUANTILE,
+        _rotation_median_px,
+        _rotation_quantile_over_scales,
+    )
+
+    rng = np.random.default_rng(4)
+    K = np.array([[520.0, 0, 320], [0, 520.0, 240], [0, 0, 1]])
+    X = np.column_stack(
+        [rng.uniform(-2, 2, 200), rng.uniform(-1.5, 1.5, 200), rng.uniform(3, 8, 200)]
+    )
+    p0 = (X @ K.T)[:, :2] / X[:, 2:]
+    scales = sorted(
+        ROTATION_FOCAL_SCALES, key=lambda v: abs(np.log(v))
+    )  # K @ diag(s, s, 1): fx, fy
+    for t in ((0.0, 0.0, 0.0), (0.15, 0.02, 0.05)):  # a pan, then a baseline with parallax
+        R = cv2.Rodrigues(np.array([0.01, 0.06, 0.0]))[0]
+        X1 = X @ R.T + np.array(t)
+        p1 = (X1 @ K.T)[:, :2] / X1[:, 2:] + rng.normal(0, 0.3, (200, 2))
+        p1[:30] += rng.uniform(-20, 20, (30, 2))  # movers
+        one_at_a_time = [
+            _rotation_median_px(p0, p1, K @ np.diag([s, s, 1.0]), quantile=ROTATION_QUANTILE)
+            for s in scales
+        ]
+        best, scale = _rotation_quantile_over_scales(p0, p1, K, scales, ROTATION_QUANTILE, None)
+        assert best == pytest.approx(min(one_at_a_time), rel=1e-12)
+        assert scale == scales[int(np.argmin(one_at_a_time))]
