@@ -49,8 +49,8 @@ case "$table" in
         initsel seedmap "${seqs[@]}" "${groups[@]}" --out-dir "$OUT/seedmap" "$@"
         echo "wrote $OUT/seedmap/seedmap.md" >&2
         ;;
-    real)  # README "Against the real ORB-SLAM3 and COLMAP" (9-18 minutes with the renders kept,
-        # by load: a fifth clean, the rest the 3 noise seeds; 2 cores at load 4-13)
+    real)  # README "Against the real ORB-SLAM3 and COLMAP" (7-18 minutes with the renders kept,
+        # by load: a fifth clean, the rest the 3 noise seeds; 2 cores at load 3-13)
         seedmap_sequences
         bash "$root/scripts/setup_orbslam3.sh"  # once: the venv and its vocabulary
         initsel seedmap "${seqs[@]}" "${groups[@]}" --baselines orbslam3,colmap \
