@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.benchmarks.common import Timing, rss_bytes, time_calls
+from initsel_ros.geometry import ROTATION_FOCAL_SCALES
 
 log = logging.getLogger(__name__)
 
@@ -155,7 +156,8 @@ class FireTimes:
 
 #: Names of the fire path's steps, in :attr:`FireTimes.parts` order.
 FIRE_PARTS = (
-    'rotation test (least-median fits under 13 focal scales, F-RANSAC noise)',
+    f'rotation test (least-quantile fits under {len(ROTATION_FOCAL_SCALES)} focal scales at '
+    'once, F-RANSAC noise)',
     'one least-median rotation fit under the nominal K (not in the total)',
     'F + E + H estimates',
     'GRIC selection (with the E refit)',
