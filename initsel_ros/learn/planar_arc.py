@@ -24,10 +24,8 @@ import cv2
 import numpy as np
 
 from initsel_ros.geometry import (
-    HOMOGRAPHY_AMBIGUITY_RATIO,
     Method,
     estimate_pose,
-    triangulate_pair,
 )
 from initsel_ros.learn.seedmap import NO_BASELINE_MARKERS, _Batch, _run_selector
 from initsel_ros.metrics import relative_pose, translation_chordal_error
@@ -84,30 +82,15 @@ class ArcOutcome:
 def _homography_e_t(p0: np.ndarray, p1: np.ndarray, K: np.ndarray, t_gt: np.ndarray) -> float:
     """E_t of the core's H estimate on these tracks (NaN without a usable one).
 
-    The decompositions are scored as the core scores them (points in front of both cameras,
-    within 2.5 px, with 0.36 degrees of parallax: ``geometry.estimate_pose``'s defaults);
-    those with at least ``HOMOGRAPHY_AMBIGUITY_RATIO`` of the best one's points are the
-    candidates (the core's pick, or the pair it calls ambiguous), and the oracle takes the
-    one nearest the ground truth among them. Fewer than 8 such points: no estimate.
+    The estimate is the fire path's own (``geometry.estimate_pose`` with its defaults: points
+    in front of both cameras, within 2.5 px, with 0.36 degrees of parallax, at least 8); where
+    the core finds the decomposition ambiguous it keeps the runner-up for the verification
+    (``keep_ambiguous``), and the oracle takes whichever of the two usable ones is nearer the
+    ground truth.
     """
-    estimate = estimate_pose(Method.H, p0, p1, K)
-    if not np.any(estimate.matrix) or estimate.inliers.sum() < 8:
-        return math.nan
-    count, rotations, translations, _ = cv2.decomposeHomographyMat(estimate.matrix, K)
-    a, b = p0[estimate.inliers], p1[estimate.inliers]
-    scored = []
-    for i in range(count):
-        t = np.asarray(translations[i], dtype=np.float64).reshape(3)
-        norm = float(np.linalg.norm(t))
-        if norm < 0.01:  # the core's min_homography_baseline_ratio: a rotation
-            continue
-        tri = triangulate_pair(rotations[i], t / norm, K, a, b)
-        good = tri.in_front & (tri.reprojection_px <= 2.5) & (tri.parallax_deg >= 0.36)
-        scored.append((int(good.sum()), translation_chordal_error(t_gt, t / norm)))
-    most = max((n for n, _ in scored), default=0)
-    if most < 8:
-        return math.nan
-    return min(e for n, e in scored if n >= HOMOGRAPHY_AMBIGUITY_RATIO * most)
+    estimate = estimate_pose(Method.H, p0, p1, K, keep_ambiguous=True)
+    usable = [e for e in (estimate, estimate.alternative) if e is not None and e.ok]
+    return min((translation_chordal_error(t_gt, e.t) for e in usable), default=math.nan)
 
 
 def oracle_frame(batch: _Batch, config: SelectorConfig) -> float:
