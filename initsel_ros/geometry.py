@@ -636,6 +636,26 @@ def _scaled_squared_residuals(
     return x
 
 
+def _two_point_rotations(b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
+    """:func:`_kabsch` of minimal samples, (..., 2, 3) unit bearings each, in closed form.
+
+    For two unit vectors the sum and the difference are orthogonal, so the cross-covariance
+    ``sum b1 b0^T`` has them (normalized) as its singular vectors: the least-squares rotation
+    takes the frame (sum, difference, their cross product) of the first view onto that of the
+    second, with no SVD (NaN where the two bearings coincide).
+    """
+
+    def frame(b: np.ndarray) -> np.ndarray:
+        m = b[..., 0, :] + b[..., 1, :]
+        d = b[..., 0, :] - b[..., 1, :]
+        with np.errstate(divide='ignore', invalid='ignore'):
+            m = m / np.linalg.norm(m, axis=-1, keepdims=True)
+            d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        return np.stack([m, d, np.cross(m, d)], axis=-1)  # columns
+
+    return frame(b1) @ np.swapaxes(frame(b0), -1, -2)
+
+
 def _rotation_quantile_over_scales(
     a: np.ndarray,
     b: np.ndarray,
@@ -677,9 +697,9 @@ def _rotation_quantile_over_scales(
     first = rng.integers(0, n, ROTATION_HYPOTHESES)
     second = (first + rng.integers(1, n, ROTATION_HYPOTHESES)) % n
     pairs = np.stack([first, second], axis=1)
-    rotations = np.concatenate(
-        [least_squares[:, None], _kabsch(b0[:, pairs], b1[:, pairs])], axis=1
-    )  # (S, H + 1, 3, 3)
+    samples = _two_point_rotations(b0[:, pairs], b1[:, pairs])  # (S, H, 3, 3)
+    samples = np.where(np.isfinite(samples), samples, least_squares[:, None])
+    rotations = np.concatenate([least_squares[:, None], samples], axis=1)  # (S, H + 1, 3, 3)
     subset = np.linspace(0, n - 1, min(n, ROTATION_SCORING_POINTS)).astype(np.int64)
     scores = _lower_quantile(
         _scaled_squared_residuals(rotations, b0[:, subset], b[subset], Ks), quantile, axis=1

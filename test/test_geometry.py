@@ -188,3 +188,15 @@ def test_the_rotation_test_searches_every_focal_scale_at_once_as_one_scale_at_a_
         best, scale = _rotation_quantile_over_scales(p0, p1, K, scales, ROTATION_QUANTILE, None)
         assert best == pytest.approx(min(one_at_a_time), rel=1e-12)
         assert scale == scales[int(np.argmin(one_at_a_time))]
+
+
+def test_two_point_rotations_in_closed_form_equal_the_svd_fit():
+    from initsel_ros.geometry import _kabsch, _two_point_rotations
+
+    rng = np.random.default_rng(7)
+    b0 = rng.normal(size=(500, 2, 3)) + np.array([0.0, 0.0, 3.0])
+    b0 /= np.linalg.norm(b0, axis=-1, keepdims=True)
+    R = cv2.Rodrigues(np.array([0.05, -0.1, 0.02]))[0]
+    b1 = b0 @ R.T + rng.normal(0, 0.01, b0.shape)  # noisy: the fit is a least-squares one
+    b1 /= np.linalg.norm(b1, axis=-1, keepdims=True)
+    assert np.allclose(_two_point_rotations(b0, b1), _kabsch(b0, b1), atol=1e-12)
