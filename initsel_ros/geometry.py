@@ -614,13 +614,18 @@ def _lower_quantile(values: np.ndarray, quantile: float, axis: int = -1) -> np.n
 
 
 def _scaled_squared_residuals(
-    R: np.ndarray, b0: np.ndarray, pixels: np.ndarray, Ks: np.ndarray
+    R: np.ndarray,
+    b0: np.ndarray,
+    pixels: np.ndarray,
+    Ks: np.ndarray,
+    dtype: type[np.floating] = np.float64,
 ) -> np.ndarray:
     """Squared :func:`_rotation_residuals_px` for S focal scales at once: (S, H, 3, 3)
     rotations, (S, N, 3) bearings and (S, 3, 3) camera matrices -> (S, N, H) squared pixel
     residuals (inf behind the camera). Squared: quantiles and the best hypothesis are the same
     without the square roots, which only the returned residual needs."""
-    M = (Ks[:, None] @ R).transpose(0, 2, 3, 1)  # (S, row, j, H)
+    M = (Ks[:, None] @ R).transpose(0, 2, 3, 1).astype(dtype)  # (S, row, j, H)
+    b0, pixels = b0.astype(dtype, copy=False), pixels.astype(dtype, copy=False)
     # one product per scale and image row: (N, 3) bearings against the H rows, contiguous
     x, y, z = (b0 @ M[:, i] for i in range(3))  # each (S, N, H)
     with np.errstate(divide='ignore', invalid='ignore'):
@@ -701,8 +706,12 @@ def _rotation_quantile_over_scales(
     samples = np.where(np.isfinite(samples), samples, least_squares[:, None])
     rotations = np.concatenate([least_squares[:, None], samples], axis=1)  # (S, H + 1, 3, 3)
     subset = np.linspace(0, n - 1, min(n, ROTATION_SCORING_POINTS)).astype(np.int64)
+    # the hypotheses are only ranked here: in float32 (half the memory traffic), the chosen
+    # one's residuals in float64 below
     scores = _lower_quantile(
-        _scaled_squared_residuals(rotations, b0[:, subset], b[subset], Ks), quantile, axis=1
+        _scaled_squared_residuals(rotations, b0[:, subset], b[subset], Ks, np.float32),
+        quantile,
+        axis=1,
     )  # (S, H + 1)
     err, at = quantile_of(rotations[np.arange(count), np.argmin(scores, axis=1)])
     best = np.minimum(best, at)
