@@ -9,6 +9,7 @@ dropped and every frame is accounted for. Test modules wrap :func:`ros_context` 
 from __future__ import annotations
 
 import itertools
+import threading
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -91,3 +92,18 @@ def double_model_file(tmp_path) -> str:
     path = tmp_path / 'constant_models.json'
     constant_models().save(path)
     return str(path)
+
+
+def hold_selector(harness: NodeHarness) -> tuple[threading.Event, threading.Event]:
+    """Make the node's worker wait inside the selector: ``entered`` is set once a frame is in,
+    and the frame goes on when ``release`` is set (so a test can queue frames behind it)."""
+    entered, release = threading.Event(), threading.Event()
+    process = harness.node._selector.process
+
+    def slow_process(image, stamp):
+        entered.set()
+        assert release.wait(10.0)
+        return process(image, stamp)
+
+    harness.node._selector.process = slow_process
+    return entered, release

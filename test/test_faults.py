@@ -573,17 +573,29 @@ def test_the_node_refuses_to_start_on_an_odd_model_file_with_one_line(
 ):
     pytest.importorskip('rclpy')
     path = _model_file_with(tmp_path, edit, literal)
-    proc = subprocess.run(
-        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p', f'model_file:={path}'],
+    proc = _start_node_with(path)
+    output = (proc.stdout + proc.stderr).strip()
+    assert proc.returncode == 1, output
+    assert 'Traceback' not in output and message in output
+    assert len([line for line in output.splitlines() if 'odd_models.json' in line]) == 1
+
+
+def _start_node_with(model_file) -> subprocess.CompletedProcess:
+    """The node started on ``model_file`` until it exits (it must refuse to start)."""
+    return subprocess.run(
+        [
+            sys.executable,
+            '-m',
+            'initsel_ros.ros.node',
+            '--ros-args',
+            '-p',
+            f'model_file:={model_file}',
+        ],
         capture_output=True,
         text=True,
         timeout=TIMEOUT_S,
         env=_node_env(),
     )
-    output = (proc.stdout + proc.stderr).strip()
-    assert proc.returncode == 1, output
-    assert 'Traceback' not in output and message in output
-    assert len([line for line in output.splitlines() if 'odd_models.json' in line]) == 1
 
 
 def _node_env() -> dict[str, str]:
@@ -607,13 +619,7 @@ def test_node_refuses_to_start_on_a_missing_or_malformed_model_file(tmp_path, co
     path = tmp_path / 'bad_models.json'
     if content is not None:
         path.write_bytes(content)
-    proc = subprocess.run(
-        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p', f'model_file:={path}'],
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT_S,
-        env=_node_env(),
-    )
+    proc = _start_node_with(path)
     output = proc.stdout + proc.stderr
     assert proc.returncode == 1, output
     assert 'bad_models.json' in output
@@ -660,13 +666,7 @@ def test_node_fails_at_once_with_one_line_on_hostile_model_files(tmp_path, kind)
         data = _valid_model_dict()
         data['models']['E']['weights'] = [[1.0]] * 23
         path.write_text(json.dumps(data))
-    proc = subprocess.run(
-        [sys.executable, '-m', 'initsel_ros.ros.node', '--ros-args', '-p', f'model_file:={path}'],
-        capture_output=True,
-        text=True,
-        timeout=TIMEOUT_S,
-        env=_node_env(),
-    )
+    proc = _start_node_with(path)
     output = proc.stdout + proc.stderr
     assert proc.returncode == 1, output
     assert str(path) in output and 'Traceback' not in output

@@ -8,7 +8,6 @@ accounted for.
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 import pytest
@@ -23,6 +22,7 @@ from node_harness import (
     as_sequence,
     double_model_file,
     harnesses,
+    hold_selector,
     play,
     ros_context,
 )
@@ -198,15 +198,7 @@ def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
     harness_factory, tmp_path
 ):
     h = harness_factory(model_file=double_model_file(tmp_path))
-    entered, release = threading.Event(), threading.Event()
-    process = h.node._selector.process
-
-    def slow_process(image, stamp):
-        entered.set()
-        assert release.wait(10.0)
-        return process(image, stamp)
-
-    h.node._selector.process = slow_process
+    entered, release = hold_selector(h)
     frames = [
         conv.numpy_to_image(texture(6), 'mono8', stamp=conv.seconds_to_stamp(1.0 + k))
         for k in range(4)

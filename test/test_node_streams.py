@@ -3,8 +3,6 @@ changing and guessed intrinsics, bad distortion vectors. In-process (node_harnes
 
 from __future__ import annotations
 
-import threading
-
 import cv2
 import numpy as np
 import pytest
@@ -15,7 +13,14 @@ pytest.importorskip('sensor_msgs.msg')
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from image_fixtures import shifted, texture
-from node_harness import as_sequence, double_model_file, harnesses, play, ros_context
+from node_harness import (
+    as_sequence,
+    double_model_file,
+    harnesses,
+    hold_selector,
+    play,
+    ros_context,
+)
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CompressedImage, Image
 
@@ -266,15 +271,8 @@ def test_received_frames_add_up_under_a_reset_hammer(harness_factory, tmp_path):
     h = harness_factory(model_file=double_model_file(tmp_path))
     img = texture(12)
     # Deterministic first: a frame waits while the worker is busy, and ~/reset drops it.
-    entered, release = threading.Event(), threading.Event()
-    process = h.node._selector.process
-
-    def slow_process(image, stamp):
-        entered.set()
-        assert release.wait(10.0)
-        return process(image, stamp)
-
-    h.node._selector.process = slow_process
+    process = h.node._selector.process  # restored after the deterministic part
+    entered, release = hold_selector(h)
     h.node._on_image(h.image_message(img, 0.5))
     assert entered.wait(10.0)
     h.node._on_image(h.image_message(shifted(img, 1, 0.0), 0.533))  # pending ...
