@@ -15,9 +15,11 @@ Two scalings map the raw values into the models' input:
 
 In both, the 8 direction counts are divided by their Euclidean norm (zeros stay zeros).
 
-Beyond the paper, :func:`extra_features` computes seven optional, resolution-free features
+Beyond the paper, :func:`extra_features` computes optional, resolution-free features
 (``EXTRA_FEATURE_NAMES``) that a model file may ask for by name: disparity percentiles, grid
-occupancy and entropy of the reference points, and the residuals of affine and homography fits.
+occupancy and entropy of the reference points, the residuals of affine and homography fits,
+and moments of the flow and of the points (mean flow, its coherence and spread, the
+divergence, curl and shear of the affine fit), most of them from one Gram matrix.
 The pair table (``initsel dataset``) stores the same values, computed the same way.
 """
 
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Callable
 from enum import Enum
 from functools import lru_cache
 
@@ -62,7 +65,19 @@ EXTRA_FEATURE_NAMES: tuple[str, ...] = (
     'x_grid_entropy',  # entropy of the reference points over the 4x4 grid / log(16)
     'x_affine_residual',  # RMS residual of a least-squares affine fit p0 -> p1 / diagonal
     'x_homography_residual',  # RMS residual of a least-squares homography p0 -> p1 / diagonal
+    # Moments of one Gram matrix over the points (see extra_features): no pass of their own.
+    'x_flow_mean_x',  # mean flow x1 - x0 / diagonal
+    'x_flow_mean_y',  # mean flow y1 - y0 / diagonal (image y down)
+    'x_flow_coherence',  # |mean flow| / mean |flow|: 1 for a uniform shift, 0 for zoom or roll
+    'x_flow_spread',  # RMS deviation of the flow vectors from their mean / diagonal
+    'x_point_spread',  # RMS distance of the reference points from their centroid / diagonal
+    'x_affine_divergence',  # affine fit p0 -> p1: half its trace - 1 (zoom, forward motion)
+    'x_affine_curl',  # affine fit: rotation about the optical axis (radians, small angles)
+    'x_affine_deformation',  # affine fit: shear and anisotropic scaling
+    'x_homography_dlt_residual',  # RMS algebraic residual of the linear (DLT) homography / diag
 )
+#: The extra features computed from the Gram matrix of the fit rows, in this order.
+MOMENT_FEATURE_NAMES: tuple[str, ...] = EXTRA_FEATURE_NAMES[7:]
 #: Every feature name a model may read: the paper's 23, then the extra ones.
 ALL_FEATURE_NAMES: tuple[str, ...] = FEATURE_NAMES + EXTRA_FEATURE_NAMES
 
@@ -214,22 +229,24 @@ _EXTRA_INDEX = {name: i for i, name in enumerate(EXTRA_FEATURE_NAMES)}
 _ONE = np.ones(1)
 _EYE3 = np.eye(3).ravel()
 
-# Rows of the fit buffer (see _fit_residuals): X, Y, 1 (reference), u, v (current), uX, uY,
-# vX, vY; the DLT reads a = (X, Y, 1), u a = (uX, uY, u) and v a = (vX, vY, v).
-_A, _UA, _VA, _U, _V = (0, 1, 2), (5, 6, 3), (7, 8, 4), 3, 4
+# Rows of the fit buffer (see _fit_features): X, Y, 1 (reference), u, v (current), |d| (the
+# disparity), uX, uY, vX, vY; the DLT reads a = (X, Y, 1), u a = (uX, uY, u) and
+# v a = (vX, vY, v).
+_FIT_ROWS = 10
+_A, _UA, _VA, _U, _V = (0, 1, 2), (6, 7, 3), (8, 9, 4), 3, 4
 
 
 def _dlt_map() -> np.ndarray:
-    """(72, 81) map from the Gram matrix of the fit rows to the homography DLT ``A h = b``.
+    """(72, 100) map from the Gram matrix of the fit rows to the homography DLT ``A h = b``.
 
     With h33 = 1 each point gives ``[X, Y, 1, 0, 0, 0, -uX, -uY] h = u`` and
     ``[0, 0, 0, X, Y, 1, -vX, -vY] h = v``; the normal equations are sums of products of fit
     rows, i.e. entries of their Gram matrix. Rows 0-63 of the map give A, 64-71 b.
     """
-    out = np.zeros((72, 81))
+    out = np.zeros((72, _FIT_ROWS * _FIT_ROWS))
 
     def put(r: int, c: int, i: int, j: int, sign: float) -> None:
-        out[r * 8 + c, i * 9 + j] += sign
+        out[r * 8 + c, i * _FIT_ROWS + j] += sign
 
     for i in range(3):
         for j in range(3):
@@ -239,14 +256,14 @@ def _dlt_map() -> np.ndarray:
             for r, w in ((i, _UA[k]), (3 + i, _VA[k])):
                 put(r, 6 + k, _A[i], w, -1.0)
                 put(6 + k, r, _A[i], w, -1.0)
-        out[64 + i, _A[i] * 9 + _U] = 1.0  # b: sum a u, sum a v
-        out[64 + 3 + i, _A[i] * 9 + _V] = 1.0
+        out[64 + i, _A[i] * _FIT_ROWS + _U] = 1.0  # b: sum a u, sum a v
+        out[64 + 3 + i, _A[i] * _FIT_ROWS + _V] = 1.0
     for k in range(2):
         for m in range(2):  # sum (uX, uY)(uX, uY)^T + (vX, vY)(vX, vY)^T
             put(6 + k, 6 + m, _UA[k], _UA[m], 1.0)
             put(6 + k, 6 + m, _VA[k], _VA[m], 1.0)
-        out[64 + 6 + k, _UA[k] * 9 + _U] = -1.0  # b: -sum u (uX, uY) - sum v (vX, vY)
-        out[64 + 6 + k, _VA[k] * 9 + _V] = -1.0
+        out[64 + 6 + k, _UA[k] * _FIT_ROWS + _U] = -1.0  # b: -sum u (uX, uY) - sum v (vX, vY)
+        out[64 + 6 + k, _VA[k] * _FIT_ROWS + _V] = -1.0
     return out
 
 
@@ -291,42 +308,69 @@ _GAUSS_NEWTON_MAP = _gauss_newton_map()
 class InputPlan:
     """Constants of the model inputs for one image size, scaling and list of extra features.
 
-    Built once per (width, height, scaling, extra) by :func:`input_plan`; read-only.
+    Built once per (width, height, scaling, extra, directions) by :func:`input_plan`;
+    read-only.
 
     Attributes:
         width, height: image size, pixels.
         scaling: the scaling of the 23 features.
         extra: the extra features computed, in this order, after the 23.
+        directions: whether the 8 direction bins are computed (else they read 0.0: a model
+            set none of whose models reads them skips their pass).
     """
 
     __slots__ = (
         '_affine',
         '_diag',
         '_divisors',
+        '_fit_rows',
         '_grid',
         '_grid_x',
         '_grid_y4',
         '_homography',
         '_percentiles',
         '_pick',
+        '_scale',
+        '_take',
+        '_to_fit',
+        '_unit',
+        'directions',
         'extra',
         'height',
         'scaling',
         'width',
     )
 
-    def __init__(self, width: int, height: int, scaling: Scaling, extra: tuple[str, ...]):
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        scaling: Scaling,
+        extra: tuple[str, ...],
+        directions: bool = True,
+    ):
         unknown = [n for n in extra if n not in _EXTRA_INDEX]
         if unknown:
             raise GeometryError(f'unknown extra features {unknown}; known: {EXTRA_FEATURE_NAMES}')
         self.width, self.height, self.scaling, self.extra = width, height, scaling, extra
+        self.directions = directions
         self._divisors = _divisors(width, height, scaling).tolist()[:15] if width > 0 else []
         self._pick = [_EXTRA_INDEX[n] for n in extra]
+        self._take = _taker(self._pick)
         wanted = set(self._pick)
         self._percentiles = bool(wanted & {0, 1, 2})
         self._grid = bool(wanted & {3, 4})
         self._affine = 5 in wanted
         self._homography = 6 in wanted
+        # Rows of the fit buffer the Gram matrix needs: none; X, Y, 1, u, v (affine); with |d|
+        # (the moments); with the products uX ... vY (the homographies).
+        moments = bool(wanted & set(range(7, len(EXTRA_FEATURE_NAMES))))
+        products = self._homography or _EXTRA_INDEX['x_homography_dlt_residual'] in wanted
+        self._fit_rows = _FIT_ROWS if products else 6 if moments or self._affine else 0
+        # The fit's coordinates: pixels minus the image centre, times a power of two.
+        self._scale = 2.0 ** -math.frexp(max(width, height, 1))[1]
+        self._unit = 1.0 / self._scale
+        self._to_fit = _to_fit_matrix(0.5 * width, 0.5 * height, self._scale)
         if extra and (width <= 0 or height <= 0):
             raise GeometryError(f'image size must be positive, got {width}x{height}')
         self._diag = math.hypot(width, height)
@@ -335,19 +379,46 @@ class InputPlan:
         self._grid_y4 = np.repeat(_grid_edges(height), _GRID_CELLS) if self._grid else None
 
 
+def _taker(index: list[int]) -> Callable[[list[float]], list[float]]:
+    """A function picking ``index`` out of a list, as a list."""
+    if not index:
+        return lambda values: []
+    if len(index) == 1:
+        return lambda values: [values[index[0]]]
+    pick = operator.itemgetter(*index)
+    return lambda values: list(pick(values))
+
+
+def _to_fit_matrix(cx: float, cy: float, s: float) -> np.ndarray:
+    """(7, 5) map from x0, y0, 1, x1, y1 to the fit rows dX, dY, X, Y, 1, u, v."""
+    return np.array(
+        [
+            [-s, 0.0, 0.0, s, 0.0],
+            [0.0, -s, 0.0, 0.0, s],
+            [s, 0.0, -s * cx, 0.0, 0.0],
+            [0.0, s, -s * cy, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, -s * cx, s, 0.0],
+            [0.0, 0.0, -s * cy, 0.0, s],
+        ]
+    )
+
+
 @lru_cache(maxsize=64)
 def input_plan(
     width: int,
     height: int,
     scaling: Scaling | str = Scaling.RESOLUTION_FREE,
     extra: tuple[str, ...] = (),
+    directions: bool = True,
 ) -> InputPlan:
-    """The (cached) :class:`InputPlan` of an image size, a scaling and extra feature names.
+    """The (cached) :class:`InputPlan` of an image size, a scaling and extra feature names;
+    ``directions=False`` skips the direction bins (they read 0.0).
 
     Raises:
         GeometryError: an unknown extra feature name, or a non-positive image size.
     """
-    return InputPlan(int(width), int(height), Scaling(scaling), tuple(extra))
+    return InputPlan(int(width), int(height), Scaling(scaling), tuple(extra), bool(directions))
 
 
 _RAW_PLAN = InputPlan(0, 0, Scaling.PAPER, ())
@@ -382,10 +453,13 @@ def model_inputs(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[
         disparity, pixels.
     """
     raw, extra = _measure(p0, p1, plan)
-    bins = raw[15:]
-    norm = max(math.sqrt(sum(map(operator.mul, bins, bins))), 1.0)  # a non-zero norm is >= 1
     values = list(map(operator.truediv, raw[:15], plan._divisors))
-    values += [c / norm for c in bins]
+    if plan.directions:
+        bins = raw[15:]
+        norm = max(math.sqrt(sum(map(operator.mul, bins, bins))), 1.0)  # non-zero: >= 1
+        values += [c / norm for c in bins]
+    else:
+        values += _NO_DIRECTIONS
     values += extra
     return values, raw[1]
 
@@ -410,9 +484,21 @@ def extra_features(
     * ``x_homography_residual``: RMS transfer residual of the least-squares homography p0 ->
       p1 (the minimum over H of the mean of |p1 - H(p0)|^2, square-rooted) / diag; near 0 for
       pure rotation and planes (NaN below 4 points or when the fit fails). See
-      :func:`_fit_residuals` for how it is computed.
+      :func:`_fit_features` for how it is computed;
+    * ``x_homography_dlt_residual``: the RMS algebraic residual of the same linear fit
+      (h33 = 1, in the fit's normalized coordinates, which makes it a transfer residual
+      weighted by each point's projective depth: equal to it for an affine map), in pixels /
+      diag; it needs no pass over the points;
+    * ``x_flow_mean_x/y``: the mean flow p1 - p0 / diag; ``x_flow_coherence``: |mean flow| /
+      mean |flow| (1 for a uniform shift, near 0 for zoom or roll about the optical axis);
+      ``x_flow_spread``: RMS deviation of the flow vectors from their mean / diag;
+    * ``x_point_spread``: RMS distance of the reference points from their centroid / diag;
+    * ``x_affine_divergence``, ``x_affine_curl``, ``x_affine_deformation``: of the linear part
+      A of the least-squares affine map (unitless): tr(A) / 2 - 1 (zoom, forward motion),
+      (a21 - a12) / 2 (roll) and the magnitude of its shear (NaN for collinear points).
 
-    The pair table stores exactly these values.
+    All but the percentiles and the grid come from one Gram matrix of a few rows over the
+    points. The pair table stores exactly these values.
 
     Args:
         p0: (N, 2) reference pixels.
@@ -434,10 +520,12 @@ def extra_features(
 def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[float], list[float]]:
     """The 23 raw features and the plan's extra features, as floats, in one pass.
 
-    The points go into one (5, N) float64 buffer, rows x0, y0, 1, x1, y1, which the fits read
-    as it is (:func:`_fit_residuals`). Every value equals the straightforward numpy computation
-    (``raw_features`` of earlier releases, ``np.percentile``) to the last bit, except the
-    grid entropy and the fit residuals (to about 1e-15, 1e-6 and 1e-3 relative at worst).
+    The points go into one (5, N) float64 buffer, rows x0, y0, 1, x1, y1. A plan with fit
+    features maps it once into the fit rows (:func:`_fit_buffer`), whose Gram matrix also
+    gives the disparity's mean and spread. Every value equals the straightforward numpy
+    computation (``raw_features`` of earlier releases, ``np.percentile``) to the last bit,
+    except the disparity's mean and standard deviation where a fit is made, the grid entropy
+    and the fit features (to about 1e-15, 1e-15, 1e-6 and 1e-3 relative at worst).
     """
     p0 = _as_points(p0, 'p0')
     p1 = _as_points(p1, 'p1')
@@ -450,26 +538,41 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
     rows[0:2] = p0.T
     rows[2] = 1.0
     rows[3:5] = p1.T
-    lo = rows[:5].min(axis=1).tolist()  # x0, y0, 1, x1, y1
-    hi = rows[:5].max(axis=1).tolist()
-    d = rows[3:5] - rows[0:2]
-    disparity = np.hypot(d[0], d[1])
-    mean = float(disparity.sum()) / n
-    std = math.sqrt(max(float(disparity @ disparity) / n - mean * mean, 0.0))
-    sector = np.bincount(
-        _DIRECTION_EDGES.searchsorted(np.arctan2(d[1], d[0]), 'right'), minlength=9
-    ).tolist()
+    lo = rows.min(axis=1).tolist()  # x0, y0, 1, x1, y1
+    hi = rows.max(axis=1).tolist()
+    finite = math.isfinite(sum(lo) + sum(hi))  # else every extra feature is NaN
+    if plan._fit_rows and n >= 3 and finite:
+        fit = _fit_buffer(rows, plan)
+        gram = fit[2:] @ fit[2:].T
+        sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
+        d, disparity, unit = fit[0:2], fit[7], plan._unit  # fit units: pixels * plan._scale
+        mean = sums[5][2] * unit / n
+        std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
+    else:
+        fit = None
+        d = rows[3:5] - rows[0:2]
+        disparity, unit = np.hypot(d[0], d[1]), 1.0
+        mean = float(disparity.sum()) / n
+        std = math.sqrt(max(float(disparity @ disparity) / n - mean * mean, 0.0))
     raw = [float(n), mean, std, lo[0], hi[0], lo[1], hi[1], lo[3], hi[3], lo[4], hi[4]]
     raw += [hi[0] - lo[0], hi[1] - lo[1], hi[3] - lo[3], hi[4] - lo[4]]
-    raw += [sector[4], sector[3], sector[2], sector[1], sector[0] + sector[8], *sector[7:4:-1]]
+    if plan.directions:  # (angles of the fit's d: the same, scaled by a power of two)
+        sector = np.bincount(
+            _DIRECTION_EDGES.searchsorted(np.arctan2(d[1], d[0]), 'right'), minlength=9
+        ).tolist()
+        raw += [sector[4], sector[3], sector[2], sector[1], sector[0] + sector[8]]
+        raw += sector[7:4:-1]
+    else:
+        raw += _NO_DIRECTIONS
     if not plan._pick:
         return raw, []
     values = [math.nan] * len(EXTRA_FEATURE_NAMES)
-    if math.isfinite(sum(lo) + sum(hi)):  # non-finite points: every extra feature NaN
+    if finite:
         diag = plan._diag
         if plan._percentiles:
             values[0:3] = [
-                q / diag for q in _linear_quantiles(np.sort(disparity), _DISPARITY_PERCENTILES)
+                q * unit / diag  # (q * unit: exact, a power of two)
+                for q in _linear_quantiles(np.sort(disparity), _DISPARITY_PERCENTILES)
             ]
         if plan._grid:
             cells = np.bincount(
@@ -481,11 +584,12 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
             c_log_c = sum(map(_c_log_c, cells)) if n < len(_C_LOG_C) else _sum_c_log_c(cells)
             values[3] = (len(cells) - cells.count(0)) / float(len(cells))
             values[4] = (math.log(n) - c_log_c / n) / _LOG_GRID
-        if (plan._affine and n >= 3) or (plan._homography and n >= 4):
-            affine, homography = _fit_residuals(p0, p1, rows, lo, hi, plan._homography)
-            values[5] = affine / diag
-            values[6] = homography / diag
-    return raw, [values[i] for i in plan._pick]
+        if fit is not None:
+            _fit_features(p0, p1, fit, gram, sums, plan, values)
+    return raw, plan._take(values)
+
+
+_NO_DIRECTIONS = [0.0] * 8
 
 
 def _sum_c_log_c(counts: list[int]) -> float:
@@ -526,69 +630,83 @@ def _quantile_positions(n: int, qs: tuple[float, ...]) -> tuple[list[int], list[
     return index, weight
 
 
-def _fit_residuals(
-    p0: np.ndarray,
-    p1: np.ndarray,
-    rows: np.ndarray,
-    lo: list[float],
-    hi: list[float],
-    homography: bool,
-) -> tuple[float, float]:
-    """RMS residuals, pixels, of the least-squares affine map and homography p0 -> p1.
+def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> np.ndarray:
+    """(plan._fit_rows + 2, N) fit rows of the points ``rows`` (x0, y0, 1, x1, y1): dX, dY,
+    X, Y, 1, u, v, |d| and, for the homographies, uX, uY, vX, vY.
 
-    Both come from the Gram matrix of a few rows over the points: X, Y (reference), 1, u, v
-    (current), and for the homography uX, uY, vX, vY, in coordinates centred on the reference
-    points' bounding box and scaled by a power of two (for conditioning); ``rows`` holds
-    x0, y0, 1, x1, y1.
-
-    * Affine: closed form from the covariances (NaN below 3 points; ``np.linalg.lstsq`` when
-      the reference points are collinear).
-    * Homography (NaN below 4 points or when a system is singular): see
-      :func:`_homography_residual`.
+    X, Y (reference) and u, v (current) are pixels minus the image centre times
+    ``plan._scale``, a power of two near 1 / the image size (for conditioning; the
+    disparity d = (u - X, v - Y) and its norm |d| are then the pixel values times it).
     """
     n = rows.shape[1]
-    cx, cy = 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])
-    span = max(hi[0] - lo[0], hi[1] - lo[1], hi[3] - lo[3], hi[4] - lo[4])
-    s = 2.0 ** -math.frexp(span)[1] if span > 0 else 1.0
-    fit = np.empty((9 if homography else 5, n))
-    to_fit = np.array(  # x0, y0, 1, x1, y1 -> X, Y, 1, u, v (the same centre for both images)
-        [
-            *(s, 0.0, -s * cx, 0.0, 0.0),
-            *(0.0, s, -s * cy, 0.0, 0.0),
-            *(0.0, 0.0, 1.0, 0.0, 0.0),
-            *(0.0, 0.0, -s * cx, s, 0.0),
-            *(0.0, 0.0, -s * cy, 0.0, s),
-        ]
-    ).reshape(5, 5)
-    np.matmul(to_fit, rows, out=fit[0:5])
-    if homography:
-        np.multiply(fit[3:5, None], fit[None, 0:2], out=fit[5:9].reshape(2, 2, n))
-    gram = fit @ fit.T
-    (xx, xy, x1, xu, xv), (_, yy, y1, yu, yv), (_, _, _, u1, v1), (*_, uu, _), (*_, vv) = gram[
-        0:5, 0:5
-    ].tolist()
-    # Covariances times n^2 (a common factor that cancels in the residual variance below).
+    fit = np.empty((plan._fit_rows + 2, n))
+    np.matmul(plan._to_fit, rows, out=fit[0:7])
+    np.hypot(fit[0], fit[1], out=fit[7])
+    if plan._fit_rows > 6:
+        np.multiply(fit[5:7, None], fit[None, 2:4], out=fit[8:12].reshape(2, 2, n))
+    return fit
+
+
+def _fit_features(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    fit: np.ndarray,
+    gram: np.ndarray,
+    sums: list[list[float]],
+    plan: InputPlan,
+    values: list[float],
+) -> None:
+    """The extra features of the Gram matrix of the fit rows, in pixels (or unitless), into
+    ``values`` (indexed as ``EXTRA_FEATURE_NAMES``; at least 3 points).
+
+    ``gram`` is that of the fit rows from X on (:func:`_fit_buffer`), ``sums`` its first six
+    rows as lists. One matrix product gives every sum the features need:
+
+    * affine: closed form from the covariances (``np.linalg.lstsq`` when the reference points
+      are collinear), its residual and the divergence, curl and deformation of its linear part;
+    * the flow and point moments: sums of the rows and of their squares;
+    * the linear homography (DLT, h33 = 1): the normal equations are entries of the Gram
+      matrix; its algebraic residual ``y^T y - b^T h`` needs no pass over the points, and the
+      least-squares transfer residual (``x_homography_residual``, only when the plan has it)
+      one Gauss-Newton step (:func:`_homography_residual`).
+    """
+    n = fit.shape[1]
+    unit = plan._unit / plan._diag  # fit units -> pixels / image diagonal
+    (xx, xy, x1, xu, xv, _), (_, yy, y1, yu, yv, _), (*_, u1, v1, d1) = sums[0:3]
+    uu, vv = sums[3][3], sums[4][4]
+    # Covariances times n^2 (a common factor that cancels in the ratios below).
     sxx, sxy, syy = n * xx - x1 * x1, n * xy - x1 * y1, n * yy - y1 * y1
     det = sxx * syy - sxy * sxy
-    affine = math.nan
-    if n == 3 and det > 1e-12 * sxx * syy:
-        affine = 0.0  # three points in general position: an exact fit
-    elif n >= 3 and det > 1e-12 * sxx * syy:
-        ss = 0.0
-        for ux, uy, u_sum, u_sq in ((xu, yu, u1, uu), (xv, yv, v1, vv)):  # u, then v
-            bx, by = n * ux - x1 * u_sum, n * uy - y1 * u_sum
-            ss += (n * u_sq - u_sum * u_sum) - (
-                syy * bx * bx - 2.0 * sxy * bx * by + sxx * by * by
-            ) / det
-        affine = math.sqrt(max(ss, 0.0)) / (n * s)
-    elif n >= 3:
-        affine = _affine_residual_lstsq(p0, p1)
-    if not homography or n < 4:
-        return affine, math.nan
-    return affine, _homography_residual(fit, gram) / s
+    if det > 1e-12 * sxx * syy:
+        # (u, v) = A (X, Y) + t: the rows of A from the covariances of u and v with X and Y.
+        bx, by = n * xu - x1 * u1, n * yu - y1 * u1
+        cx, cy = n * xv - x1 * v1, n * yv - y1 * v1
+        a11, a12 = (syy * bx - sxy * by) / det, (sxx * by - sxy * bx) / det
+        a21, a22 = (syy * cx - sxy * cy) / det, (sxx * cy - sxy * cx) / det
+        ss = (n * uu - u1 * u1 - a11 * bx - a12 * by) + (n * vv - v1 * v1 - a21 * cx - a22 * cy)
+        values[5] = 0.0 if n == 3 else math.sqrt(max(ss, 0.0)) * unit / n
+        values[12] = 0.5 * (a11 + a22) - 1.0
+        values[13] = 0.5 * (a21 - a12)
+        values[14] = math.hypot(0.5 * (a11 - a22), 0.5 * (a12 + a21))
+    else:
+        values[5] = _affine_residual_lstsq(p0, p1) / plan._diag
+    mdx, mdy = (u1 - x1) / n, (v1 - y1) / n
+    values[7], values[8] = mdx * unit, mdy * unit
+    values[9] = math.hypot(mdx, mdy) * n / d1 if d1 > 0 else 0.0
+    var_d = (uu - 2.0 * xu + xx + vv - 2.0 * yv + yy) / n - mdx * mdx - mdy * mdy
+    values[10] = math.sqrt(max(var_d, 0.0)) * unit
+    values[11] = math.sqrt(max(sxx + syy, 0.0)) * unit / n
+    if plan._fit_rows > 6 and n >= 4:
+        dlt = _DLT_MAP @ gram.ravel()
+        ok, h = cv2.solve(dlt[:64].reshape(8, 8), dlt[64:].reshape(8, 1))
+        if ok:
+            ss = uu + vv - float(dlt[64:] @ h[:, 0])
+            values[15] = math.sqrt(max(ss, 0.0) / n) * unit if math.isfinite(ss) else math.nan
+            if plan._homography:
+                values[6] = _homography_residual(fit[2:7], h) * unit
 
 
-def _homography_residual(fit: np.ndarray, gram: np.ndarray) -> float:
+def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:
     """RMS transfer residual of the least-squares homography, in fit units; NaN on failure.
 
     The linear (DLT) fit with h33 = 1 gives a start H0; one Gauss-Newton step on the transfer
@@ -599,10 +717,6 @@ def _homography_residual(fit: np.ndarray, gram: np.ndarray) -> float:
     worst, and no model decision of the shipped file changes; it costs a tenth of it.
     """
     n = fit.shape[1]
-    dlt = _DLT_MAP @ gram.ravel()
-    ok, h = cv2.solve(dlt[:64].reshape(8, 8), dlt[64:].reshape(8, 1))
-    if not ok:
-        return math.nan
     # One product gives w, then X, Y, 1 and H's first two rows applied to them (rows w, a, q).
     jac = np.empty((10, n))
     np.matmul(

@@ -261,6 +261,8 @@ class ModelSet:
         object.__setattr__(self, '_logistic_slots', logistic)
         object.__setattr__(self, '_sanitize', bool(extra) or bool(trees))
         object.__setattr__(self, '_plans', {})  # InputPlan by image size
+        # The direction histogram has a pass of its own: made only when a model reads it.
+        object.__setattr__(self, '_directions', bool(used & set(FEATURE_NAMES[15:])))
 
     @property
     def thresholds(self) -> dict[str, float]:
@@ -287,7 +289,13 @@ class ModelSet:
         plans: dict[tuple[int, int], InputPlan] = self._plans  # type: ignore[attr-defined]
         plan = plans.get((width, height))
         if plan is None:
-            plan = plans[width, height] = input_plan(width, height, self.scaling, self._extra)  # type: ignore[attr-defined]
+            plan = plans[width, height] = input_plan(
+                width,
+                height,
+                self.scaling,
+                self._extra,  # type: ignore[attr-defined]
+                self._directions,  # type: ignore[attr-defined]
+            )
         return plan
 
     def input_values(

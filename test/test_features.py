@@ -115,7 +115,8 @@ def test_the_pair_table_stores_the_live_extra_features():
 
 def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height: int):
     """The extra features by their textbook definitions (np.percentile, a lstsq affine fit,
-    cv2.findHomography's least-squares homography refined by Levenberg-Marquardt)."""
+    cv2.findHomography's least-squares homography refined by Levenberg-Marquardt, the moments
+    of the flow and points, and the lstsq DLT homography)."""
     import math
 
     import cv2
@@ -123,7 +124,7 @@ def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height
     p0 = np.asarray(p0, dtype=np.float64)
     p1 = np.asarray(p1, dtype=np.float64)
     n, diag = len(p0), math.hypot(width, height)
-    out = np.full(7, np.nan)
+    out = np.full(16, np.nan)
     if n == 0:
         return out
     out[0:3] = np.percentile(np.hypot(*(p1 - p0).T), (10, 50, 90)) / diag
@@ -141,6 +142,33 @@ def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height
         if H is not None and H.shape == (3, 3):
             proj = cv2.perspectiveTransform(p0.reshape(-1, 1, 2), H).reshape(-1, 2)
             out[6] = math.sqrt(np.mean(np.sum((proj - p1) ** 2, axis=1))) / diag
+    if n < 3:
+        return out
+    # The moments: mean flow, its coherence and spread, the points' spread.
+    d = p1 - p0
+    out[7:9] = d.mean(axis=0) / diag
+    out[9] = np.linalg.norm(d.mean(axis=0)) / np.hypot(*d.T).mean()
+    out[10] = math.sqrt(np.mean(np.sum((d - d.mean(axis=0)) ** 2, axis=1))) / diag
+    out[11] = math.sqrt(np.mean(np.sum((p0 - p0.mean(axis=0)) ** 2, axis=1))) / diag
+    # The linear part of the least-squares affine map: (u, v) = A (x, y) + t.
+    sol, *_ = np.linalg.lstsq(np.column_stack((p0, np.ones(n))), p1, rcond=None)
+    (a11, a21), (a12, a22) = sol[0], sol[1]
+    out[12], out[13] = (a11 + a22) / 2 - 1, (a21 - a12) / 2
+    out[14] = math.hypot((a11 - a22) / 2, (a12 + a21) / 2)
+    if n >= 4:  # the linear homography (h33 = 1) in centred coordinates times 2^-k ~ 1 / size
+        scale = 2.0 ** -math.frexp(max(width, height))[1]
+        X, Y = ((p0 - [width / 2, height / 2]) * scale).T
+        u, v = ((p1 - [width / 2, height / 2]) * scale).T
+        zero, one = np.zeros(n), np.ones(n)
+        A = np.concatenate(
+            (
+                np.column_stack((X, Y, one, zero, zero, zero, -u * X, -u * Y)),
+                np.column_stack((zero, zero, zero, X, Y, one, -v * X, -v * Y)),
+            )
+        )
+        b = np.concatenate((u, v))
+        h, *_ = np.linalg.lstsq(A, b, rcond=None)
+        out[15] = math.sqrt(np.mean((A @ h - b) ** 2) * 2) / scale / diag
     return out
 
 
@@ -169,6 +197,53 @@ def test_extra_features_equal_their_textbook_definitions(n):
         # The homography residual: one Gauss-Newton step from the DLT, against OpenCV's
         # Levenberg-Marquardt (cv2 works in float32 inside, hence the tolerance for 4 points).
         np.testing.assert_allclose(live[6], ref[6], rtol=1e-4, atol=1e-9, equal_nan=True)
+        # The moments and the linear homography, from one Gram matrix (the DLT's algebraic
+        # residual, a difference of sums, is exact to the precision of those sums).
+        np.testing.assert_allclose(live[7:15], ref[7:15], rtol=1e-8, atol=1e-12, equal_nan=True)
+        np.testing.assert_allclose(live[15], ref[15], rtol=1e-5, atol=1e-8, equal_nan=True)
+
+
+def test_flow_moments_tell_a_shift_a_zoom_and_a_roll_apart():
+    import math
+
+    from initsel_ros.features import MOMENT_FEATURE_NAMES, extra_features
+
+    p0, _ = _tracks(np.random.default_rng(3), 150)
+    p0 = p0.astype(np.float64)
+    centre = np.array([320.0, 240.0])
+    c, s = math.cos(0.02), math.sin(0.02)
+    motions = {
+        'shift': p0 + np.array([6.0, -2.0]),
+        'zoom': centre + (p0 - centre) * 1.04,
+        'roll': centre + (p0 - centre) @ np.array([[c, -s], [s, c]]).T,
+    }
+    names = MOMENT_FEATURE_NAMES
+    got = {
+        k: dict(zip(names, extra_features(p0, p1, 640, 480, names), strict=True))
+        for k, p1 in motions.items()
+    }
+    assert got['shift']['x_flow_coherence'] == pytest.approx(1.0)
+    assert got['shift']['x_flow_mean_x'] == pytest.approx(6.0 / 800.0)
+    assert got['shift']['x_flow_spread'] == pytest.approx(0.0, abs=1e-9)
+    assert got['zoom']['x_affine_divergence'] == pytest.approx(0.04)
+    assert got['roll']['x_affine_curl'] == pytest.approx(0.02, rel=1e-3)
+    for k in ('zoom', 'roll'):
+        assert got[k]['x_flow_coherence'] < 0.5 < got['shift']['x_flow_coherence']
+    for motion in got.values():  # every one of them a homography
+        assert motion['x_homography_dlt_residual'] < 1e-7  # 1e-4 px: the sums' rounding
+        assert motion['x_affine_deformation'] < 1e-6
+
+
+def test_a_plan_without_direction_bins_reads_zeros_there_and_the_same_elsewhere():
+    from initsel_ros.features import MOMENT_FEATURE_NAMES, input_plan, model_inputs
+
+    p0, p1 = _perspective_tracks(np.random.default_rng(9), 200)
+    full, mean = model_inputs(p0, p1, input_plan(640, 480, extra=MOMENT_FEATURE_NAMES))
+    lean, lean_mean = model_inputs(
+        p0, p1, input_plan(640, 480, extra=MOMENT_FEATURE_NAMES, directions=False)
+    )
+    assert lean[15:23] == [0.0] * 8 and sum(full[15:23]) > 0
+    assert lean[:15] + lean[23:] == full[:15] + full[23:] and lean_mean == mean
 
 
 def test_grid_cells_split_integer_corners_as_the_truncated_product_does():
@@ -228,9 +303,13 @@ def test_model_inputs_are_the_scaled_features_then_the_extra_ones():
     names = ('x_homography_residual', 'x_grid_entropy')
     values, mean = model_inputs(p0, p1, input_plan(640, 480, Scaling.PAPER, names))
     assert len(values) == 23 + len(names)
-    assert values[:23] == pair_features(p0, p1, 640, 480, Scaling.PAPER).tolist()
+    # (with a fit, the disparity's mean and spread come from its sums: equal to 1e-15)
+    np.testing.assert_allclose(
+        values[:23], pair_features(p0, p1, 640, 480, Scaling.PAPER), rtol=1e-14, atol=0
+    )
+    assert values[3:23] == pair_features(p0, p1, 640, 480, Scaling.PAPER).tolist()[3:]
     assert values[23:] == extra_features(p0, p1, 640, 480, names).tolist()
-    assert mean == raw_features(p0, p1)[1]
+    assert mean == pytest.approx(raw_features(p0, p1)[1], rel=1e-14)
     with pytest.raises(GeometryError, match='unknown extra features'):
         input_plan(640, 480, Scaling.PAPER, ('x_magic',))
     assert set(EXTRA_FEATURE_NAMES) >= set(names)

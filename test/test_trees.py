@@ -110,7 +110,7 @@ def test_input_vector_computes_extra_features_only_when_a_model_reads_them(monke
     from initsel_ros.features import extra_features
 
     calls = []
-    for name in ('_fit_residuals', '_linear_quantiles'):
+    for name in ('_fit_features', '_linear_quantiles'):
         real = getattr(features_module, name)
 
         def spy(*args, _real=real, _name=name):
@@ -127,7 +127,7 @@ def test_input_vector_computes_extra_features_only_when_a_model_reads_them(monke
     assert calls == []
     ms = ModelSet(_tree_models())
     x = ms.input_vector(p0, p1, 640, 480)
-    assert sorted(calls) == ['_fit_residuals', '_linear_quantiles']
+    assert sorted(calls) == ['_fit_features', '_linear_quantiles']
     assert x.shape == (N_FEATURES + 3,)
     np.testing.assert_array_equal(x[N_FEATURES:], extra_features(p0, p1, 640, 480, ms.extra_names))
 

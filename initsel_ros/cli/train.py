@@ -8,7 +8,15 @@ from pathlib import Path
 from initsel_ros.cli import options
 
 FAMILIES = ('logistic', 'logistic+extra', 'trees', 'trees+extra')
-EXTRA = (
+PAPER = (  # features.FEATURE_NAMES
+    'count',
+    'disparity_mean',
+    'disparity_std',
+    *(f'{c}_{m}' for c in ('x0', 'y0', 'x1', 'y1') for m in ('min', 'max')),
+    *(f'{c}_range' for c in ('x0', 'y0', 'x1', 'y1')),
+    *(f'direction_{45 * k}' for k in range(8)),
+)
+EXTRA = (  # features.EXTRA_FEATURE_NAMES (not imported: --help loads no OpenCV)
     'x_disp_p10',
     'x_disp_p50',
     'x_disp_p90',
@@ -16,6 +24,15 @@ EXTRA = (
     'x_grid_entropy',
     'x_affine_residual',
     'x_homography_residual',
+    'x_flow_mean_x',
+    'x_flow_mean_y',
+    'x_flow_coherence',
+    'x_flow_spread',
+    'x_point_spread',
+    'x_affine_divergence',
+    'x_affine_curl',
+    'x_affine_deformation',
+    'x_homography_dlt_residual',
 )
 
 
@@ -48,6 +65,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='NAME',
         choices=EXTRA,
         help='extra features the +extra families read (default all: ' + ', '.join(EXTRA) + ')',
+    )
+    parser.add_argument(
+        '--paper-features',
+        nargs='+',
+        default=None,
+        metavar='NAME',
+        choices=PAPER,
+        help="the paper's 23 features the +extra families read (default all of them; the "
+        'plain families read all 23)',
     )
     parser.add_argument(
         '--trees', type=int, default=100, help='boosting stages of the tree families (default 100)'
@@ -157,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
         families=families,
         trees=TreeConfig(args.trees, args.tree_depth, args.learning_rate),
         **({'extra': tuple(args.extra_features)} if args.extra_features else {}),
+        **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )
     table = read_tables(args.tables)
     report = train_models(

@@ -126,6 +126,8 @@ class TrainConfig:
         family: family of every model not in ``families``.
         families: per-model family, e.g. ``{'F': Family.TREES_EXTRA}``.
         extra: the extra features a ``+extra`` family reads (default all of them).
+        paper: the paper's 23 features a ``+extra`` family reads (default all of them; the
+            plain families read all 23, as the paper's models).
         trees: gradient boosting settings of the tree families.
     """
 
@@ -141,6 +143,7 @@ class TrainConfig:
     family: Family = DEFAULT_FAMILY
     families: dict[str, Family] = field(default_factory=dict)
     extra: tuple[str, ...] = EXTRA_FEATURE_NAMES
+    paper: tuple[str, ...] = FEATURE_NAMES
     trees: TreeConfig = field(default_factory=TreeConfig)
 
     def __post_init__(self) -> None:
@@ -148,6 +151,11 @@ class TrainConfig:
         if unknown:
             raise ConfigError(
                 f'unknown extra features {unknown}; known: {", ".join(EXTRA_FEATURE_NAMES)}'
+            )
+        unknown = [n for n in self.paper if n not in FEATURE_NAMES]
+        if unknown:
+            raise ConfigError(
+                f'unknown paper features {unknown}; known: {", ".join(FEATURE_NAMES)}'
             )
         bad = [m for m in self.families if m not in METHODS]
         if bad:
@@ -159,8 +167,10 @@ class TrainConfig:
 
     def features_of(self, family: Family) -> tuple[str, ...]:
         """Input feature names of a family."""
-        extra = tuple(n for n in EXTRA_FEATURE_NAMES if n in self.extra)
-        return FEATURE_NAMES + extra if Family(family).uses_extra else FEATURE_NAMES
+        if not Family(family).uses_extra:
+            return FEATURE_NAMES
+        paper = tuple(n for n in FEATURE_NAMES if n in self.paper)
+        return paper + tuple(n for n in EXTRA_FEATURE_NAMES if n in self.extra)
 
 
 def feature_columns(scaling: Scaling) -> tuple[str, ...]:
