@@ -390,9 +390,18 @@ def _taker(index: list[int]) -> Callable[[list[float]], list[float]]:
 
 
 def _to_fit_matrix(cx: float, cy: float, s: float) -> np.ndarray:
-    """(7, 5) map from x0, y0, 1, x1, y1 to the fit rows dX, dY, X, Y, 1, u, v."""
+    """(15, 5) map from x0, y0, 1, x1, y1 to x0, y0, x1, y1, their negatives, and the fit
+    rows dX, dY, X, Y, 1, u, v (see :func:`_fit_buffer`)."""
     return np.array(
         [
+            [1.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 0.0, 1.0],
+            [-1.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, -1.0, 0.0],
+            [0.0, 0.0, 0.0, 0.0, -1.0],
             [-s, 0.0, 0.0, s, 0.0],
             [0.0, -s, 0.0, 0.0, s],
             [s, 0.0, -s * cx, 0.0, 0.0],
@@ -538,18 +547,24 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
     rows[0:2] = p0.T
     rows[2] = 1.0
     rows[3:5] = p1.T
-    lo = rows.min(axis=1).tolist()  # x0, y0, 1, x1, y1
-    hi = rows.max(axis=1).tolist()
-    finite = math.isfinite(sum(lo) + sum(hi))  # else every extra feature is NaN
-    if plan._fit_rows and n >= 3 and finite:
-        fit = _fit_buffer(rows, plan)
+    fit = None
+    if plan._fit_rows and n >= 3:
+        extents, fit = _fit_buffer(rows, plan)
+        m = extents.min(axis=1).tolist()  # x0, y0, x1, y1, then minus their maxima
+        lo, hi = [m[0], m[1], 1.0, m[2], m[3]], [-m[4], -m[5], 1.0, -m[6], -m[7]]
+        if not math.isfinite(sum(m)):  # a NaN taints every fit row: measure them one by one
+            fit = None
+    if fit is not None:
+        finite = True
         gram = fit[2:] @ fit[2:].T
         sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
         d, disparity, unit = fit[0:2], fit[7], plan._unit  # fit units: pixels * plan._scale
         mean = sums[5][2] * unit / n
         std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
     else:
-        fit = None
+        lo = rows.min(axis=1).tolist()  # x0, y0, 1, x1, y1
+        hi = rows.max(axis=1).tolist()
+        finite = math.isfinite(sum(lo) + sum(hi))  # else every extra feature is NaN
         d = rows[3:5] - rows[0:2]
         disparity, unit = np.hypot(d[0], d[1]), 1.0
         mean = float(disparity.sum()) / n
@@ -630,21 +645,24 @@ def _quantile_positions(n: int, qs: tuple[float, ...]) -> tuple[list[int], list[
     return index, weight
 
 
-def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> np.ndarray:
-    """(plan._fit_rows + 2, N) fit rows of the points ``rows`` (x0, y0, 1, x1, y1): dX, dY,
-    X, Y, 1, u, v, |d| and, for the homographies, uX, uY, vX, vY.
+def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> tuple[np.ndarray, np.ndarray]:
+    """The extents and the fit rows of the points ``rows`` (x0, y0, 1, x1, y1), from one
+    matrix product: (8, N) x0, y0, x1, y1 and their negatives (whose minima are the extents,
+    exactly), and (plan._fit_rows + 2, N) dX, dY, X, Y, 1, u, v, |d| and, for the
+    homographies, uX, uY, vX, vY.
 
     X, Y (reference) and u, v (current) are pixels minus the image centre times
     ``plan._scale``, a power of two near 1 / the image size (for conditioning; the
     disparity d = (u - X, v - Y) and its norm |d| are then the pixel values times it).
     """
     n = rows.shape[1]
-    fit = np.empty((plan._fit_rows + 2, n))
-    np.matmul(plan._to_fit, rows, out=fit[0:7])
+    buffer = np.empty((plan._fit_rows + 10, n))
+    np.matmul(plan._to_fit, rows, out=buffer[0:15])
+    fit = buffer[8:]
     np.hypot(fit[0], fit[1], out=fit[7])
     if plan._fit_rows > 6:
         np.multiply(fit[5:7, None], fit[None, 2:4], out=fit[8:12].reshape(2, 2, n))
-    return fit
+    return buffer[0:8], fit
 
 
 def _fit_features(

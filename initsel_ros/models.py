@@ -90,6 +90,11 @@ DEFAULT_MODEL_NAME = 'models.json'
 KINDS = ('logistic', 'trees')
 
 
+def _probability(z: float) -> float:
+    """The logistic function of one logit (clipped where exp would overflow)."""
+    return 1.0 / (1.0 + math.exp(-min(max(z, -500.0), 500.0)))
+
+
 @dataclass(frozen=True)
 class LogisticModel(LogitModel):
     """One logistic-regression classifier over standardized features.
@@ -258,6 +263,7 @@ class ModelSet:
             self, '_table', LeafTable.build(all_trees, columns, starts) if shallow else None
         )
         object.__setattr__(self, '_tree_slots', list(zip(trees, tree_bias, strict=True)))
+        object.__setattr__(self, '_all_in_table', shallow and trees == list(range(len(names))))
         object.__setattr__(self, '_logistic_slots', logistic)
         object.__setattr__(self, '_sanitize', bool(extra) or bool(trees))
         object.__setattr__(self, '_plans', {})  # InputPlan by image size
@@ -362,6 +368,11 @@ class ModelSet:
 
     def _probabilities(self, values: Sequence[float]) -> dict[str, float]:
         """Probabilities of finite inputs (non-finite ones already 0 where they count as 0)."""
+        if self._all_in_table:  # type: ignore[attr-defined]
+            # every model a shallow tree ensemble, in self._names order: one table look-up
+            sums = self._table.sums(np.array(values, dtype=np.float32))  # type: ignore[attr-defined]
+            logits = (sums + self._tree_bias).tolist()  # type: ignore[attr-defined]
+            return dict(zip(self._names, map(_probability, logits), strict=True))  # type: ignore[attr-defined]
         logits = [0.0] * len(self._names)  # type: ignore[attr-defined]
         if self._table is not None:  # type: ignore[attr-defined]
             sums = self._table.sums(np.array(values, dtype=np.float32)).tolist()  # type: ignore[attr-defined]
@@ -377,10 +388,13 @@ class ModelSet:
             z = self._W @ np.array(values, dtype=np.float64) + self._b  # type: ignore[attr-defined]
             for i, zi in zip(self._logistic_slots, z.tolist(), strict=True):  # type: ignore[attr-defined]
                 logits[i] = zi
-        return {
-            name: 1.0 / (1.0 + math.exp(-min(max(z, -500.0), 500.0)))
-            for name, z in zip(self._names, logits, strict=True)  # type: ignore[attr-defined]
-        }
+        return dict(zip(self._names, map(_probability, logits), strict=True))  # type: ignore[attr-defined]
+
+    def logits_batch(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        """Logits (the probabilities before the sigmoid) of (N, D) input rows, by model, (N,)."""
+        X = self._check_inputs(X).reshape(-1, len(self._inputs))  # type: ignore[attr-defined]
+        Z = self._logits(X)
+        return {m: Z[:, i] for i, m in enumerate(self._names)}  # type: ignore[attr-defined]
 
     def predict_proba_batch(self, X: np.ndarray) -> dict[str, np.ndarray]:
         """Probabilities of (N, D) input rows, by model name, each (N,)."""

@@ -213,19 +213,17 @@ def decide(
             mean_disparity=mean_disparity,
             detail=f'{n_tracks} < {config.min_tracks}',
         )
-    # Margin above the threshold of each model that fired, in PREFERENCE order.
-    fired = [
-        (m, p - t)
-        for m in PREFERENCE
-        if (p := probabilities.get(m, 0.0)) >= (t := thresholds.get(m, 0.5))
-    ]
-    rotation = probabilities.get('R', 0.0) >= thresholds.get('R', 0.5)
-    vetoed = tuple(m for m, _ in fired if m in config.r_veto) if rotation else ()
-    remaining = [f for f in fired if f[0] not in vetoed]
-    if len(remaining) > 1:  # most confident first; sort is stable, so ties keep PREFERENCE
-        remaining.sort(key=lambda f: -f[1])
-    candidates = tuple(_METHODS[m] for m, _ in remaining)
-    if candidates:
+    p, t = probabilities.get, thresholds.get
+    fired = [m for m in PREFERENCE if p(m, 0.0) >= t(m, 0.5)]
+    rotation = p('R', 0.0) >= t('R', 0.5)
+    vetoed: tuple[str, ...] = ()
+    remaining = fired
+    if rotation and fired:
+        vetoed = tuple(m for m in fired if m in config.r_veto)
+        remaining = [m for m in fired if m not in config.r_veto]
+    if len(remaining) > 1:  # largest margin above the threshold first; sort is stable, so
+        remaining.sort(key=lambda m: t(m, 0.5) - p(m, 0.0))  # ties keep PREFERENCE order
+    if remaining:
         reason = Reason.INITIALIZED
     elif rotation:
         reason = Reason.ROTATION
@@ -234,9 +232,9 @@ def decide(
     return Decision(
         reason,
         probabilities,
-        tuple(m for m, _ in fired),
+        tuple(fired),
         vetoed,
-        candidates,
+        tuple(map(_METHODS.__getitem__, remaining)),
         n_tracks,
         mean_disparity,
     )

@@ -222,15 +222,17 @@ class LeafTable:
     2k + 2; a leaf above depth 3 is padded with comparisons that always go left, copying its
     value to every leaf below it) with 8 comparison slots: the 7 inner nodes and one that is
     always false. All slots of all trees compare at once, ``np.packbits`` turns each tree's 8
-    results into one byte, and that byte indexes the tree's 128-entry table of the leaf it
-    leads to. Comparisons are in float32 against :func:`float32_splits`, so the result equals
-    scikit-learn's (float32 input, float64 split) and :class:`FlatTrees`'.
+    results into one byte, a 128-entry map shared by every tree (:data:`_PATTERN_LEAF`) turns
+    that byte into the leaf it leads to, and each tree's 8 leaf values are looked up: 64 bytes
+    a tree, so the tables of a few hundred trees stay in the cache. Comparisons are in float32
+    against :func:`float32_splits`, so the result equals scikit-learn's (float32 input,
+    float64 split) and :class:`FlatTrees`'.
     """
 
     feature: np.ndarray  # (T * 8,) intp input column of each slot
     split: np.ndarray  # (T * 8,) float32, +inf in unused slots
-    table: np.ndarray  # (T * 128,) float64 leaf value of each tree and comparison pattern
-    base: np.ndarray  # (T,) int64, 128 * tree index
+    leaves: np.ndarray  # (T * 8,) float64 leaf values of each tree, left to right
+    base: np.ndarray  # (T,) int64, 8 * tree index
     starts: np.ndarray  # (G,) intp first tree of each group (np.add.reduceat)
 
     @classmethod
@@ -242,17 +244,15 @@ class LeafTable:
         n = len(trees)
         feature = np.zeros((n, _SLOTS), dtype=np.intp)
         split = np.full((n, _SLOTS), np.inf)
-        table = np.zeros((n, _CODES))
-        patterns = np.arange(_CODES)
+        leaves = np.zeros((n, _LEAVES))
         for t, (tree, cols) in enumerate(zip(trees, columns, strict=True)):
             if tree.depth > TABLE_DEPTH:
                 raise ValueError(f'tree {t} is {tree.depth} deep; a LeafTable takes at most 3')
-            leaves = np.zeros(2**TABLE_DEPTH)
             stack = [(0, 0, 0)]  # (node, heap slot, depth)
             while stack:
                 node, slot, depth = stack.pop()
                 if depth == TABLE_DEPTH:
-                    leaves[slot - (2**TABLE_DEPTH - 1)] = tree.value[node]
+                    leaves[t, slot - _LEAVES + 1] = tree.value[node]
                     continue
                 if tree.feature[node] >= 0:
                     feature[t, slot] = cols[tree.feature[node]]
@@ -261,15 +261,11 @@ class LeafTable:
                 else:  # a leaf above the last level: both sides lead to it (slot stays +inf)
                     kids = (node, node)
                 stack += [(kids[0], 2 * slot + 1, depth + 1), (kids[1], 2 * slot + 2, depth + 1)]
-            slot = np.zeros(_CODES, dtype=np.int64)  # walk all 128 patterns at once
-            for _ in range(TABLE_DEPTH):
-                slot = 2 * slot + 1 + ((patterns >> slot) & 1)
-            table[t] = leaves[slot - (2**TABLE_DEPTH - 1)]
         return cls(
             feature.ravel(),
             float32_splits(split.ravel()),
-            table.ravel(),
-            np.arange(n, dtype=np.int64) * _CODES,
+            leaves.ravel(),
+            np.arange(n, dtype=np.int64) * _LEAVES,
             np.asarray(starts, dtype=np.intp),
         )
 
@@ -277,7 +273,21 @@ class LeafTable:
         """(G,) sum of the leaf values of each group's trees for one float32 input vector
         (finite; see :func:`prepare` for what the trees expect)."""
         code = np.packbits(x32[self.feature] > self.split, bitorder='little')
-        return np.add.reduceat(self.table[code + self.base], self.starts)
+        return np.add.reduceat(self.leaves[_PATTERN_LEAF[code] + self.base], self.starts)
+
+
+def _pattern_leaf() -> np.ndarray:
+    """(128,) the leaf (0-7, left to right) that each pattern of the 7 comparisons of a full
+    depth-3 tree in heap order leads to (bit k: slot k's comparison says 'go right')."""
+    patterns = np.arange(_CODES)
+    slot = np.zeros(_CODES, dtype=np.int64)
+    for _ in range(TABLE_DEPTH):
+        slot = 2 * slot + 1 + ((patterns >> slot) & 1)
+    return (slot - (_LEAVES - 1)).astype(np.int64)
+
+
+_LEAVES = 2**TABLE_DEPTH
+_PATTERN_LEAF = _pattern_leaf()
 
 
 def prepare(X: np.ndarray) -> np.ndarray:
