@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from initsel_ros.cli import options
 
@@ -74,6 +75,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=PAPER,
         help="the paper's 23 features the +extra families read (default all of them; the "
         'plain families read all 23)',
+    )
+    parser.add_argument(
+        '--validation-groups',
+        choices=('batch', 'sequence'),
+        default='batch',
+        help='unit of the cross-validation folds that choose the thresholds (default batch; '
+        'sequence: thresholds for sequences the models were not fitted on)',
+    )
+    parser.add_argument(
+        '--distill',
+        type=Path,
+        default=None,
+        metavar='TEACHER',
+        help='instead of learning the labels, fit each model (trees) to the logits of this '
+        "model file on the tables' pairs and keep its thresholds: the same decisions from "
+        'the inputs --paper-features and --extra-features name (labels are not read)',
     )
     parser.add_argument(
         '--trees', type=int, default=100, help='boosting stages of the tree families (default 100)'
@@ -176,6 +193,7 @@ def run(args: argparse.Namespace) -> int:
         class_weight=ClassWeight(args.class_weight),
         target_precision=args.target_precision,
         folds=args.folds,
+        group_by=args.validation_groups,
         seed=args.seed,
         labels=relabel,
         allow_degenerate=args.allow_degenerate,
@@ -186,6 +204,8 @@ def run(args: argparse.Namespace) -> int:
         **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )
     table = read_tables(args.tables)
+    if args.distill is not None:
+        return _distill(args, table, config)
     report = train_models(
         table, config, description=describe_inputs([p.name for p in args.tables])
     )
@@ -205,4 +225,37 @@ def run(args: argparse.Namespace) -> int:
         for m, c in report.choices.items()
     ]
     print(markdown_table(columns, rows))
+    return 0
+
+
+def _distill(args: argparse.Namespace, table: Any, config: Any) -> int:
+    """``initsel train --distill``: fit students to the teacher's logits, print agreement."""
+    from initsel_ros.learn.distill import distill_models
+    from initsel_ros.learn.train import describe_inputs
+    from initsel_ros.markdown import markdown_table
+    from initsel_ros.models import ModelSet
+
+    teacher = ModelSet.load(args.distill)
+    features = config.paper + config.extra
+    report = distill_models(
+        table,
+        teacher,
+        features,
+        config.trees,
+        seed=args.seed,
+        description=describe_inputs([p.name for p in args.tables]),
+    )
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    report.models.save(args.out)
+    print(f'{args.out}: distilled from {args.distill} on {report.n_pairs} pairs')
+    rows = [
+        (
+            m,
+            f'{teacher.models[m].threshold:.3f}',
+            f'{report.agreement[m]:.3f}',
+            f'{report.logit_rmse[m]:.2f}',
+        )
+        for m in report.models.models
+    ]
+    print(markdown_table(('model', 'threshold', 'agreement', 'logit RMSE'), rows))
     return 0

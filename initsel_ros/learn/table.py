@@ -170,11 +170,14 @@ class PairTable:
         """(N, len(names)) float64 matrix of the named columns."""
         return np.column_stack([np.asarray(self[n], dtype=np.float64) for n in names])
 
-    def groups(self) -> np.ndarray:
-        """(N,) int group id per (sequence, batch): the unit of train/validation splits."""
-        keys = np.char.add(
-            np.asarray(self['sequence'], dtype=str), np.asarray(self['batch'], dtype=str)
-        )
+    def groups(self, by: str = 'batch') -> np.ndarray:
+        """(N,) int group id per (sequence, batch), or per sequence with ``by='sequence'``:
+        the unit of train/validation splits."""
+        keys = np.asarray(self['sequence'], dtype=str)
+        if by == 'batch':
+            keys = np.char.add(keys, np.asarray(self['batch'], dtype=str))
+        elif by != 'sequence':
+            raise ValueError(f"groups by 'batch' or 'sequence', not {by!r}")
         _, ids = np.unique(keys, return_inverse=True)
         return ids
 

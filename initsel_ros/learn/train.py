@@ -117,6 +117,9 @@ class TrainConfig:
             rare on planar scenes); ``none`` leaves them as they are.
         target_precision: the threshold is the lowest one whose out-of-fold precision reaches
             this.
+        group_by: the unit of the validation folds: ``batch`` (a pair's batch) or
+            ``sequence`` (its whole sequence: a fold then holds scenes and motions the models
+            were not fitted on, so thresholds are chosen for sequences never seen).
         folds: grouped cross-validation folds (groups = batches).
         min_predicted: a threshold must predict 'yes' on at least this many validation pairs.
         seed: seed of the fold assignment and of the estimators.
@@ -135,6 +138,7 @@ class TrainConfig:
     C: float = 1.0
     class_weight: ClassWeight = ClassWeight.BALANCED
     target_precision: float = 0.8
+    group_by: str = 'batch'
     folds: int = 5
     min_predicted: int = 5
     seed: int = 0
@@ -157,6 +161,8 @@ class TrainConfig:
             raise ConfigError(
                 f'unknown paper features {unknown}; known: {", ".join(FEATURE_NAMES)}'
             )
+        if self.group_by not in GROUP_BY:
+            raise ConfigError(f'group_by must be one of {", ".join(GROUP_BY)}')
         bad = [m for m in self.families if m not in METHODS]
         if bad:
             raise ConfigError(f'unknown models {bad} (models: {", ".join(METHODS)})')
@@ -198,6 +204,10 @@ def prepare(table: PairTable, config: TrainConfig) -> PairTable:
 
 
 # ----------------------------------------------------------------------------- folds
+#: The units a validation fold can be made of (TrainConfig.group_by).
+GROUP_BY = ('batch', 'sequence')
+
+
 def grouped_folds(groups: np.ndarray, folds: int, seed: int) -> list[np.ndarray]:
     """Assign whole groups to ``folds`` folds at random: list of validation index arrays."""
     unique = np.unique(groups)
@@ -365,8 +375,16 @@ def fit_trees(
         learning_rate=config.learning_rate,
         random_state=seed,
     ).fit(X, y, sample_weight=weight)
+    return export_trees(clf.estimators_[:, 0], config.learning_rate, X, clf.decision_function(X))
+
+
+def export_trees(
+    estimators: Sequence[Any], learning_rate: float, X: np.ndarray, reference: np.ndarray
+) -> tuple[list[Tree], float]:
+    """scikit-learn boosting stages as (trees with the learning rate folded in, bias), checked
+    against the estimator's own output ``reference`` on ``X`` (its logit or prediction)."""
     trees = []
-    for estimator in clf.estimators_[:, 0]:
+    for estimator in estimators:
         t = estimator.tree_
         leaf = t.children_left < 0
         trees.append(
@@ -375,10 +393,9 @@ def fit_trees(
                 split=np.where(leaf, 0.0, t.threshold),
                 left=np.where(leaf, -1, t.children_left).astype(np.int64),
                 right=np.where(leaf, -1, t.children_right).astype(np.int64),
-                value=np.where(leaf, config.learning_rate * t.value[:, 0, 0], 0.0),
+                value=np.where(leaf, learning_rate * t.value[:, 0, 0], 0.0),
             )
         )
-    reference = clf.decision_function(X)
     probe = TreeEnsembleModel('probe', tuple(map(str, range(X.shape[1]))), tuple(trees), 0.0)
     sums = probe.decision_function(X)
     bias = float(np.median(reference - sums))
@@ -467,8 +484,8 @@ def train_models(
     table = prepare(table, config)
     if len(table) == 0:
         raise DatasetError('no labelled pairs to train on')
-    groups = table.groups()
-    n_batches = len(np.unique(groups))
+    groups = table.groups(by=config.group_by)
+    n_batches = len(np.unique(table.groups()))
     models: dict[str, Model] = {}
     choices: dict[str, ThresholdChoice] = {}
     positives: dict[str, int] = {}
@@ -560,13 +577,15 @@ def train_models(
             'C': config.C,
             'class_weight': config.class_weight.value,
             'target_precision': config.target_precision,
+            'validation_groups': config.group_by,
             'min_predicted': config.min_predicted,
-            'validation': f'grouped {config.folds}-fold cross-validation over batches, '
-            'out-of-fold probabilities; final fit on all pairs',
+            'validation': f'grouped {config.folds}-fold cross-validation over '
+            f'{config.group_by}s, out-of-fold probabilities; final fit on all pairs',
             'seed': config.seed,
             'degenerate_models': degenerate,
             'families': {m: config.family_of(m).value for m in METHODS},
             'extra_features': [n for n in EXTRA_FEATURE_NAMES if n in config.extra],
+            'paper_features': [n for n in FEATURE_NAMES if n in config.paper],
             'trees': {
                 'n_trees': config.trees.n_trees,
                 'depth': config.trees.depth,
@@ -600,6 +619,7 @@ __all__ = [
     'check_classes',
     'choose_threshold',
     'describe_inputs',
+    'export_trees',
     'feature_columns',
     'fit_logistic',
     'fit_model',

@@ -1,0 +1,83 @@
+"""Tests for initsel_ros.learn.distill and ``initsel train --distill``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from table_fixtures import synthetic_table
+
+from initsel_ros.cli import main
+from initsel_ros.errors import DatasetError
+from initsel_ros.features import FEATURE_NAMES
+from initsel_ros.learn.distill import distill_models, teacher_logits
+from initsel_ros.learn.table import input_columns, write_table
+from initsel_ros.learn.train import TrainConfig, TreeConfig, train_models
+from initsel_ros.models import METHODS, ModelSet
+
+STUDENT_INPUTS = ('disparity_mean', 'disparity_std', 'x_flow_coherence', 'x_point_spread')
+
+
+def _teacher(table):
+    return train_models(table, TrainConfig(trees=TreeConfig(20, 3, 0.2))).models
+
+
+def test_students_reproduce_the_teachers_decisions_from_other_inputs():
+    table = synthetic_table(240, seed=1)
+    teacher = _teacher(table)
+    report = distill_models(table, teacher, STUDENT_INPUTS, TreeConfig(40, 3, 0.2))
+    students = report.models
+    assert students.thresholds == teacher.thresholds
+    for name in METHODS:
+        model = students.models[name]
+        assert model.features == STUDENT_INPUTS and model.kind == 'trees'
+        assert model.metrics['family'] == 'trees+distilled'
+    # the labels follow disparity_mean, which the students read: they decide as the teacher
+    assert min(report.agreement.values()) > 0.9
+    X = table.matrix(input_columns(students.input_names, students.scaling))
+    z = students.logits_batch(X)
+    target = teacher_logits(teacher, table)
+    for name in METHODS:
+        assert np.sqrt(np.mean((z[name] - np.clip(target[name], -12, 12)) ** 2)) == (
+            pytest.approx(report.logit_rmse[name], rel=1e-6)
+        )
+    assert students.metadata['teacher'] == teacher.metadata
+    assert students.metadata['training']['features'] == list(STUDENT_INPUTS)
+
+
+def test_distillation_refuses_an_empty_table_and_unknown_inputs():
+    table = synthetic_table(60)
+    teacher = _teacher(table)
+    with pytest.raises(DatasetError, match='student features'):
+        distill_models(table, teacher, ('x_magic',))
+    with pytest.raises(DatasetError, match='no pairs'):
+        distill_models(table.select(np.zeros(len(table), bool)), teacher, FEATURE_NAMES)
+
+
+def test_cli_distills_a_model_file_into_the_inputs_named(tmp_path, capsys):
+    path = tmp_path / 'pairs.csv'
+    write_table(synthetic_table(180, seed=2), path)
+    teacher = tmp_path / 'teacher.json'
+    assert main(['train', str(path), '--out', str(teacher), '--trees', '15']) == 0
+    student = tmp_path / 'student.json'
+    argv = ['train', str(path), '--distill', str(teacher), '--out', str(student)]
+    argv += ['--paper-features', 'disparity_mean', 'disparity_std', '--trees', '20']
+    argv += ['--extra-features', 'x_flow_coherence', 'x_homography_dlt_residual']
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert 'distilled from' in out and '| model | threshold | agreement |' in out
+    ms = ModelSet.load(student)
+    assert ms.thresholds == ModelSet.load(teacher).thresholds
+    assert ms.input_names[23:] == ('x_flow_coherence', 'x_homography_dlt_residual')
+    assert all(len(m.trees) == 20 for m in ms.models.values())
+    # a set that reads no direction bin skips their pass (they read 0.0)
+    assert not ms.input_plan(640, 480).directions
+
+
+def test_sequence_grouped_validation_keeps_each_sequence_in_one_fold():
+    table = synthetic_table(120)
+    by_sequence = table.groups(by='sequence')
+    assert len(np.unique(by_sequence)) == 2 and len(np.unique(table.groups())) == 6
+    report = train_models(table, TrainConfig(group_by='sequence', trees=TreeConfig(10, 2, 0.3)))
+    assert report.models.metadata['training']['validation_groups'] == 'sequence'
+    with pytest.raises(ValueError, match='batch'):
+        table.groups(by='frame')
