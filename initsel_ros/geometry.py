@@ -62,6 +62,12 @@ class PoseEstimate:
         return int(self.points.shape[0])
 
 
+def _opencv_failure(function: str, exc: Exception) -> str:
+    """The reason of an estimate OpenCV raised on: the function and its assertion."""
+    detail = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+    return f'OpenCV {function} failed: {detail[-160:]}'
+
+
 def _failure(
     method: Method,
     n: int,
@@ -309,14 +315,17 @@ def estimate_pose(
     f1 = b.reshape(-1, 1, 2)
 
     if method is Method.H:
-        H, mask = cv2.findHomography(
-            f0,
-            f1,
-            cv2.RANSAC,
-            ransac_threshold_px,
-            maxIters=max_iterations,
-            confidence=confidence,
-        )
+        try:
+            H, mask = cv2.findHomography(
+                f0,
+                f1,
+                cv2.RANSAC,
+                ransac_threshold_px,
+                maxIters=max_iterations,
+                confidence=confidence,
+            )
+        except cv2.error as exc:
+            return _failure(method, n, _opencv_failure('findHomography', exc))
         if H is None or mask is None:
             return _failure(method, n, 'no homography found')
         inliers = mask.ravel().astype(bool)
@@ -346,15 +355,23 @@ def estimate_pose(
         R, t = choice.R, choice.t
     else:
         if method is Method.F:
-            F, mask = cv2.findFundamentalMat(
-                f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
-            )
+            try:
+                F, mask = cv2.findFundamentalMat(
+                    f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
+                )
+            except cv2.error as exc:
+                return _failure(method, n, _opencv_failure('findFundamentalMat', exc))
             if F is None or F.shape != (3, 3) or mask is None:
                 return _failure(method, n, 'no fundamental matrix found')
             matrix = np.asarray(F, dtype=np.float64)
             E = K.T @ F @ K
         else:
-            E, mask = cv2.findEssentialMat(f0, f1, K, cv2.RANSAC, confidence, ransac_threshold_px)
+            try:
+                E, mask = cv2.findEssentialMat(
+                    f0, f1, K, cv2.RANSAC, confidence, ransac_threshold_px
+                )
+            except cv2.error as exc:  # e.g. OpenCV 5.1's solvePoly assertion on a degenerate
+                return _failure(method, n, _opencv_failure('findEssentialMat', exc))  # sample
             if E is None or E.shape[0] < 3 or mask is None:
                 return _failure(method, n, 'no essential matrix found')
             E = E[:3]

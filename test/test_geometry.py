@@ -200,3 +200,23 @@ def test_two_point_rotations_in_closed_form_equal_the_svd_fit():
     b1 = b0 @ R.T + rng.normal(0, 0.01, b0.shape)  # noisy: the fit is a least-squares one
     b1 /= np.linalg.norm(b1, axis=-1, keepdims=True)
     assert np.allclose(_two_point_rotations(b0, b1), _kabsch(b0, b1), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ('method', 'function'),
+    [('F', 'findFundamentalMat'), ('E', 'findEssentialMat'), ('H', 'findHomography')],
+)
+def test_an_opencv_error_in_an_estimator_is_a_failed_estimate_not_a_crash(
+    monkeypatch, method, function
+):
+    # OpenCV 5.1's findEssentialMat asserts in solvePoly on some degenerate samples (integer
+    # corners of a TUM folder hit it in `initsel dataset`); every estimator is guarded alike.
+    def broken(*args, **kwargs):
+        raise cv2.error('OpenCV(5.1.0) mathfuncs.cpp:1601: error: (-215:Assertion failed) x')
+
+    rng = np.random.default_rng(14)
+    p0, p1 = views(scene(rng), R_TRUE, T_TRUE, rng)
+    monkeypatch.setattr(cv2, function, broken)
+    est = estimate_pose(method, p0, p1, K)
+    assert not est.ok and est.reason.startswith(f'OpenCV {function} failed')
+    assert 'Assertion failed' in est.reason
