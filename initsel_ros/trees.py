@@ -272,8 +272,8 @@ class LeafTable:
     def sums(self, x32: np.ndarray) -> np.ndarray:
         """(G,) sum of the leaf values of each group's trees for one float32 input vector
         (finite; see :func:`prepare` for what the trees expect)."""
-        code = np.packbits(x32[self.feature] > self.split, bitorder='little')
-        return np.add.reduceat(self.leaves[_PATTERN_LEAF[code] + self.base], self.starts)
+        code = np.packbits(x32.take(self.feature) > self.split, bitorder='little')
+        return np.add.reduceat(self.leaves.take(_PATTERN_LEAF.take(code) + self.base), self.starts)
 
 
 def _pattern_leaf() -> np.ndarray:
