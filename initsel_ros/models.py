@@ -263,7 +263,14 @@ class ModelSet:
             self, '_table', LeafTable.build(all_trees, columns, starts) if shallow else None
         )
         object.__setattr__(self, '_tree_slots', list(zip(trees, tree_bias, strict=True)))
-        object.__setattr__(self, '_all_in_table', shallow and trees == list(range(len(names))))
+        all_in_table = shallow and trees == list(range(len(names)))
+        object.__setattr__(self, '_all_in_table', all_in_table)
+        # Every model a shallow tree ensemble: the biases folded into the leaves, one table.
+        object.__setattr__(
+            self,
+            '_biased_table',
+            self._table.with_group_offsets(tree_bias) if all_in_table else None,  # type: ignore[attr-defined]
+        )
         object.__setattr__(self, '_logistic_slots', logistic)
         object.__setattr__(self, '_sanitize', bool(extra) or bool(trees))
         object.__setattr__(self, '_plans', {})  # InputPlan by image size
@@ -370,8 +377,7 @@ class ModelSet:
         """Probabilities of finite inputs (non-finite ones already 0 where they count as 0)."""
         if self._all_in_table:  # type: ignore[attr-defined]
             # every model a shallow tree ensemble, in self._names order: one table look-up
-            sums = self._table.sums(np.array(values, dtype=np.float32))  # type: ignore[attr-defined]
-            logits = (sums + self._tree_bias).tolist()  # type: ignore[attr-defined]
+            logits = self._biased_table.sums(np.array(values, dtype=np.float32)).tolist()  # type: ignore[attr-defined]
             return dict(zip(self._names, map(_probability, logits), strict=True))  # type: ignore[attr-defined]
         logits = [0.0] * len(self._names)  # type: ignore[attr-defined]
         if self._table is not None:  # type: ignore[attr-defined]

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -268,6 +268,13 @@ class LeafTable:
             np.arange(n, dtype=np.int64) * _LEAVES,
             np.asarray(starts, dtype=np.intp),
         )
+
+    def with_group_offsets(self, offsets: Sequence[float]) -> LeafTable:
+        """The same trees with ``offsets[g]`` added to every leaf of group g's first tree, so
+        that :meth:`sums` includes it (e.g. each model's bias: no addition per call)."""
+        leaves = self.leaves.reshape(-1, _LEAVES).copy()
+        leaves[self.starts] += np.asarray(offsets, dtype=np.float64)[:, None]
+        return replace(self, leaves=leaves.ravel())
 
     def sums(self, x32: np.ndarray) -> np.ndarray:
         """(G,) sum of the leaf values of each group's trees for one float32 input vector

@@ -53,9 +53,14 @@ def time_decision_parts(
     inputs = [models.input_values(p0, p1, width, height) for p0, p1 in pairs]
     probs = [models.predict_values(values) for values, _ in inputs]
     extra = f' + {len(models.extra_names)} extra features, one pass' if models.extra_names else ''
+    paper = (
+        '23 features'
+        if models.input_plan(width, height).directions
+        else ('15 features (no direction bins)')
+    )
     return [
         Timing(
-            f'  model inputs: 23 features{extra}',
+            f'  model inputs: {paper}{extra}',
             time_calls(
                 lambda i: models.input_values(*pairs[i % len(pairs)], width, height), repeat
             ),
