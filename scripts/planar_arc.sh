@@ -3,7 +3,9 @@
 # moving boards and miscalibrated pans that must not initialize; render, evaluate, write
 # the table (docs/initialization.md, "Planes from a sideways arc").
 #   scripts/planar_arc.sh tune|accept [DATA_DIR] [OUT_DIR]
-# tune renders seeds 0-4 (what the rotation test was tuned on), accept seeds 5-9 (held out).
+#   scripts/planar_arc.sh render-tune [DATA_DIR]     (the tune set's renders only)
+# tune renders seeds 0-4 (what the rotation test was tuned on, and what the distilled models
+# of scripts/train_models.sh imitate their teacher on), accept seeds 5-9 (held out).
 # Renders are kept in DATA_DIR (default /tmp/initsel-planar-arc) and reused; OUT_DIR (default
 # DATA_DIR/out/SET) gets planar_arc.md and planar_arc.csv. About 10 minutes per set here.
 set -euo pipefail
@@ -12,10 +14,12 @@ if [ -z "${INITSEL_ENV:-}" ]; then
     exec "$root/scripts/run.sh" bash "$root/scripts/planar_arc.sh" "$@"
 fi
 set_name=${1:?usage: scripts/planar_arc.sh tune|accept [DATA_DIR] [OUT_DIR]}
+render_only=0
 case "$set_name" in
     tune) seeds="0 1 2 3 4" ;;
+    render-tune) seeds="0 1 2 3 4"; render_only=1 ;;
     accept) seeds="5 6 7 8 9" ;;
-    *) echo "unknown set $set_name: tune or accept" >&2; exit 2 ;;
+    *) echo "unknown set $set_name: tune, accept or render-tune" >&2; exit 2 ;;
 esac
 D=${2:-/tmp/initsel-planar-arc}
 OUT=${3:-$D/out/$set_name}
@@ -62,5 +66,6 @@ for seed in $seeds; do
     sequences+=("$D/rotation_pan_movers_n2_s$seed" "$D/rotation_pan_focal10_n0_s$seed"
         "$D/rotation_pan_focal10_n2_s$seed" "$D/rotation_wall_focal10_n2_s$seed" "$D/static_n2_s$seed")
 done
+[ "$render_only" = 1 ] && exit 0
 initsel planar_arc "${sequences[@]}" --out-dir "$OUT" --jobs 1
 echo "wrote $OUT/planar_arc.md" >&2

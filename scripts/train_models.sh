@@ -54,11 +54,19 @@ FX=(fx_far_s101 fx_far_s102 fx_zigzag_far fx_floor_far fx_random_s105 fx_random_
     --jobs 2 --quiet
 [ -f "$D/train_fx.csv" ] || initsel dataset "${FX[@]/#/$D/}" --out "$D/train_fx.csv" \
     --batch 90 --jobs 2 --quiet
+# ...and the planar-arc family's tuning seeds 0-4 (scripts/planar_arc.sh: planes from sideways
+# arcs and slides, pans with sensor noise, moving boards or a focal-length error, a still
+# camera with moving boards): where the node must not initialize, the students must say what
+# the teacher says, and they only learn that from such pairs.
+bash "$root/scripts/planar_arc.sh" render-tune "$D/planar_arc"
+ARCS=("$D"/planar_arc/*_s[0-4])
+[ -f "$D/train_arcs.csv" ] || initsel dataset "${ARCS[@]}" --out "$D/train_arcs.csv" \
+    --batch 35 --jobs 2 --quiet
 # The students read the 15 extent and disparity features and the 9 moments; 40 trees of depth 3
 # a model, learning rate 0.25: of 30, 40, 60 and 100 trees, the one whose students fitted on
 # one half of the pairs (clean or camera effects) agree best with the teacher on the other
 # (docs/learning.md, section 4).
-initsel train "$D/train.csv" "$D/train_fx.csv" --distill "$root/config/models_full.json" \
+initsel train "$D/train.csv" "$D/train_fx.csv" "$D/train_arcs.csv" --distill "$root/config/models_full.json" \
     --trees 40 --learning-rate 0.25 \
     --paper-features count disparity_mean disparity_std x0_min x0_max y0_min y0_max x1_min \
     x1_max y1_min y1_max x0_range y0_range x1_range y1_range \
