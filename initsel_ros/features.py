@@ -229,9 +229,9 @@ _EXTRA_INDEX = {name: i for i, name in enumerate(EXTRA_FEATURE_NAMES)}
 _ONE = np.ones(1)
 _EYE3 = np.eye(3).ravel()
 
-# Rows of the fit buffer (see _fit_features): X, Y, 1 (reference), u, v (current), |d| (the
-# disparity), uX, uY, vX, vY; the DLT reads a = (X, Y, 1), u a = (uX, uY, u) and
-# v a = (vX, vY, v).
+# Rows of the Gram matrix (the fit rows from X on, see _fit_buffer): X, Y, 1 (reference), u, v
+# (current), |d| (the disparity), uX, uY, vX, vY; the DLT reads a = (X, Y, 1),
+# u a = (uX, uY, u) and v a = (vX, vY, v).
 _FIT_ROWS = 10
 _A, _UA, _VA, _U, _V = (0, 1, 2), (6, 7, 3), (8, 9, 4), 3, 4
 
@@ -362,8 +362,8 @@ class InputPlan:
         self._grid = bool(wanted & {3, 4})
         self._affine = 5 in wanted
         self._homography = 6 in wanted
-        # Rows of the fit buffer the Gram matrix needs: none; X, Y, 1, u, v (affine); with |d|
-        # (the moments); with the products uX ... vY (the homographies).
+        # Rows of the Gram matrix: none; X, Y, 1, u, v and |d| (the affine fit, the moments);
+        # with the products uX ... vY (the homographies).
         moments = bool(wanted & set(range(7, len(EXTRA_FEATURE_NAMES))))
         products = self._homography or _EXTRA_INDEX['x_homography_dlt_residual'] in wanted
         self._fit_rows = _FIT_ROWS if products else 6 if moments or self._affine else 0
