@@ -320,7 +320,6 @@ class InputPlan:
     """
 
     __slots__ = (
-        '_affine',
         '_diag',
         '_divisors',
         '_fit_rows',
@@ -330,7 +329,6 @@ class InputPlan:
         '_homography',
         '_percentiles',
         '_pick',
-        '_scale',
         '_take',
         '_to_fit',
         '_unit',
@@ -360,17 +358,17 @@ class InputPlan:
         wanted = set(self._pick)
         self._percentiles = bool(wanted & {0, 1, 2})
         self._grid = bool(wanted & {3, 4})
-        self._affine = 5 in wanted
         self._homography = 6 in wanted
         # Rows of the Gram matrix: none; X, Y, 1, u, v and |d| (the affine fit, the moments);
         # with the products uX ... vY (the homographies).
         moments = bool(wanted & set(range(7, len(EXTRA_FEATURE_NAMES))))
         products = self._homography or _EXTRA_INDEX['x_homography_dlt_residual'] in wanted
-        self._fit_rows = _FIT_ROWS if products else 6 if moments or self._affine else 0
-        # The fit's coordinates: pixels minus the image centre, times a power of two.
-        self._scale = 2.0 ** -math.frexp(max(width, height, 1))[1]
-        self._unit = 1.0 / self._scale
-        self._to_fit = _to_fit_matrix(0.5 * width, 0.5 * height, self._scale)
+        self._fit_rows = _FIT_ROWS if products else 6 if moments or 5 in wanted else 0
+        # The fit's coordinates: pixels minus the image centre, times a power of two (scale);
+        # _unit takes fit units back to pixels.
+        scale = 2.0 ** -math.frexp(max(width, height, 1))[1]
+        self._unit = 1.0 / scale
+        self._to_fit = _to_fit_matrix(0.5 * width, 0.5 * height, scale)
         if extra and (width <= 0 or height <= 0):
             raise GeometryError(f'image size must be positive, got {width}x{height}')
         self._diag = math.hypot(width, height)
@@ -558,7 +556,7 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
         finite = True
         gram = fit[2:] @ fit[2:].T
         sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
-        d, disparity, unit = fit[0:2], fit[7], plan._unit  # fit units: pixels * plan._scale
+        d, disparity, unit = fit[0:2], fit[7], plan._unit  # fit units: pixels / plan._unit
         mean = sums[5][2] * unit / n
         std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
     else:
@@ -651,9 +649,9 @@ def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> tuple[np.ndarray, np.ndarr
     exactly), and (plan._fit_rows + 2, N) dX, dY, X, Y, 1, u, v, |d| and, for the
     homographies, uX, uY, vX, vY.
 
-    X, Y (reference) and u, v (current) are pixels minus the image centre times
-    ``plan._scale``, a power of two near 1 / the image size (for conditioning; the
-    disparity d = (u - X, v - Y) and its norm |d| are then the pixel values times it).
+    X, Y (reference) and u, v (current) are pixels minus the image centre times a power of
+    two near 1 / the image size, ``1 / plan._unit`` (for conditioning; the disparity
+    d = (u - X, v - Y) and its norm |d| are then the pixel values times it).
     """
     n = rows.shape[1]
     buffer = np.empty((plan._fit_rows + 10, n))

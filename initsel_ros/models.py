@@ -263,9 +263,9 @@ class ModelSet:
             self, '_table', LeafTable.build(all_trees, columns, starts) if shallow else None
         )
         object.__setattr__(self, '_tree_slots', list(zip(trees, tree_bias, strict=True)))
+        # Every model a shallow tree ensemble, in self._names order: the biases folded into the
+        # leaves, one table look-up gives the logits (None otherwise).
         all_in_table = shallow and trees == list(range(len(names)))
-        object.__setattr__(self, '_all_in_table', all_in_table)
-        # Every model a shallow tree ensemble: the biases folded into the leaves, one table.
         object.__setattr__(
             self,
             '_biased_table',
@@ -375,8 +375,7 @@ class ModelSet:
 
     def _probabilities(self, values: Sequence[float]) -> dict[str, float]:
         """Probabilities of finite inputs (non-finite ones already 0 where they count as 0)."""
-        if self._all_in_table:  # type: ignore[attr-defined]
-            # every model a shallow tree ensemble, in self._names order: one table look-up
+        if self._biased_table is not None:  # type: ignore[attr-defined]
             logits = self._biased_table.sums(np.array(values, dtype=np.float32)).tolist()  # type: ignore[attr-defined]
             return dict(zip(self._names, map(_probability, logits), strict=True))  # type: ignore[attr-defined]
         logits = [0.0] * len(self._names)  # type: ignore[attr-defined]

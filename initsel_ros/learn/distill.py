@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import datetime as _dt
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -103,12 +103,8 @@ def distill_models(
         same = (z_student >= cut) == (target[name] >= cut) if cut is not None else np.ones(len(z))
         agreement[name] = float(np.mean(same))
         rmse[name] = float(np.sqrt(np.mean((z_student - z) ** 2)))
-        students[name] = TreeEnsembleModel(
-            name,
-            features,
-            tuple(fitted),
-            bias,
-            threshold,
+        students[name] = replace(
+            student,
             metrics={
                 'family': 'trees+distilled',
                 'train_pairs': len(table),
