@@ -73,11 +73,23 @@ def test_cli_distills_a_model_file_into_the_inputs_named(tmp_path, capsys):
     assert not ms.input_plan(640, 480).directions
 
 
-def test_sequence_grouped_validation_keeps_each_sequence_in_one_fold():
+def test_sequence_grouped_validation_keeps_each_sequence_in_one_fold(monkeypatch):
+    from initsel_ros.learn import train as train_module
+
     table = synthetic_table(120)
     by_sequence = table.groups(by='sequence')
     assert len(np.unique(by_sequence)) == 2 and len(np.unique(table.groups())) == 6
+    folded = []  # the groups the folds were made of, one entry per model
+
+    def spy(groups, folds, seed, _real=train_module.grouped_folds):
+        folded.append(np.asarray(groups).copy())
+        return _real(groups, folds, seed)
+
+    monkeypatch.setattr(train_module, 'grouped_folds', spy)
     report = train_models(table, TrainConfig(group_by='sequence', trees=TreeConfig(10, 2, 0.3)))
     assert report.models.metadata['training']['validation_groups'] == 'sequence'
+    assert len(folded) == len(METHODS)
+    for groups in folded:  # whole sequences: two groups, each pair with its sequence's
+        np.testing.assert_array_equal(groups, by_sequence)
     with pytest.raises(ValueError, match='batch'):
         table.groups(by='frame')
