@@ -229,7 +229,7 @@ _EXTRA_INDEX = {name: i for i, name in enumerate(EXTRA_FEATURE_NAMES)}
 _ONE = np.ones(1)
 _EYE3 = np.eye(3).ravel()
 
-# Rows of the Gram matrix (the fit rows from X on, see _fit_buffer): X, Y, 1 (reference), u, v
+# Rows of the Gram matrix (the fit rows, see _fit_buffer): X, Y, 1 (reference), u, v
 # (current), |d| (the disparity), uX, uY, vX, vY; the DLT reads a = (X, Y, 1),
 # u a = (uX, uY, u) and v a = (vX, vY, v).
 _FIT_ROWS = 10
@@ -388,27 +388,15 @@ def _taker(index: list[int]) -> Callable[[list[float]], list[float]]:
 
 
 def _to_fit_matrix(cx: float, cy: float, s: float) -> np.ndarray:
-    """(15, 5) map from x0, y0, 1, x1, y1 to x0, y0, x1, y1, their negatives, and the fit
-    rows dX, dY, X, Y, 1, u, v (see :func:`_fit_buffer`)."""
-    return np.array(
-        [
-            [1.0, 0.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0, 0.0],
-            [0.0, 0.0, 0.0, 1.0, 0.0],
-            [0.0, 0.0, 0.0, 0.0, 1.0],
-            [-1.0, 0.0, 0.0, 0.0, 0.0],
-            [0.0, -1.0, 0.0, 0.0, 0.0],
-            [0.0, 0.0, 0.0, -1.0, 0.0],
-            [0.0, 0.0, 0.0, 0.0, -1.0],
-            [-s, 0.0, 0.0, s, 0.0],
-            [0.0, -s, 0.0, 0.0, s],
-            [s, 0.0, -s * cx, 0.0, 0.0],
-            [0.0, s, -s * cy, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, -s * cx, s, 0.0],
-            [0.0, 0.0, -s * cy, 0.0, s],
-        ]
-    )
+    """(25, 5) map from x0, y0, 1, x1, y1 to the rows of :func:`_fit_buffer` it fills: x0, y0,
+    x1, y1 and their negatives; u, u, v, v, dX, dY and X, Y, X, Y, dX, dY (the two factors of
+    one product); X, Y, 1, u, v."""
+    x0, y0, one, x1, y1 = np.eye(5)
+    X, Y = s * x0 - s * cx * one, s * y0 - s * cy * one
+    u, v = s * x1 - s * cx * one, s * y1 - s * cy * one
+    dX, dY = s * x1 - s * x0, s * y1 - s * y0
+    extents = (x0, y0, x1, y1, -x0, -y0, -x1, -y1)
+    return np.array((*extents, u, u, v, v, dX, dY, X, Y, X, Y, dX, dY, X, Y, one, u, v))
 
 
 @lru_cache(maxsize=64)
@@ -547,16 +535,16 @@ def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[floa
     rows[3:5] = p1.T
     fit = None
     if plan._fit_rows and n >= 3:
-        extents, fit = _fit_buffer(rows, plan)
+        extents, d, fit = _fit_buffer(rows, plan)
         m = extents.min(axis=1).tolist()  # x0, y0, x1, y1, then minus their maxima
         lo, hi = [m[0], m[1], 1.0, m[2], m[3]], [-m[4], -m[5], 1.0, -m[6], -m[7]]
         if not math.isfinite(sum(m)):  # a NaN taints every fit row: measure them one by one
             fit = None
     if fit is not None:
         finite = True
-        gram = fit[2:] @ fit[2:].T
+        gram = fit @ fit.T
         sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
-        d, disparity, unit = fit[0:2], fit[7], plan._unit  # fit units: pixels / plan._unit
+        disparity, unit = fit[5], plan._unit  # fit units: pixels / plan._unit
         mean = sums[5][2] * unit / n
         std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
     else:
@@ -643,24 +631,33 @@ def _quantile_positions(n: int, qs: tuple[float, ...]) -> tuple[list[int], list[
     return index, weight
 
 
-def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> tuple[np.ndarray, np.ndarray]:
-    """The extents and the fit rows of the points ``rows`` (x0, y0, 1, x1, y1), from one
-    matrix product: (8, N) x0, y0, x1, y1 and their negatives (whose minima are the extents,
-    exactly), and (plan._fit_rows + 2, N) dX, dY, X, Y, 1, u, v, |d| and, for the
-    homographies, uX, uY, vX, vY.
+def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The extents, the disparity and the fit rows of the points ``rows`` (x0, y0, 1, x1, y1).
+
+    One matrix product fills a (32, N) buffer: (8, N) x0, y0, x1, y1 and their negatives
+    (whose minima are the extents, exactly), the two factors (u, u, v, v, dX, dY) and (X, Y,
+    X, Y, dX, dY), and X, Y, 1, u, v. One product of the factors gives uX, uY, vX, vY (for
+    the homographies) and dX^2, dY^2, from which |d| follows, so the fit rows X, Y, 1, u, v,
+    |d| and uX, uY, vX, vY lie one after the other.
 
     X, Y (reference) and u, v (current) are pixels minus the image centre times a power of
     two near 1 / the image size, ``1 / plan._unit`` (for conditioning; the disparity
-    d = (u - X, v - Y) and its norm |d| are then the pixel values times it).
+    d = (u - X, v - Y) = (dX, dY) and its norm |d| are then the pixel values times it).
+
+    Returns:
+        (8, N) extent rows, (2, N) d, (plan._fit_rows, N) fit rows.
     """
     n = rows.shape[1]
-    buffer = np.empty((plan._fit_rows + 10, n))
-    np.matmul(plan._to_fit, rows, out=buffer[0:15])
-    fit = buffer[8:]
-    np.hypot(fit[0], fit[1], out=fit[7])
-    if plan._fit_rows > 6:
-        np.multiply(fit[5:7, None], fit[None, 2:4], out=fit[8:12].reshape(2, 2, n))
-    return buffer[0:8], fit
+    buffer = np.empty((32, n))
+    np.matmul(plan._to_fit, rows, out=buffer[0:25])
+    if plan._fit_rows > 6:  # uX, uY, vX, vY and the squares of d
+        np.multiply(buffer[8:14], buffer[14:20], out=buffer[26:32])
+    else:
+        np.multiply(buffer[12:14], buffer[18:20], out=buffer[30:32])
+    norm = buffer[25]
+    np.add(buffer[30], buffer[31], out=norm)
+    np.sqrt(norm, out=norm)
+    return buffer[0:8], buffer[12:14], buffer[20 : 20 + plan._fit_rows]
 
 
 def _fit_features(
@@ -675,7 +672,7 @@ def _fit_features(
     """The extra features of the Gram matrix of the fit rows, in pixels (or unitless), into
     ``values`` (indexed as ``EXTRA_FEATURE_NAMES``; at least 3 points).
 
-    ``gram`` is that of the fit rows from X on (:func:`_fit_buffer`), ``sums`` its first six
+    ``gram`` is that of the fit rows (:func:`_fit_buffer`), ``sums`` its first six
     rows as lists. One matrix product gives every sum the features need:
 
     * affine: closed form from the covariances (``np.linalg.lstsq`` when the reference points
@@ -719,7 +716,7 @@ def _fit_features(
             ss = uu + vv - float(dlt[64:] @ h[:, 0])
             values[15] = math.sqrt(max(ss, 0.0) / n) * unit if math.isfinite(ss) else math.nan
             if plan._homography:
-                values[6] = _homography_residual(fit[2:7], h) * unit
+                values[6] = _homography_residual(fit[0:5], h) * unit
 
 
 def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:
