@@ -61,9 +61,13 @@ class PolicyConfig:
     min_rotation_residual_sigma: float = 3.0
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Decision:
     """What the models said about one frame, and why it did or did not initialize.
+
+    A record made once per frame and then only read (``dataclasses.replace`` makes changed
+    copies); not frozen, because a frozen dataclass costs a microsecond more to make, a
+    thirtieth of the whole decision.
 
     Attributes:
         reason: the outcome (see :class:`Reason`).
