@@ -237,16 +237,17 @@ _A, _UA, _VA, _U, _V = (0, 1, 2), (6, 7, 3), (8, 9, 4), 3, 4
 
 
 def _dlt_map() -> np.ndarray:
-    """(72, 100) map from the Gram matrix of the fit rows to the homography DLT ``A h = b``.
+    """(81, 100) map from the Gram matrix of the fit rows to the homography DLT's normal
+    equations ``A h = b``, bordered: the 9x9 matrix [[A, b], [b^T, y^T y]].
 
     With h33 = 1 each point gives ``[X, Y, 1, 0, 0, 0, -uX, -uY] h = u`` and
-    ``[0, 0, 0, X, Y, 1, -vX, -vY] h = v``; the normal equations are sums of products of fit
-    rows, i.e. entries of their Gram matrix. Rows 0-63 of the map give A, 64-71 b.
+    ``[0, 0, 0, X, Y, 1, -vX, -vY] h = v`` (y stacks the u and v); the normal equations are
+    sums of products of fit rows, i.e. entries of their Gram matrix.
     """
-    out = np.zeros((72, _FIT_ROWS * _FIT_ROWS))
+    out = np.zeros((81, _FIT_ROWS * _FIT_ROWS))
 
     def put(r: int, c: int, i: int, j: int, sign: float) -> None:
-        out[r * 8 + c, i * _FIT_ROWS + j] += sign
+        out[r * 9 + c, i * _FIT_ROWS + j] += sign
 
     for i in range(3):
         for j in range(3):
@@ -256,14 +257,18 @@ def _dlt_map() -> np.ndarray:
             for r, w in ((i, _UA[k]), (3 + i, _VA[k])):
                 put(r, 6 + k, _A[i], w, -1.0)
                 put(6 + k, r, _A[i], w, -1.0)
-        out[64 + i, _A[i] * _FIT_ROWS + _U] = 1.0  # b: sum a u, sum a v
-        out[64 + 3 + i, _A[i] * _FIT_ROWS + _V] = 1.0
+        for r, w in ((i, _U), (3 + i, _V)):  # b: sum a u, sum a v
+            put(r, 8, _A[i], w, 1.0)
+            put(8, r, _A[i], w, 1.0)
     for k in range(2):
         for m in range(2):  # sum (uX, uY)(uX, uY)^T + (vX, vY)(vX, vY)^T
             put(6 + k, 6 + m, _UA[k], _UA[m], 1.0)
             put(6 + k, 6 + m, _VA[k], _VA[m], 1.0)
-        out[64 + 6 + k, _UA[k] * _FIT_ROWS + _U] = -1.0  # b: -sum u (uX, uY) - sum v (vX, vY)
-        out[64 + 6 + k, _VA[k] * _FIT_ROWS + _V] = -1.0
+        for w, z in ((_UA[k], _U), (_VA[k], _V)):  # b: -sum u (uX, uY) - sum v (vX, vY)
+            put(6 + k, 8, w, z, -1.0)
+            put(8, 6 + k, w, z, -1.0)
+    put(8, 8, _U, _U, 1.0)  # y^T y
+    put(8, 8, _V, _V, 1.0)
     return out
 
 
@@ -302,6 +307,7 @@ def _gauss_newton_map() -> np.ndarray:
 
 
 _DLT_MAP = _dlt_map()
+_LAST_UNIT = np.eye(9)[:, 8:9].copy()  # (9, 1) e_9
 _GAUSS_NEWTON_MAP = _gauss_newton_map()
 
 
@@ -710,13 +716,32 @@ def _fit_features(
     values[10] = math.sqrt(max(var_d, 0.0)) * unit
     values[11] = math.sqrt(max(sxx + syy, 0.0)) * unit / n
     if plan._fit_rows > 6 and n >= 4:
-        dlt = _DLT_MAP @ gram.ravel()
-        ok, h = cv2.solve(dlt[:64].reshape(8, 8), dlt[64:].reshape(8, 1))
-        if ok:
-            ss = uu + vv - float(dlt[64:] @ h[:, 0])
-            values[15] = math.sqrt(max(ss, 0.0) / n) * unit if math.isfinite(ss) else math.nan
+        solution = _linear_homography(gram)
+        if solution is not None:
+            ss, h = solution
+            values[15] = math.sqrt(ss / n) * unit if math.isfinite(ss) else math.nan
             if plan._homography:
                 values[6] = _homography_residual(fit[0:5], h) * unit
+
+
+def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray] | None:
+    """The least-squares DLT homography (h33 = 1) of the fit rows whose Gram matrix is
+    ``gram``: (its algebraic sum of squares, (8, 1) h), or None when A is singular.
+
+    One solve of the bordered system M = [[A, b], [b^T, y^T y]] for its last column of the
+    inverse gives both: that column is [-h / s; 1 / s] with s = y^T y - b^T h, the residual
+    (the Schur complement of A). Where M is singular to working precision (a homography that
+    fits exactly, s ~ 0), A h = b is solved on its own.
+    """
+    system = (_DLT_MAP @ gram.ravel()).reshape(9, 9)
+    ok, column = cv2.solve(system, _LAST_UNIT)
+    if ok and column[8, 0] > 0.0:
+        ss = 1.0 / float(column[8, 0])
+        return ss, column[0:8] * -ss
+    ok, h = cv2.solve(system[0:8, 0:8], system[0:8, 8:9])
+    if not ok:
+        return None
+    return max(float(system[8, 8] - system[8, 0:8] @ h[:, 0]), 0.0), h
 
 
 def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:
