@@ -718,30 +718,32 @@ def _fit_features(
     if plan._fit_rows > 6 and n >= 4:
         solution = _linear_homography(gram)
         if solution is not None:
-            ss, h = solution
+            ss, vector, factor = solution
             values[15] = math.sqrt(ss / n) * unit if math.isfinite(ss) else math.nan
             if plan._homography:
-                values[6] = _homography_residual(fit[0:5], h) * unit
+                values[6] = _homography_residual(fit[0:5], vector * factor) * unit
 
 
-def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray] | None:
+def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | None:
     """The least-squares DLT homography (h33 = 1) of the fit rows whose Gram matrix is
-    ``gram``: (its algebraic sum of squares, (8, 1) h), or None when A is singular.
+    ``gram``: (its algebraic sum of squares s, v, c) with h = c v (8, 1), or None when A is
+    singular.
 
     One solve of the bordered system M = [[A, b], [b^T, y^T y]] for its last column of the
     inverse gives both: that column is [-h / s; 1 / s] with s = y^T y - b^T h, the residual
-    (the Schur complement of A). Where M is singular to working precision (a homography that
-    fits exactly, s ~ 0), A h = b is solved on its own.
+    (the Schur complement of A), so v is its top and c = -s (the students read only s: the
+    product is left to the caller that needs h). Where M is singular to working precision (a
+    homography that fits exactly, s ~ 0), A h = b is solved on its own (v = h, c = 1).
     """
     system = (_DLT_MAP @ gram.ravel()).reshape(9, 9)
     ok, column = cv2.solve(system, _LAST_UNIT)
     if ok and column[8, 0] > 0.0:
         ss = 1.0 / float(column[8, 0])
-        return ss, column[0:8] * -ss
+        return ss, column[0:8], -ss
     ok, h = cv2.solve(system[0:8, 0:8], system[0:8, 8:9])
     if not ok:
         return None
-    return max(float(system[8, 8] - system[8, 0:8] @ h[:, 0]), 0.0), h
+    return max(float(system[8, 8] - system[8, 0:8] @ h[:, 0]), 0.0), h, 1.0
 
 
 def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:

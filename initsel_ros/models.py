@@ -91,8 +91,8 @@ KINDS = ('logistic', 'trees')
 
 
 def _probability(z: float) -> float:
-    """The logistic function of one logit (clipped where exp would overflow)."""
-    return 1.0 / (1.0 + math.exp(-min(max(z, -500.0), 500.0)))
+    """The logistic function of one logit (0 where exp(-z) would overflow)."""
+    return 1.0 / (1.0 + math.exp(-z)) if z > -700.0 else 0.0
 
 
 @dataclass(frozen=True)

@@ -234,6 +234,43 @@ def test_flow_moments_tell_a_shift_a_zoom_and_a_roll_apart():
         assert motion['x_affine_deformation'] < 1e-6
 
 
+@pytest.mark.parametrize('motion', ['exact shift', 'noisy perspective'])
+def test_linear_homography_from_the_gram_matrix_equals_least_squares(motion):
+    """The bordered solve (noisy tracks) and the plain one it falls back to when the
+    homography fits exactly (the bordered system is then singular) give the DLT's h and its
+    sum of squares as np.linalg.lstsq does."""
+    import cv2
+
+    from initsel_ros import features
+
+    rng = np.random.default_rng(5)
+    if motion == 'exact shift':
+        p0 = np.floor(rng.uniform(0, 1, (50, 2)) * [640, 480])
+        p1 = p0 + np.array([6.0, -2.0])
+    else:
+        p0, p1 = _perspective_tracks(rng, 50)
+    plan = features.input_plan(640, 480, extra=('x_homography_dlt_residual',), directions=False)
+    rows = np.vstack((p0.T, np.ones(len(p0)), p1.T)).astype(np.float64)
+    _, _, fit = features._fit_buffer(rows, plan)
+    gram = fit @ fit.T
+    bordered = (features._DLT_MAP @ gram.ravel()).reshape(9, 9)
+    bordered_ok, _ = cv2.solve(bordered, features._LAST_UNIT)
+    assert bordered_ok == (motion != 'exact shift')  # both paths are taken
+    ss, vector, factor = features._linear_homography(gram)
+    X, Y, _, u, v = fit[0:5]
+    zero, one = np.zeros_like(X), np.ones_like(X)
+    A = np.vstack(
+        (
+            np.column_stack((X, Y, one, zero, zero, zero, -u * X, -u * Y)),
+            np.column_stack((zero, zero, zero, X, Y, one, -v * X, -v * Y)),
+        )
+    )
+    b = np.concatenate((u, v))
+    h, *_ = np.linalg.lstsq(A, b, rcond=None)
+    np.testing.assert_allclose((vector * factor)[:, 0], h, rtol=1e-7, atol=1e-10)
+    assert ss == pytest.approx(float(np.sum((A @ h - b) ** 2)), rel=1e-6, abs=1e-12)
+
+
 def test_a_plan_without_direction_bins_reads_zeros_there_and_the_same_elsewhere():
     from initsel_ros.features import MOMENT_FEATURE_NAMES, input_plan, model_inputs
 
