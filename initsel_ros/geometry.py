@@ -780,6 +780,7 @@ def rotation_test(
     focal_scales: tuple[float, ...] = ROTATION_FOCAL_SCALES,
     min_noise_px: float = 0.1,
     enough_below: float | None = None,
+    noise_px: float | None = None,
 ) -> RotationTest:
     """Fit the best rotation (3 dof, ``x1 ~ K R K^-1 x0``) and weigh its residual by the noise.
 
@@ -802,6 +803,9 @@ def rotation_test(
         enough_below: a caller comparing the statistic with this threshold passes it: the
             search stops at the first scale (and least-squares fit) below it, since more
             fits can only lower the statistic (a plain pan costs one fit, not nine).
+        noise_px: the noise, when already measured on a larger set of the same tracks (a
+            subset's own estimate would be that of its own tracks: no fundamental matrix is
+            fitted then; still floored at ``min_noise_px``).
 
     Returns:
         A :class:`RotationTest`; NaN fields for fewer than 8 finite correspondences.
@@ -813,14 +817,14 @@ def rotation_test(
     nan = float('nan')
     if a.shape[0] < 8:
         return RotationTest(nan, nan, nan, nan)
-    F, _ = cv2.findFundamentalMat(
-        a.reshape(-1, 1, 2), b.reshape(-1, 1, 2), cv2.FM_RANSAC, 1.0, 0.999, 500
-    )
-    if F is None or F.shape != (3, 3):
-        noise = nan
-    else:
-        errors = sampson_fundamental(np.asarray(F, dtype=np.float64), a, b)
-        noise = float(np.sqrt(np.median(errors) / _CHI2_1_MEDIAN))
+    noise = nan if noise_px is None else float(noise_px)
+    if noise_px is None:
+        F, _ = cv2.findFundamentalMat(
+            a.reshape(-1, 1, 2), b.reshape(-1, 1, 2), cv2.FM_RANSAC, 1.0, 0.999, 500
+        )
+        if F is not None and F.shape == (3, 3):
+            errors = sampson_fundamental(np.asarray(F, dtype=np.float64), a, b)
+            noise = float(np.sqrt(np.median(errors) / _CHI2_1_MEDIAN))
     noise = max(noise, min_noise_px) if np.isfinite(noise) else nan
     # the quantile of a transfer residual of pure noise: 2 sigma^2 chi2(2) squared length
     per_sigma = float(np.sqrt(2.0 * -2.0 * np.log(1.0 - ROTATION_QUANTILE)))

@@ -9,7 +9,13 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
 2. the estimates of the candidate methods (``geometry.estimate_pose``);
 3. the pose check of each (``policy.check_pose``);
 4. the choice among those that pass, by GRIC (``model_selection.select_method``);
-5. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``).
+5. the background test: when the winner leaves many tracks out and one rotation explains
+   those to within the noise of all tracks, either the camera only rotated (or stood still)
+   and the winner fits an object moving on its own, a board held by a person or a passing
+   car, which the first test cannot see once such objects hold most of the tracks; or the
+   winner fits one plane of a scene whose other parts show no parallax yet. Either way the
+   pair is refused as a rotation and the next frames decide;
+6. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``).
 
 Each step can be switched off (labels need the estimates only). The result carries every
 method's estimate and check, not only the winner's. Verification over the next frames is not
@@ -32,6 +38,11 @@ from initsel_ros.refine import Refinement, refine_two_view
 #: After the bundle adjustment a map point must reproject within this many pixels in both
 #: images (the estimators keep points within 2.5 px before it).
 MAP_MAX_REPROJECTION_PX = 2.0
+
+#: The background test runs when the winner's outliers are at least this many tracks and this
+#: share of all of them: fewer are mismatches and noisy tracks, not a second motion.
+BACKGROUND_MIN_TRACKS = 20
+BACKGROUND_MIN_SHARE = 0.2
 
 
 @dataclass(frozen=True)
@@ -99,6 +110,8 @@ class FireResult:
         detail: one line on why, for the status and the log.
         rotation: the rotation test (None when off): the best rotation's residual, the
             noise and their ratio.
+        background: the rotation test of the tracks the winner left out, against the noise
+            of all tracks (None when it did not run: too few of them, or no winner).
         estimates: every method's estimate, in the order tried (empty after a rotation).
         checks: per estimate, :func:`policy.check_pose`'s reason, or None when it passed.
         selection: the GRIC choice (None when selection was off or never reached).
@@ -116,6 +129,7 @@ class FireResult:
     selection: Selection | None = None
     seed: SeedMap | None = None
     alternatives: tuple[SeedMap, ...] = ()
+    background: RotationTest | None = None
 
     @property
     def rotation_residual_px(self) -> float:
@@ -264,6 +278,26 @@ def initialize_pair(
             first_problem, selection.summary(), residual, estimates, checks, selection
         )
     winner = next(e for e in estimates if e.method is selection.winner)
+    background = None
+    if residual is not None:
+        threshold = policy.min_rotation_residual_sigma
+        background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
+        if background is not None and not background.statistic >= threshold:
+            n_out = int(np.count_nonzero(~winner.inliers))
+            return FireResult(
+                Reason.ROTATION,
+                f'{selection.winner.value} fits {len(ref) - n_out} tracks, and a rotation alone'
+                f' explains the other {n_out} (median residual {background.residual_px:.2f} px,'
+                f' {background.statistic:.1f} x the noise {background.noise_px:.2f} px < '
+                f'{threshold:g} x): the camera only rotated and {selection.winner.value} fits'
+                ' an object moving on its own, or the baseline is too short yet for the rest'
+                ' of the scene',
+                residual,
+                estimates,
+                checks,
+                selection,
+                background=background,
+            )
     seed = seed_map(
         winner,
         ref,
@@ -288,21 +322,67 @@ def initialize_pair(
     if seed.n_points < policy.min_points:
         detail = f'{seed.n_points} points left after refinement; ' + selection.summary()
         return FireResult(
-            Reason.TOO_FEW_POINTS, detail, residual, estimates, checks, selection, seed
+            Reason.TOO_FEW_POINTS,
+            detail,
+            residual,
+            estimates,
+            checks,
+            selection,
+            seed,
+            background=background,
         )
     why = selection.why
     if alternatives:
         why += '; its two decompositions are close: the next frames choose'
     return FireResult(
-        Reason.INITIALIZED, why, residual, estimates, checks, selection, seed, alternatives
+        Reason.INITIALIZED,
+        why,
+        residual,
+        estimates,
+        checks,
+        selection,
+        seed,
+        alternatives,
+        background,
     )
 
 
+def background_test(
+    winner: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    noise_px: float,
+    threshold: float,
+) -> RotationTest | None:
+    """The rotation test of the tracks ``winner`` leaves out, against ``noise_px`` (the noise
+    of all tracks), or None when they are fewer than :data:`BACKGROUND_MIN_TRACKS` and
+    :data:`BACKGROUND_MIN_SHARE` of all tracks.
+
+    A static scene seen from a translating camera leaves out mismatches, noisy tracks and
+    (for H) the points off its plane, which show parallax; a still or panning camera whose
+    winner fits a moving object leaves out the background, which one rotation explains. Points
+    whose parallax is still under the noise pass for a rotation too: an H on one plane of a
+    scene whose other points show no parallax yet waits for more baseline (on the README's
+    desk sequence E then wins a frame later, the better method more often).
+    """
+    outside = ~np.asarray(winner.inliers, dtype=bool)
+    n_out = int(np.count_nonzero(outside))
+    if n_out < max(BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * len(ref)):
+        return None
+    if not math.isfinite(noise_px):
+        return None
+    return rotation_test(ref[outside], cur[outside], K, enough_below=threshold, noise_px=noise_px)
+
+
 __all__ = [
+    'BACKGROUND_MIN_SHARE',
+    'BACKGROUND_MIN_TRACKS',
     'MAP_MAX_REPROJECTION_PX',
     'FireConfig',
     'FireResult',
     'SeedMap',
+    'background_test',
     'fire_methods',
     'initialize_pair',
     'seed_map',

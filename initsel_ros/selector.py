@@ -161,6 +161,8 @@ class FrameResult:
         tracks_cur: (N, 2) float32 their pixels in this frame.
         thresholds: the per-model thresholds the decision used.
         rotation: on frames where a model fired, the rotation test (residual, noise, ratio).
+        background: on frames where a winner was chosen and left many tracks out, the
+            rotation test of those tracks (``initialize.background_test``).
     """
 
     frame_index: int
@@ -176,6 +178,7 @@ class FrameResult:
     tracks_cur: np.ndarray | None = field(default=None, repr=False, compare=False)
     thresholds: Mapping[str, float] = field(default_factory=dict, compare=False)
     rotation: RotationTest | None = None
+    background: RotationTest | None = None
 
 
 def decide_pair(
@@ -380,7 +383,7 @@ class Selector:
         decision = result.decision
         methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
-        result = replace(result, rotation=fire.rotation)
+        result = replace(result, rotation=fire.rotation, background=fire.background)
         if fire.reason is Reason.ROTATION:
             fired = '/'.join(m.value for m in decision.candidates)
             return replace(

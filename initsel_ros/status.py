@@ -154,6 +154,7 @@ class FrameStatus:
     selection: Mapping[str, Any] | None
     verification: VerificationStatus | None
     rotation_test: Mapping[str, float | None] | None = None
+    background_test: Mapping[str, float | None] | None = None
 
     # ------------------------------------------------------------------------------ building
     @classmethod
@@ -240,6 +241,11 @@ class FrameStatus:
                 if result is not None and result.rotation is not None
                 else None
             ),
+            background_test=(
+                result.background.to_dict()
+                if result is not None and result.background is not None
+                else None
+            ),
         )
 
     # --------------------------------------------------------------------------------- reading
@@ -293,6 +299,9 @@ class FrameStatus:
         out['selection'] = None if self.selection is None else dict(self.selection)
         out['verification'] = None if self.verification is None else self.verification.to_dict()
         out['rotation_test'] = None if self.rotation_test is None else dict(self.rotation_test)
+        out['background_test'] = (
+            None if self.background_test is None else dict(self.background_test)
+        )
         return out
 
     def to_json(self) -> str:
