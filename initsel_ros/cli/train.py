@@ -42,7 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     options.add_inputs_argument(
         parser, 'tables', 'PAIRS_CSV', 'pair tables written by `initsel dataset`'
     )
-    parser.add_argument('--out', required=True, type=Path, help='model file to write (JSON)')
+    parser.add_argument(
+        '--out',
+        required=True,
+        type=Path,
+        help='model file to write (JSON); with --leave-family-out, the Markdown table',
+    )
     parser.add_argument(
         '--target-precision',
         type=float,
@@ -82,6 +87,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default='batch',
         help='unit of the cross-validation folds that choose the thresholds (default batch; '
         'sequence: thresholds for sequences the models were not fitted on)',
+    )
+    parser.add_argument(
+        '--leave-family-out',
+        type=Path,
+        default=None,
+        metavar='FAMILIES',
+        help='instead of writing a model file, measure generalization: for each scene family '
+        'of this YAML file (config/families.yaml) retrain by these options without it and '
+        'score it at thresholds chosen without it; writes the per-family table to --out',
+    )
+    parser.add_argument(
+        '--final-test',
+        action='store_true',
+        help="with --leave-family-out: score the file's reserved family instead, once, with "
+        'the models trained on every other family',
     )
     parser.add_argument(
         '--distill',
@@ -204,6 +224,12 @@ def run(args: argparse.Namespace) -> int:
         **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )
     table = read_tables(args.tables)
+    if args.final_test and args.leave_family_out is None:
+        raise ConfigError('--final-test needs --leave-family-out FAMILIES')
+    if args.leave_family_out is not None:
+        if args.distill is not None:
+            raise ConfigError('--leave-family-out retrains from the labels: not with --distill')
+        return _leave_family_out(args, table, config)
     if args.distill is not None:
         return _distill(args, table, config)
     report = train_models(
@@ -225,6 +251,31 @@ def run(args: argparse.Namespace) -> int:
         for m, c in report.choices.items()
     ]
     print(markdown_table(columns, rows))
+    return 0
+
+
+def _leave_family_out(args: argparse.Namespace, table: Any, config: Any) -> int:
+    """``initsel train --leave-family-out``: the per-family generalization table."""
+    from initsel_ros.learn.generalize import (
+        Families,
+        final_test,
+        generalization_markdown,
+        leave_family_out,
+    )
+
+    families = Families.load(args.leave_family_out)
+    if args.final_test:
+        scores = final_test(table, families, config)
+        title = f'Final test: the reserved family {families.reserved}, trained on all others'
+    else:
+        scores = leave_family_out(table, families, config)
+        title = 'Leave one family out'
+        if families.reserved:
+            title += f' (reserved, not in any fold: {families.reserved})'
+    text = f'# {title}\n\n{generalization_markdown(scores)}\n'
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(text)
+    print(text, end='')
     return 0
 
 

@@ -1,0 +1,233 @@
+"""Generalization: leave one scene family out, retrain without it, score on it.
+
+The training sequences are grouped into named scene families (a YAML file of name patterns,
+``config/families.yaml``). For each family in turn the models are trained by the same
+recipe (a :class:`TrainConfig`) on the other families only, their thresholds chosen by
+cross-validation on those, and they are scored on the family left out: precision and recall
+of E, F and H after the R veto and of R, each only where the family has at least
+``min_positives`` positives of that model. The worst family, next to the mean, is what a
+user's scenes (a family no one trained on) can expect.
+
+One family may be reserved as the final test: it is left out of every fold and scored only
+by :func:`final_test`, once, by the models trained on all the others.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.learn.evaluate import binary_scores
+from initsel_ros.learn.table import PairTable, input_columns
+from initsel_ros.learn.train import TrainConfig, label_column, train_models
+from initsel_ros.markdown import markdown_table
+from initsel_ros.models import METHODS, ModelSet
+
+#: A family is scored on a model only where it has at least this many positives of it.
+MIN_POSITIVES = 30
+
+#: The rows of the table: E, F and H after the R veto (as the policy uses them), and R.
+SCORED = ('E', 'F', 'H', 'R')
+
+
+@dataclass(frozen=True)
+class Families:
+    """Named scene families: fnmatch patterns on sequence names, the first match wins.
+
+    Attributes:
+        patterns: family name -> its patterns, in file order.
+        reserved: the family kept for the final test (never in a fold), or None.
+    """
+
+    patterns: dict[str, tuple[str, ...]]
+    reserved: str | None = None
+
+    def __post_init__(self) -> None:
+        if not self.patterns:
+            raise ConfigError('a families file must name at least one family')
+        if self.reserved is not None and self.reserved not in self.patterns:
+            raise ConfigError(f'the reserved family {self.reserved!r} is not one of the families')
+
+    @classmethod
+    def load(cls, path: Path) -> Families:
+        """Read a families YAML file (``families: {name: [pattern, ...]}``, ``reserved``)."""
+        import yaml
+
+        try:
+            data = yaml.safe_load(Path(path).read_text())
+        except (OSError, yaml.YAMLError) as exc:
+            raise ConfigError(f'cannot read the families file {path}: {exc}') from exc
+        if not isinstance(data, dict) or not isinstance(data.get('families'), dict):
+            raise ConfigError(f'{path}: expected a mapping with a "families" mapping')
+        patterns = {}
+        for name, pats in data['families'].items():
+            if isinstance(pats, str):
+                pats = [pats]
+            if not isinstance(pats, list) or not all(isinstance(p, str) for p in pats):
+                raise ConfigError(f'{path}: family {name!r} needs a list of name patterns')
+            patterns[str(name)] = tuple(pats)
+        reserved = data.get('reserved')
+        return cls(patterns, None if reserved is None else str(reserved))
+
+    def family_of(self, sequence: str) -> str | None:
+        """The family of one sequence name, or None when no pattern matches."""
+        for name, pats in self.patterns.items():
+            if any(fnmatch.fnmatchcase(sequence, p) for p in pats):
+                return name
+        return None
+
+    def assign(self, sequences: Sequence[str] | np.ndarray) -> np.ndarray:
+        """(N,) family name of each row's sequence; raises when a sequence has none."""
+        names = np.asarray(sequences).astype(str)
+        unique, inverse = np.unique(names, return_inverse=True)
+        of = [self.family_of(s) for s in unique]
+        missing = [s for s, f in zip(unique, of, strict=True) if f is None]
+        if missing:
+            raise ConfigError(
+                f'sequences in no family: {", ".join(missing)} (add a pattern for them)'
+            )
+        return np.asarray(of, dtype=object)[inverse]
+
+
+@dataclass(frozen=True)
+class FamilyScore:
+    """One model scored on one held-out family.
+
+    Attributes:
+        family: the family left out.
+        model: E, F or H (after the R veto) or R.
+        pairs: the family's pairs.
+        positives: its positives of ``model``.
+        precision, recall: at the thresholds chosen without the family (NaN when nothing
+            was predicted, or no positives).
+        scored: whether the family has enough positives to count (``min_positives``).
+    """
+
+    family: str
+    model: str
+    pairs: int
+    positives: int
+    precision: float
+    recall: float
+    scored: bool
+
+
+def score_family(
+    models: ModelSet, test: PairTable, family: str, min_positives: int = MIN_POSITIVES
+) -> list[FamilyScore]:
+    """Score ``models`` (thresholds as they are) on the pairs of one family."""
+    X = test.matrix(input_columns(models.input_names, models.scaling))
+    probs = models.predict_proba_batch(X)
+    fired = {m: probs[m] >= models.thresholds[m] for m in METHODS}
+    out = []
+    for m in SCORED:
+        y = np.asarray(test[label_column(m)]).astype(bool)
+        pred = fired[m] if m == 'R' else fired[m] & ~fired['R']
+        s = binary_scores(y, pred)
+        positives = int(y.sum())
+        out.append(
+            FamilyScore(
+                family, m, len(test), positives, s.precision, s.recall, positives >= min_positives
+            )
+        )
+    return out
+
+
+def leave_family_out(
+    table: PairTable,
+    families: Families,
+    config: TrainConfig,
+    min_positives: int = MIN_POSITIVES,
+) -> list[FamilyScore]:
+    """Train without each family in turn (and without the reserved one) and score on it.
+
+    Raises:
+        DatasetError: fewer than two families to hold out from, or a fold with no pairs.
+        ConfigError: a sequence in no family.
+    """
+    assigned = families.assign(table['sequence'])
+    present = [f for f in families.patterns if f != families.reserved and (assigned == f).any()]
+    if len(present) < 2:
+        raise DatasetError(f'leaving one family out needs two families with pairs: {present}')
+    usable = assigned != families.reserved
+    scores: list[FamilyScore] = []
+    for family in present:
+        train = table.select(usable & (assigned != family))
+        test = table.select(assigned == family)
+        models = train_models(train, config).models
+        scores += score_family(models, test, family, min_positives)
+    return scores
+
+
+def final_test(
+    table: PairTable,
+    families: Families,
+    config: TrainConfig,
+    min_positives: int = MIN_POSITIVES,
+) -> list[FamilyScore]:
+    """The reserved family, scored once by the models trained on every other family."""
+    if families.reserved is None:
+        raise ConfigError('the families file reserves no family for the final test')
+    assigned = families.assign(table['sequence'])
+    test = table.select(assigned == families.reserved)
+    if len(test) == 0:
+        raise DatasetError(f'no pairs of the reserved family {families.reserved!r}')
+    models = train_models(table.select(assigned != families.reserved), config).models
+    return score_family(models, test, families.reserved, min_positives)
+
+
+def _fmt(v: float) -> str:
+    return '-' if not math.isfinite(v) else f'{v:.3f}'
+
+
+def generalization_markdown(scores: Sequence[FamilyScore]) -> str:
+    """Per held-out family: precision / recall of each model (``*`` marks too few positives),
+    then the mean and the worst family by precision of the scored rows, per model."""
+    families = list(dict.fromkeys(s.family for s in scores))
+    by = {(s.family, s.model): s for s in scores}
+    heads = (f'{m}{" after R veto" if m != "R" else ""}: precision / recall' for m in SCORED)
+    columns = ('held-out family', 'pairs', *(f'{h} (positives)' for h in heads))
+    rows = []
+    for f in families:
+        cells = []
+        for m in SCORED:
+            s = by[(f, m)]
+            mark = '' if s.scored else '*'
+            cells.append(f'{_fmt(s.precision)} / {_fmt(s.recall)} ({s.positives}{mark})')
+        rows.append((f, str(by[(f, SCORED[0])].pairs), *cells))
+    mean_cells, worst_cells = [], []
+    for m in SCORED:
+        counted = [by[(f, m)] for f in families if by[(f, m)].scored]
+        finite = [s for s in counted if math.isfinite(s.precision)]
+        if not counted:
+            mean_cells.append('-')
+            worst_cells.append('-')
+            continue
+        mean_p = float(np.mean([s.precision for s in finite])) if finite else math.nan
+        mean_r = float(np.mean([s.recall for s in counted]))
+        mean_cells.append(f'{_fmt(mean_p)} / {_fmt(mean_r)}')
+        # a family where the model never said yes has no precision: it is the worst
+        worst = min(counted, key=lambda s: s.precision if math.isfinite(s.precision) else -1.0)
+        worst_cells.append(f'{_fmt(worst.precision)} / {_fmt(worst.recall)} ({worst.family})')
+    rows.append(('mean of the scored families', '', *mean_cells))
+    rows.append(('worst family (by precision)', '', *worst_cells))
+    note = f'\n\n`*`: fewer than {MIN_POSITIVES} positives, not counted in the mean and the worst.'
+    return markdown_table(columns, rows) + note
+
+
+__all__ = [
+    'MIN_POSITIVES',
+    'SCORED',
+    'Families',
+    'FamilyScore',
+    'final_test',
+    'generalization_markdown',
+    'leave_family_out',
+    'score_family',
+]

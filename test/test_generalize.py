@@ -1,0 +1,131 @@
+"""Leave-one-family-out generalization (issue 21): families, folds, scores, the CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from table_fixtures import synthetic_table
+
+from initsel_ros.cli import main
+from initsel_ros.errors import ConfigError
+from initsel_ros.learn.generalize import (
+    Families,
+    final_test,
+    generalization_markdown,
+    leave_family_out,
+    score_family,
+)
+from initsel_ros.learn.table import PairTable, input_columns, write_table
+from initsel_ros.learn.train import TrainConfig, train_models
+
+FAMILIES_YAML = """\
+families:
+  fx: ['fx_*']
+  desk: ['far_*', desk]
+  floor: [floor_far]
+  walls: ['wall_*']
+reserved: walls
+"""
+
+
+def _table_of(sequences: list[str], n: int = 240, seed: int = 0) -> PairTable:
+    """The synthetic table with its rows spread over ``sequences`` (6 batches each)."""
+    table = synthetic_table(n=n, seed=seed)
+    cols = dict(table.columns)
+    cols['sequence'] = np.array([sequences[i % len(sequences)] for i in range(n)], dtype=object)
+    return PairTable(cols)
+
+
+def test_families_file_assigns_every_sequence_by_its_first_matching_pattern(tmp_path):
+    path = tmp_path / 'families.yaml'
+    path.write_text(FAMILIES_YAML)
+    families = Families.load(path)
+    assert families.reserved == 'walls'
+    got = families.assign(['fx_far_s101', 'far_s1', 'desk', 'floor_far', 'wall_arc_s0'])
+    assert list(got) == ['fx', 'desk', 'desk', 'floor', 'walls']  # fx_far: fx, listed first
+    with pytest.raises(ConfigError, match='in no family: random_s5'):
+        families.assign(['far_s1', 'random_s5'])
+
+
+@pytest.mark.parametrize(
+    'text, message',
+    [
+        ('families: {}\n', 'at least one family'),
+        ('families: {a: [x]}\nreserved: b\n', 'reserved family'),
+        ('families: {a: 3}\n', 'list of name patterns'),
+        ('[1, 2]\n', '"families" mapping'),
+        ('families: [\n', 'cannot read'),
+    ],
+)
+def test_a_bad_families_file_is_a_clear_error(tmp_path, text, message):
+    path = tmp_path / 'families.yaml'
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=message):
+        Families.load(path)
+
+
+def test_each_family_is_scored_by_models_that_never_saw_it_nor_the_reserved_one(monkeypatch):
+    table = _table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x'])
+    families = Families({'fx': ('fx_*',), 'desk': ('far_*',), 'floor': ('floor_*',),
+                         'walls': ('wall_*',)}, reserved='walls')  # fmt: skip
+    seen: list[set[str]] = []
+    import initsel_ros.learn.generalize as generalize
+
+    def spy(train, config):
+        seen.append(set(np.asarray(train['sequence']).astype(str)))
+        return train_models(train, config)
+
+    monkeypatch.setattr(generalize, 'train_models', spy)
+    config = TrainConfig(folds=3)
+    scores = leave_family_out(table, families, config, min_positives=5)
+    assert [s.family for s in scores[::4]] == ['fx', 'desk', 'floor']  # the reserved: no fold
+    assert seen == [{'far_s1', 'floor_far'}, {'fx_a', 'floor_far'}, {'fx_a', 'far_s1'}]
+    assert {s.model for s in scores} == {'E', 'F', 'H', 'R'}
+    for s in scores:
+        assert s.pairs == 60 and s.scored and 0.0 <= s.precision <= 1.0
+    final = final_test(table, families, config, min_positives=5)
+    assert seen[-1] == {'fx_a', 'far_s1', 'floor_far'} and {s.family for s in final} == {'walls'}
+
+
+def test_scores_are_those_of_the_policy_after_the_r_veto():
+    table = _table_of(['far_s1'])
+    models = train_models(table, TrainConfig(folds=3)).models
+    scores = {s.model: s for s in score_family(models, table, 'desk', min_positives=1000)}
+    X = table.matrix(input_columns(models.input_names, models.scaling))
+    probs = models.predict_proba_batch(X)
+    fired = {m: probs[m] >= models.thresholds[m] for m in probs}
+    y = np.asarray(table['E_label']).astype(bool)
+    pred = fired['E'] & ~fired['R']
+    assert scores['E'].precision == pytest.approx((y & pred).sum() / max(pred.sum(), 1))
+    assert scores['E'].recall == pytest.approx((y & pred).sum() / y.sum())
+    assert not any(s.scored for s in scores.values())  # 1000 positives needed
+
+
+def test_the_table_names_the_worst_family_and_leaves_out_the_unscored_ones():
+    from initsel_ros.learn.generalize import FamilyScore
+
+    scores = []
+    for family, p, scored in (('a', 0.9, True), ('b', 0.6, True), ('c', 0.1, False)):
+        scores += [FamilyScore(family, m, 50, 40 if scored else 3, p, 0.5, scored) for m in 'EFHR']
+    text = generalization_markdown(scores)
+    assert '| worst family (by precision) |  | 0.600 / 0.500 (b) |' in text
+    assert '| mean of the scored families |  | 0.750 / 0.500 |' in text
+    assert '0.100 / 0.500 (3*)' in text
+
+
+def test_cli_writes_the_generalization_table(tmp_path, capsys):
+    path = tmp_path / 'pairs.csv'
+    write_table(_table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x']), path)
+    families = tmp_path / 'families.yaml'
+    families.write_text(FAMILIES_YAML)
+    out = tmp_path / 'gen.md'
+    args = ['train', str(path), '--out', str(out), '--leave-family-out', str(families)]
+    assert main([*args, '--folds', '3']) == 0
+    text = out.read_text()
+    assert text.startswith('# Leave one family out (reserved, not in any fold: walls)')
+    assert '| fx | 60 |' in text and '| walls |' not in text
+    assert text in capsys.readouterr().out
+    assert main([*args, '--folds', '3', '--final-test']) == 0
+    assert '| walls | 60 |' in out.read_text()
+    assert main(['train', str(path), '--out', str(out), '--final-test']) == 1
+    assert '--final-test needs --leave-family-out' in capsys.readouterr().err
