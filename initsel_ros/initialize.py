@@ -54,6 +54,8 @@ class FireConfig:
             test's threshold (``min_rotation_residual_sigma``).
         ransac_threshold_px: RANSAC inlier threshold of the estimators, pixels.
         rotation_test: run the rotation test first (a rotation stops the path).
+        background_test: run the background test on the winner (needs ``rotation_test``,
+            whose noise it uses; see :func:`background_test`).
         select: choose a winner by GRIC among the estimates that pass the pose check (and
             keep both of an ambiguous H for the verification; without selection it is refused).
         refine: bundle-adjust the winner's seed map.
@@ -64,6 +66,7 @@ class FireConfig:
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     ransac_threshold_px: float = 1.0
     rotation_test: bool = True
+    background_test: bool = True
     select: bool = True
     refine: bool = True
     map_max_reprojection_px: float = MAP_MAX_REPROJECTION_PX
@@ -279,11 +282,11 @@ def initialize_pair(
         )
     winner = next(e for e in estimates if e.method is selection.winner)
     background = None
-    if residual is not None:
+    if residual is not None and config.background_test:
         threshold = policy.min_rotation_residual_sigma
         background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
-        if background is not None and not background.statistic >= threshold:
-            n_out = int(np.count_nonzero(~winner.inliers))
+        if background is not None and background.statistic < threshold:
+            n_out = int(np.count_nonzero(~np.asarray(winner.inliers, dtype=bool)))
             return FireResult(
                 Reason.ROTATION,
                 f'{selection.winner.value} fits {len(ref) - n_out} tracks, and a rotation alone'
@@ -356,8 +359,9 @@ def background_test(
     threshold: float,
 ) -> RotationTest | None:
     """The rotation test of the tracks ``winner`` leaves out, against ``noise_px`` (the noise
-    of all tracks), or None when they are fewer than :data:`BACKGROUND_MIN_TRACKS` and
-    :data:`BACKGROUND_MIN_SHARE` of all tracks.
+    of all tracks), or None when it did not run: they are fewer than
+    :data:`BACKGROUND_MIN_TRACKS` or :data:`BACKGROUND_MIN_SHARE` of all tracks, or the noise
+    or the statistic is not finite.
 
     A static scene seen from a translating camera leaves out mismatches, noisy tracks and
     (for H) the points off its plane, which show parallax; a still or panning camera whose
@@ -367,12 +371,13 @@ def background_test(
     desk sequence E then wins a frame later, the better method more often).
     """
     outside = ~np.asarray(winner.inliers, dtype=bool)
+    if outside.shape != (len(ref),) or not math.isfinite(noise_px):
+        return None  # (an estimate's inlier mask always has one entry per correspondence)
     n_out = int(np.count_nonzero(outside))
     if n_out < max(BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * len(ref)):
         return None
-    if not math.isfinite(noise_px):
-        return None
-    return rotation_test(ref[outside], cur[outside], K, enough_below=threshold, noise_px=noise_px)
+    test = rotation_test(ref[outside], cur[outside], K, enough_below=threshold, noise_px=noise_px)
+    return test if math.isfinite(test.statistic) else None
 
 
 __all__ = [

@@ -91,8 +91,10 @@ KINDS = ('logistic', 'trees')
 
 
 def _probability(z: float) -> float:
-    """The logistic function of one logit (0 where exp(-z) would overflow)."""
-    return 1.0 / (1.0 + math.exp(-z)) if z > -700.0 else 0.0
+    """The logistic function of one logit (0 where exp(-z) would overflow; NaN stays NaN)."""
+    if z > -700.0:
+        return 1.0 / (1.0 + math.exp(-z))
+    return 0.0 if z <= -700.0 else z
 
 
 @dataclass(frozen=True)

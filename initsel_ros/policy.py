@@ -65,9 +65,9 @@ class PolicyConfig:
 class Decision:
     """What the models said about one frame, and why it did or did not initialize.
 
-    A record made once per frame and then only read (``dataclasses.replace`` makes changed
-    copies); not frozen, because a frozen dataclass costs a microsecond more to make, a
-    thirtieth of the whole decision.
+    A record made once per frame: treat it as immutable (``dataclasses.replace`` makes changed
+    copies). It is not frozen only because a frozen dataclass costs a microsecond more to
+    make, a thirtieth of the whole decision.
 
     Attributes:
         reason: the outcome (see :class:`Reason`).

@@ -7,7 +7,7 @@ import pytest
 from table_fixtures import synthetic_table
 
 from initsel_ros.cli import main
-from initsel_ros.errors import ConfigError
+from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.generalize import (
     Families,
     final_test,
@@ -55,6 +55,8 @@ def test_families_file_assigns_every_sequence_by_its_first_matching_pattern(tmp_
         ('families: {a: 3}\n', 'list of name patterns'),
         ('[1, 2]\n', '"families" mapping'),
         ('families: [\n', 'cannot read'),
+        ('families: {a: [x]}\nreserve: a\n', "unknown keys \\['reserve'\\]"),
+        ('families: {a: [x]}\nreserved: [a]\n', 'must name one family'),
     ],
 )
 def test_a_bad_families_file_is_a_clear_error(tmp_path, text, message):
@@ -81,10 +83,40 @@ def test_each_family_is_scored_by_models_that_never_saw_it_nor_the_reserved_one(
     assert [s.family for s in scores[::4]] == ['fx', 'desk', 'floor']  # the reserved: no fold
     assert seen == [{'far_s1', 'floor_far'}, {'fx_a', 'floor_far'}, {'fx_a', 'far_s1'}]
     assert {s.model for s in scores} == {'E', 'F', 'H', 'R'}
-    for s in scores:
-        assert s.pairs == 60 and s.scored and 0.0 <= s.precision <= 1.0
+    assert all(s.pairs == 60 and s.scored for s in scores)
+    # the labels drive a learnable signal: a held-out family is still scored well on it
+    assert all(s.recall > 0.5 for s in scores if s.model in ('E', 'R'))
     final = final_test(table, families, config, min_positives=5)
     assert seen[-1] == {'fx_a', 'far_s1', 'floor_far'} and {s.family for s in final} == {'walls'}
+
+
+def test_a_family_without_pairs_is_logged_and_a_missing_reserved_one_is_an_error(caplog):
+    table = _table_of(['fx_a', 'far_s1'], n=120)
+    families = Families({'fx': ('fx_*',), 'desk': ('far_*',), 'floor': ('floor_*',),
+                         'walls': ('wall_*',)}, reserved='walls')  # fmt: skip
+    scores = leave_family_out(table, families, TrainConfig(folds=3), min_positives=5)
+    assert {s.family for s in scores} == {'fx', 'desk'}
+    assert 'families with no pairs in these tables, not scored: floor' in caplog.text
+    with pytest.raises(DatasetError, match="no pairs of the reserved family 'walls'"):
+        final_test(table, families, TrainConfig(folds=3))
+    with pytest.raises(DatasetError, match='needs two families'):
+        leave_family_out(table.select(np.arange(0, 120, 2)), families, TrainConfig(folds=3))
+
+
+def test_held_out_pairs_are_scored_on_the_labels_the_models_learnt():
+    # relabelling by the training options happens before the split: with an E_t threshold
+    # no pair reaches, no held-out pair is an E positive either
+    from initsel_ros.learn.labels import LabelConfig
+
+    table = _table_of(['fx_a', 'far_s1', 'floor_far'], n=180)
+    cols = dict(table.columns)
+    for m in ('F', 'E', 'H'):
+        cols[f'{m}_et'] = np.abs(cols[f'{m}_et']) + 5.0
+    table = PairTable(cols)
+    families = Families({'fx': ('fx_*',), 'desk': ('far_*',), 'floor': ('floor_*',)})
+    config = TrainConfig(folds=3, labels=LabelConfig(et_max=0.1), allow_degenerate=True)
+    scores = leave_family_out(table, families, config, min_positives=5)
+    assert {s.positives for s in scores if s.model in ('E', 'F')} == {0}
 
 
 def test_scores_are_those_of_the_policy_after_the_r_veto():
@@ -110,7 +142,13 @@ def test_the_table_names_the_worst_family_and_leaves_out_the_unscored_ones():
     text = generalization_markdown(scores)
     assert '| worst family (by precision) |  | 0.600 / 0.500 (b) |' in text
     assert '| mean of the scored families |  | 0.750 / 0.500 |' in text
-    assert '0.100 / 0.500 (3*)' in text
+    assert '0.100 / 0.500 (3*)' in text and 'fewer than 30 positives' in text
+    # a model that never said yes on a scored family: no precision, and that family is worst
+    never = [FamilyScore('d', m, 50, 40, float('nan'), 0.0, True) for m in 'EFHR']
+    text = generalization_markdown(scores + never, min_positives=12)
+    assert '| worst family (by precision) |  | - / 0.000 (d) |' in text
+    assert '| mean of the scored families |  | 0.750 / 0.333 |' in text
+    assert 'fewer than 12 positives' in text
 
 
 def test_cli_writes_the_generalization_table(tmp_path, capsys):
@@ -129,3 +167,5 @@ def test_cli_writes_the_generalization_table(tmp_path, capsys):
     assert '| walls | 60 |' in out.read_text()
     assert main(['train', str(path), '--out', str(out), '--final-test']) == 1
     assert '--final-test needs --leave-family-out' in capsys.readouterr().err
+    assert main([*args, '--distill', str(out)]) == 1
+    assert 'not with --distill' in capsys.readouterr().err

@@ -223,12 +223,12 @@ def run(args: argparse.Namespace) -> int:
         **({'extra': tuple(args.extra_features)} if args.extra_features else {}),
         **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )
-    table = read_tables(args.tables)
     if args.final_test and args.leave_family_out is None:
         raise ConfigError('--final-test needs --leave-family-out FAMILIES')
+    if args.leave_family_out is not None and args.distill is not None:
+        raise ConfigError('--leave-family-out retrains from the labels: not with --distill')
+    table = read_tables(args.tables)
     if args.leave_family_out is not None:
-        if args.distill is not None:
-            raise ConfigError('--leave-family-out retrains from the labels: not with --distill')
         return _leave_family_out(args, table, config)
     if args.distill is not None:
         return _distill(args, table, config)

@@ -15,6 +15,7 @@ by :func:`final_test`, once, by the models trained on all the others.
 from __future__ import annotations
 
 import fnmatch
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,9 +26,11 @@ import numpy as np
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.evaluate import binary_scores
 from initsel_ros.learn.table import PairTable, input_columns
-from initsel_ros.learn.train import TrainConfig, label_column, train_models
+from initsel_ros.learn.train import TrainConfig, label_column, prepare, train_models
 from initsel_ros.markdown import markdown_table
 from initsel_ros.models import METHODS, ModelSet
+
+LOG = logging.getLogger(__name__)
 
 #: A family is scored on a model only where it has at least this many positives of it.
 MIN_POSITIVES = 30
@@ -65,6 +68,12 @@ class Families:
             raise ConfigError(f'cannot read the families file {path}: {exc}') from exc
         if not isinstance(data, dict) or not isinstance(data.get('families'), dict):
             raise ConfigError(f'{path}: expected a mapping with a "families" mapping')
+        unknown = sorted(set(data) - {'families', 'reserved'})
+        if unknown:
+            raise ConfigError(f'{path}: unknown keys {unknown} (known: families, reserved)')
+        reserved = data.get('reserved')
+        if reserved is not None and not isinstance(reserved, str):
+            raise ConfigError(f'{path}: "reserved" must name one family, got {reserved!r}')
         patterns = {}
         for name, pats in data['families'].items():
             if isinstance(pats, str):
@@ -72,8 +81,7 @@ class Families:
             if not isinstance(pats, list) or not all(isinstance(p, str) for p in pats):
                 raise ConfigError(f'{path}: family {name!r} needs a list of name patterns')
             patterns[str(name)] = tuple(pats)
-        reserved = data.get('reserved')
-        return cls(patterns, None if reserved is None else str(reserved))
+        return cls(patterns, reserved)
 
     def family_of(self, sequence: str) -> str | None:
         """The family of one sequence name, or None when no pattern matches."""
@@ -104,8 +112,8 @@ class FamilyScore:
         model: E, F or H (after the R veto) or R.
         pairs: the family's pairs.
         positives: its positives of ``model``.
-        precision, recall: at the thresholds chosen without the family (NaN when nothing
-            was predicted, or no positives).
+        precision, recall: at the thresholds chosen without the family; precision is NaN
+            when the model never said yes there (shown as ``-``, and counted as the worst).
         scored: whether the family has enough positives to count (``min_positives``).
     """
 
@@ -131,11 +139,9 @@ def score_family(
         pred = fired[m] if m == 'R' else fired[m] & ~fired['R']
         s = binary_scores(y, pred)
         positives = int(y.sum())
-        out.append(
-            FamilyScore(
-                family, m, len(test), positives, s.precision, s.recall, positives >= min_positives
-            )
-        )
+        precision = s.precision if s.predicted else math.nan
+        scored = positives >= min_positives
+        out.append(FamilyScore(family, m, len(test), positives, precision, s.recall, scored))
     return out
 
 
@@ -147,12 +153,20 @@ def leave_family_out(
 ) -> list[FamilyScore]:
     """Train without each family in turn (and without the reserved one) and score on it.
 
+    The table is relabelled (``config.labels``) and cleaned as :func:`train_models` does,
+    before the families are split, so the held-out pairs are scored on the labels the models
+    learnt. A family of the file with no pairs is logged and left out.
+
     Raises:
-        DatasetError: fewer than two families to hold out from, or a fold with no pairs.
+        DatasetError: fewer than two families with pairs to hold out.
         ConfigError: a sequence in no family.
     """
+    table = prepare(table, config)
     assigned = families.assign(table['sequence'])
     present = [f for f in families.patterns if f != families.reserved and (assigned == f).any()]
+    empty = [f for f in families.patterns if f != families.reserved and f not in present]
+    if empty:
+        LOG.warning('families with no pairs in these tables, not scored: %s', ', '.join(empty))
     if len(present) < 2:
         raise DatasetError(f'leaving one family out needs two families with pairs: {present}')
     usable = assigned != families.reserved
@@ -174,6 +188,7 @@ def final_test(
     """The reserved family, scored once by the models trained on every other family."""
     if families.reserved is None:
         raise ConfigError('the families file reserves no family for the final test')
+    table = prepare(table, config)
     assigned = families.assign(table['sequence'])
     test = table.select(assigned == families.reserved)
     if len(test) == 0:
@@ -186,9 +201,13 @@ def _fmt(v: float) -> str:
     return '-' if not math.isfinite(v) else f'{v:.3f}'
 
 
-def generalization_markdown(scores: Sequence[FamilyScore]) -> str:
-    """Per held-out family: precision / recall of each model (``*`` marks too few positives),
-    then the mean and the worst family by precision of the scored rows, per model."""
+def generalization_markdown(
+    scores: Sequence[FamilyScore], min_positives: int = MIN_POSITIVES
+) -> str:
+    """Per held-out family: precision / recall of each model (``*`` marks fewer positives
+    than ``min_positives``, the value the scores were made with), then the mean and the worst
+    family by precision of the scored rows, per model (a model that never said yes on a
+    family, precision ``-``, is that model's worst)."""
     families = list(dict.fromkeys(s.family for s in scores))
     by = {(s.family, s.model): s for s in scores}
     heads = (f'{m}{" after R veto" if m != "R" else ""}: precision / recall' for m in SCORED)
@@ -217,7 +236,10 @@ def generalization_markdown(scores: Sequence[FamilyScore]) -> str:
         worst_cells.append(f'{_fmt(worst.precision)} / {_fmt(worst.recall)} ({worst.family})')
     rows.append(('mean of the scored families', '', *mean_cells))
     rows.append(('worst family (by precision)', '', *worst_cells))
-    note = f'\n\n`*`: fewer than {MIN_POSITIVES} positives, not counted in the mean and the worst.'
+    note = (
+        f'\n\n`*`: fewer than {min_positives} positives, not counted in the mean and the worst;'
+        ' `-`: the model never said yes on that family (no precision; the mean leaves it out).'
+    )
     return markdown_table(columns, rows) + note
 
 
