@@ -84,8 +84,10 @@ def test_each_family_is_scored_by_models_that_never_saw_it_nor_the_reserved_one(
     assert seen == [{'far_s1', 'floor_far'}, {'fx_a', 'floor_far'}, {'fx_a', 'far_s1'}]
     assert {s.model for s in scores} == {'E', 'F', 'H', 'R'}
     assert all(s.pairs == 60 and s.scored for s in scores)
-    # the labels drive a learnable signal: a held-out family is still scored well on it
-    assert all(s.recall > 0.5 for s in scores if s.model in ('E', 'R'))
+    # the labels follow one feature in every family: held out, each is still scored better
+    # than chance (about 0.5 here), on the labels and at thresholds fitted without it
+    assert all(s.precision > 0.6 for s in scores)
+    assert np.mean([s.precision for s in scores if s.model == 'E']) > 0.8
     final = final_test(table, families, config, min_positives=5)
     assert seen[-1] == {'fx_a', 'far_s1', 'floor_far'} and {s.family for s in final} == {'walls'}
 

@@ -176,3 +176,49 @@ def test_relabel_keeps_no_depth_rows_and_applies_the_rotation_threshold(caplog):
     assert relabel(with_rot, LabelConfig())['E_label'].tolist() == [1, 0, 1]
     first_two = relabel(columns, LabelConfig(scale_rule=ScaleRule.FIRST_TWO))
     assert first_two['scale_rule'].tolist() == ['first_two', 'no_depth', 'no_depth']
+
+
+def test_ground_truth_parallax_is_the_angle_between_the_two_rays():
+    from initsel_ros.learn.labels import ground_truth_parallax_deg
+
+    # a point 2 m ahead, the camera slid 10 cm sideways: atan(0.1 / 2)
+    points = np.array([[0.0, 0.0, 2.0], [0.0, 0.0, 2.0], [np.nan, 0.0, 1.0]])
+    valid = np.array([True, True, True])
+    angle = ground_truth_parallax_deg(points, valid, np.eye(3), np.array([-0.1, 0.0, 0.0]))
+    assert angle == pytest.approx(math.degrees(math.atan(0.1 / 2.0)))
+    # a rotation about the camera centre gives none, whatever the depth
+    assert ground_truth_parallax_deg(points, valid, _rot_y(0.2), np.zeros(3)) == pytest.approx(0)
+    assert math.isnan(ground_truth_parallax_deg(points, ~valid, np.eye(3), np.ones(3)))
+
+
+def test_the_parallax_r_label_depends_on_the_scene_depth_the_baseline_label_does_not():
+    # 10 cm sideways: a baseline to the paper's rule at any depth, but at 20 m the rays to
+    # the scene differ by 0.3 degrees, no usable parallax
+    near, far = np.full((H, W), 2.0, np.float32), np.full((H, W), 20.0, np.float32)
+    T_cur = _pose(np.eye(3), np.array([0.1, 0.0, 0.0]))
+    parallax = LabelConfig(rotation_label='parallax', rotation_parallax_deg=1.0)
+    for depth, expected in ((near, 0), (far, 1)):
+        p0, p1 = _correspondences(np.random.default_rng(4), depth, T_cur)
+        assert label_pair(p0, p1, K, depth, np.eye(4), T_cur).r_label == 0
+        labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur, parallax)
+        assert labels.r_label == expected, labels.parallax_deg
+    without_depth = label_pair(p0, p1, K, None, np.eye(4), T_cur, parallax)
+    assert math.isnan(without_depth.parallax_deg) and without_depth.r_label == 0  # baseline
+
+
+def test_relabel_by_parallax_keeps_the_baseline_rule_where_there_is_none():
+    columns = {
+        'gt_baseline_m': np.array([0.2, 0.2, 0.01]),
+        'gt_parallax_deg': np.array([3.0, 0.4, np.nan]),
+        'scale_rule': np.array(['median'] * 3, dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        columns[f'{m}_ok'] = np.array([1, 1, 1])
+        columns[f'{m}_et'] = np.array([0.1, 0.1, 0.1])
+        columns[f'{m}_er_median'] = np.array([0.2, 0.2, 0.2])
+        columns[f'{m}_er_first_two'] = np.array([0.2, 0.2, 0.2])
+    by_parallax = relabel(columns, LabelConfig(rotation_label='parallax'))
+    assert by_parallax['R_label'].tolist() == [0, 1, 1]
+    assert relabel(columns, LabelConfig())['R_label'].tolist() == [0, 0, 1]
+    with pytest.raises(Exception, match='rotation_label must be one of baseline, parallax'):
+        LabelConfig(rotation_label='depth')

@@ -82,3 +82,22 @@ def test_a_nul_byte_csv_is_one_line_too(tmp_path, capsys):
     path.write_bytes(b'sequence,batch\n\x00\x00\x00\n')
     assert main(['train', str(path), '--out', str(tmp_path / 'm.json')]) == 1
     assert 'pairs.csv' in capsys.readouterr().err
+
+
+def test_an_older_table_without_the_parallax_column_reads_it_as_nan(tmp_path, caplog):
+    import csv
+
+    from table_fixtures import synthetic_table
+
+    from initsel_ros.learn.table import read_table, write_table
+
+    path = tmp_path / 'old.csv'
+    write_table(synthetic_table(n=12), path)
+    with path.open(newline='') as handle:
+        rows = list(csv.reader(handle))
+    j = rows[0].index('gt_parallax_deg')
+    with path.open('w', newline='') as handle:
+        csv.writer(handle).writerows([r[:j] + r[j + 1 :] for r in rows])
+    table = read_table(path)
+    assert np.isnan(table['gt_parallax_deg']).all() and len(table) == 12
+    assert 'an older pair table without gt_parallax_deg: read as NaN' in caplog.text

@@ -162,6 +162,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='R label: baseline at most this, m (0.05)',
     )
+    labels.add_argument(
+        '--rotation-label',
+        choices=('baseline', 'parallax'),
+        default=None,
+        help="R label rule: the paper's baseline (default) or the pair's median ground-truth "
+        'parallax angle under --rotation-parallax (rows without depth keep the baseline rule)',
+    )
+    labels.add_argument(
+        '--rotation-parallax',
+        type=float,
+        default=None,
+        help='R label with --rotation-label parallax: median parallax under this, deg (1.0)',
+    )
     options.add_scale_rule_option(labels, None, 'E_R scale rule')
 
 
@@ -190,6 +203,8 @@ def run(args: argparse.Namespace) -> int:
         'et_max': args.et_max,
         'er_max': args.er_max,
         'rotation_baseline_m': args.rotation_baseline,
+        'rotation_label': args.rotation_label,
+        'rotation_parallax_deg': args.rotation_parallax,
         'scale_rule': None if args.scale_rule is None else ScaleRule(args.scale_rule),
     }
     relabel_given = {k: v for k, v in relabel_given.items() if v is not None}

@@ -35,7 +35,7 @@ from enum import Enum
 import numpy as np
 
 from initsel_ros import geometry
-from initsel_ros.errors import GeometryError, InitselError
+from initsel_ros.errors import ConfigError, GeometryError, InitselError
 from initsel_ros.initialize import FireConfig, initialize_pair
 from initsel_ros.metrics import (
     reconstruction_error,
@@ -71,7 +71,15 @@ class LabelConfig:
         er_max: (float)
             ... and E_R is below this (metres).
         rotation_baseline_m: (float)
-            R label = 1 when the ground-truth baseline is at most this (metres).
+            R label = 1 when the ground-truth baseline is at most this (metres; the paper's
+            rule, ``rotation_label='baseline'``).
+        rotation_label: (str)
+            ``baseline`` (the paper's) or ``parallax``: R label = 1 when the median
+            ground-truth parallax angle of the pair's points is under ``rotation_parallax_deg``
+            (no usable baseline for *this* scene: 5 cm is a baseline at 1 m and none at 10 m);
+            rows without depth (no parallax) keep the baseline rule.
+        rotation_parallax_deg: (float)
+            The parallax threshold of ``rotation_label='parallax'``, degrees.
         scale_rule: (ScaleRule)
             Which E_R feeds the labels (both are stored).
         ransac_threshold_px: (float)
@@ -87,6 +95,30 @@ class LabelConfig:
     scale_rule: ScaleRule = ScaleRule.MEDIAN
     ransac_threshold_px: float = 1.0
     rotation_error_max_deg: float = ROTATION_ERROR_MAX_DEG
+    rotation_label: str = 'baseline'
+    rotation_parallax_deg: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.rotation_label not in ROTATION_LABELS:
+            raise ConfigError(
+                f'rotation_label must be one of {", ".join(ROTATION_LABELS)}, '
+                f'got {self.rotation_label!r}'
+            )
+
+    def rotation_labels(self, baseline_m: np.ndarray, parallax_deg: np.ndarray) -> np.ndarray:
+        """(N,) int64 R labels from the ground-truth baselines and median parallax angles."""
+        baseline_m = np.asarray(baseline_m, dtype=float)
+        by_baseline = baseline_m <= self.rotation_baseline_m
+        if self.rotation_label == 'baseline':
+            return by_baseline.astype(np.int64)
+        parallax_deg = np.asarray(parallax_deg, dtype=float)
+        with np.errstate(invalid='ignore'):
+            by_parallax = parallax_deg < self.rotation_parallax_deg
+        return np.where(np.isfinite(parallax_deg), by_parallax, by_baseline).astype(np.int64)
+
+
+#: The R label rules of :class:`LabelConfig` (``rotation_label``).
+ROTATION_LABELS = ('baseline', 'parallax')
 
 
 @dataclass(frozen=True)
@@ -124,7 +156,9 @@ class MethodOutcome:
 
 @dataclass(frozen=True)
 class PairLabels:
-    """Ground truth of one pair: baseline, rotation, R label and per-method outcomes."""
+    """Ground truth of one pair: baseline, rotation, parallax, R label and per-method
+    outcomes (``parallax_deg``: the median angle between the two cameras' rays to the pair's
+    ground-truth points, degrees; NaN without depth)."""
 
     baseline_m: float
     rotation_deg: float
@@ -133,11 +167,12 @@ class PairLabels:
     outcomes: dict[str, MethodOutcome]
     config: LabelConfig
     has_depth: bool = True
+    parallax_deg: float = math.nan
 
     @property
     def r_label(self) -> int:
-        """1 when the baseline is at most ``rotation_baseline_m``."""
-        return int(self.baseline_m <= self.config.rotation_baseline_m)
+        """The R label by ``config.rotation_label`` (:meth:`LabelConfig.rotation_labels`)."""
+        return int(self.config.rotation_labels(self.baseline_m, self.parallax_deg))
 
     @property
     def scale_rule(self) -> str:
@@ -323,9 +358,41 @@ def label_pair_points(
     baseline = float(np.linalg.norm(t_gt))
     rotation = float(geometry.rotation_angle_deg(R_gt))
     outcomes = estimate_outcomes(p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
+    parallax = ground_truth_parallax_deg(gt_points, gt_valid, np.asarray(R_gt), t_gt)
     return PairLabels(
-        baseline, rotation, np.asarray(R_gt), t_gt, outcomes, config, has_depth=has_depth
+        baseline,
+        rotation,
+        np.asarray(R_gt),
+        t_gt,
+        outcomes,
+        config,
+        has_depth=has_depth,
+        parallax_deg=parallax,
     )
+
+
+def ground_truth_parallax_deg(
+    points: np.ndarray, valid: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> float:
+    """Median parallax angle, degrees, of ground-truth points seen from two cameras.
+
+    Args:
+        points: (N, 3) points in the reference camera frame, metres.
+        valid: (N,) where ``points`` is known.
+        R, t: the current camera's pose, ``x_cur = R x_ref + t`` (metres).
+
+    Returns:
+        The median over the valid points of the angle between the rays from the two camera
+        centres (the reference's at the origin, the current's at ``-R^T t``); NaN without any.
+    """
+    X = np.asarray(points, dtype=float)[np.asarray(valid, dtype=bool)]
+    X = X[np.isfinite(X).all(axis=1)]
+    if len(X) == 0:
+        return math.nan
+    centre = -np.asarray(R, dtype=float).T @ np.asarray(t, dtype=float).reshape(3)
+    a, b = X, X - centre
+    cos = np.einsum('ij,ij->i', a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    return float(np.degrees(np.median(np.arccos(np.clip(cos, -1.0, 1.0)))))
 
 
 def label_pair(
@@ -400,7 +467,8 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
                 label = np.where(no_depth, ok & (et < config.et_max) & rotation_ok, label)
         out[f'{m}_er'] = er
         out[f'{m}_label'] = label.astype(np.int64)
-    out['R_label'] = (baseline <= config.rotation_baseline_m).astype(np.int64)
+    parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
+    out['R_label'] = config.rotation_labels(baseline, parallax)
     out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
     return out
 
@@ -409,12 +477,14 @@ __all__ = [
     'NO_DEPTH',
     'POSE_METHODS',
     'ROTATION_ERROR_MAX_DEG',
+    'ROTATION_LABELS',
     'LabelConfig',
     'MethodOutcome',
     'PairLabels',
     'ScaleRule',
     'backproject',
     'estimate_outcomes',
+    'ground_truth_parallax_deg',
     'ground_truth_points',
     'label_pair',
     'label_pair_points',

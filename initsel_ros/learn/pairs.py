@@ -148,6 +148,7 @@ def pair_row(
         'n_tracks': len(p0),
         'gt_baseline_m': labels.baseline_m,
         'gt_rotation_deg': labels.rotation_deg,
+        'gt_parallax_deg': labels.parallax_deg,
         'R_label': labels.r_label,
         'scale_rule': labels.scale_rule,
     }

@@ -4,7 +4,8 @@ One row per (reference frame, current frame) pair. Columns (see docs/learning.md
 
 - identity: ``sequence, batch, ref_index, cur_index, ref_stamp, cur_stamp, source, width,
   height, n_tracks``
-- ground truth: ``gt_baseline_m, gt_rotation_deg, R_label``
+- ground truth: ``gt_baseline_m, gt_rotation_deg, gt_parallax_deg, R_label`` (the median
+  parallax angle of the pair's points, NaN without depth)
 - the 23 features twice: ``paper__<name>`` (the authors' 640x480 scaling) and ``free__<name>``
   (resolution-free scaling); training picks one set through the model file's scaling
 - extra cheap features: ``x_*`` (see :data:`EXTRA_NAMES`)
@@ -21,6 +22,7 @@ Files are written to a temporary name in the same folder, then renamed.
 from __future__ import annotations
 
 import csv
+import logging
 import math
 import os
 import tempfile
@@ -34,6 +36,8 @@ import numpy as np
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
 from initsel_ros.names import POSE_METHODS as METHODS_FEH  # the pose methods, in table order
+
+LOG = logging.getLogger(__name__)
 
 #: Extra cheap features (beyond the paper's 23), all resolution-free: the columns hold
 #: ``features.extra_features`` of each pair.
@@ -55,8 +59,12 @@ ID_COLUMNS: tuple[tuple[str, type], ...] = (
     ('n_tracks', int),
     ('gt_baseline_m', float),
     ('gt_rotation_deg', float),
+    ('gt_parallax_deg', float),
     ('R_label', int),
 )
+
+#: Columns added after tables were first written: an older table without them reads as NaN.
+ADDED_COLUMNS: tuple[str, ...] = ('gt_parallax_deg',)
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
     ('disp_mean_px', float),
@@ -239,7 +247,10 @@ def read_table(path: Path) -> PairTable:
     except (OSError, csv.Error) as exc:
         raise DatasetError(f'{path}: cannot read pair table: {exc}') from exc
     cols = schema()
-    missing = [name for name, _ in cols if name not in header]
+    added = [name for name in ADDED_COLUMNS if name not in header]
+    if added:
+        LOG.warning('%s: an older pair table without %s: read as NaN', path, ', '.join(added))
+    missing = [name for name, _ in cols if name not in header and name not in added]
     if missing:
         raise DatasetError(
             f'{path}: not a pair table of this version, missing columns {missing[:5]}'
@@ -248,6 +259,9 @@ def read_table(path: Path) -> PairTable:
     index = {name: i for i, name in enumerate(header)}
     out: dict[str, np.ndarray] = {}
     for name, kind in cols:
+        if name in added:
+            out[name] = np.full(len(raw), np.nan)
+            continue
         j = index[name]
         try:
             values = [row[j] for row in raw]
