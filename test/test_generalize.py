@@ -168,6 +168,36 @@ def test_cli_writes_the_generalization_table(tmp_path, capsys):
     assert main([*args, '--folds', '3', '--final-test']) == 0
     assert '| walls | 60 |' in out.read_text()
     assert main(['train', str(path), '--out', str(out), '--final-test']) == 1
-    assert '--final-test needs --leave-family-out' in capsys.readouterr().err
+    assert '--final-test and --family-cap need --leave-family-out' in capsys.readouterr().err
     assert main([*args, '--distill', str(out)]) == 1
     assert 'not with --distill' in capsys.readouterr().err
+
+
+def test_a_family_cap_thins_large_families_for_training_and_scores_all_held_out_pairs(
+    monkeypatch,
+):
+    import initsel_ros.learn.generalize as generalize
+    from initsel_ros.learn.generalize import cap_families
+
+    table = _table_of(['fx_a'] * 3 + ['far_s1', 'floor_far'], n=300)  # fx: 180, the others 60
+    families = Families({'fx': ('fx_*',), 'desk': ('far_*',), 'floor': ('floor_*',)})
+    assigned = families.assign(table['sequence'])
+    keep = cap_families(table, assigned, 50, seed=0)
+    assert {f: int((keep & (assigned == f)).sum()) for f in ('fx', 'desk', 'floor')} == {
+        'fx': 50,
+        'desk': 50,
+        'floor': 50,
+    }
+    assert cap_families(table, assigned, None).all()
+    with pytest.raises(ConfigError, match='at least 1 pair'):
+        cap_families(table, assigned, 0)
+    sizes: list[int] = []
+
+    def spy(train, config):
+        sizes.append(len(train))
+        return train_models(train, config)
+
+    monkeypatch.setattr(generalize, 'train_models', spy)
+    scores = leave_family_out(table, families, TrainConfig(folds=3), 5, family_cap=50)
+    assert sizes == [100, 100, 100]
+    assert [s.pairs for s in scores[::4]] == [180, 60, 60]  # held out: every pair

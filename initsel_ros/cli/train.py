@@ -98,6 +98,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'score it at thresholds chosen without it; writes the per-family table to --out',
     )
     parser.add_argument(
+        '--family-cap',
+        type=int,
+        default=None,
+        metavar='PAIRS',
+        help='with --leave-family-out: train on at most this many random pairs of each family '
+        '(default: all), so that one large family does not set the class balance',
+    )
+    parser.add_argument(
         '--final-test',
         action='store_true',
         help="with --leave-family-out: score the file's reserved family instead, once, with "
@@ -238,8 +246,8 @@ def run(args: argparse.Namespace) -> int:
         **({'extra': tuple(args.extra_features)} if args.extra_features else {}),
         **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )
-    if args.final_test and args.leave_family_out is None:
-        raise ConfigError('--final-test needs --leave-family-out FAMILIES')
+    if (args.final_test or args.family_cap is not None) and args.leave_family_out is None:
+        raise ConfigError('--final-test and --family-cap need --leave-family-out FAMILIES')
     if args.leave_family_out is not None and args.distill is not None:
         raise ConfigError('--leave-family-out retrains from the labels: not with --distill')
     table = read_tables(args.tables)
@@ -280,13 +288,15 @@ def _leave_family_out(args: argparse.Namespace, table: Any, config: Any) -> int:
 
     families = Families.load(args.leave_family_out)
     if args.final_test:
-        scores = final_test(table, families, config)
+        scores = final_test(table, families, config, family_cap=args.family_cap)
         title = f'Final test: the reserved family {families.reserved}, trained on all others'
     else:
-        scores = leave_family_out(table, families, config)
+        scores = leave_family_out(table, families, config, family_cap=args.family_cap)
         title = 'Leave one family out'
         if families.reserved:
             title += f' (reserved, not in any fold: {families.reserved})'
+    if args.family_cap is not None:
+        title += f', at most {args.family_cap} training pairs a family'
     text = f'# {title}\n\n{generalization_markdown(scores)}\n'
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)

@@ -145,17 +145,39 @@ def score_family(
     return out
 
 
+def cap_families(
+    table: PairTable, assigned: np.ndarray, cap: int | None, seed: int = 0
+) -> np.ndarray:
+    """(N,) bool: every row, but at most ``cap`` random pairs of each family (whole batches
+    are not kept together: a cap thins a large family evenly). None keeps every row."""
+    keep = np.ones(len(table), dtype=bool)
+    if cap is None:
+        return keep
+    if cap < 1:
+        raise ConfigError(f'a family cap must be at least 1 pair, got {cap}')
+    rng = np.random.default_rng(seed)
+    for family in np.unique(assigned):
+        rows = np.flatnonzero(assigned == family)
+        if len(rows) > cap:
+            keep[rng.choice(rows, len(rows) - cap, replace=False)] = False
+    return keep
+
+
 def leave_family_out(
     table: PairTable,
     families: Families,
     config: TrainConfig,
     min_positives: int = MIN_POSITIVES,
+    family_cap: int | None = None,
 ) -> list[FamilyScore]:
     """Train without each family in turn (and without the reserved one) and score on it.
 
     The table is relabelled (``config.labels``) and cleaned as :func:`train_models` does,
     before the families are split, so the held-out pairs are scored on the labels the models
-    learnt. A family of the file with no pairs is logged and left out.
+    learnt. A family of the file with no pairs is logged and left out. ``family_cap`` trains
+    on at most that many pairs of each family (:func:`cap_families`; the held-out family is
+    always scored on all its pairs), so that one large family does not set the others'
+    class balance, and with it the thresholds.
 
     Raises:
         DatasetError: fewer than two families with pairs to hold out.
@@ -169,7 +191,8 @@ def leave_family_out(
         LOG.warning('families with no pairs in these tables, not scored: %s', ', '.join(empty))
     if len(present) < 2:
         raise DatasetError(f'leaving one family out needs two families with pairs: {present}')
-    usable = assigned != families.reserved
+    capped = cap_families(table, assigned, family_cap, config.seed)
+    usable = (assigned != families.reserved) & capped
     scores: list[FamilyScore] = []
     for family in present:
         train = table.select(usable & (assigned != family))
@@ -184,8 +207,10 @@ def final_test(
     families: Families,
     config: TrainConfig,
     min_positives: int = MIN_POSITIVES,
+    family_cap: int | None = None,
 ) -> list[FamilyScore]:
-    """The reserved family, scored once by the models trained on every other family."""
+    """The reserved family, scored once by the models trained on every other family (each
+    capped to ``family_cap`` pairs, as in :func:`leave_family_out`)."""
     if families.reserved is None:
         raise ConfigError('the families file reserves no family for the final test')
     table = prepare(table, config)
@@ -193,7 +218,8 @@ def final_test(
     test = table.select(assigned == families.reserved)
     if len(test) == 0:
         raise DatasetError(f'no pairs of the reserved family {families.reserved!r}')
-    models = train_models(table.select(assigned != families.reserved), config).models
+    capped = cap_families(table, assigned, family_cap, config.seed)
+    models = train_models(table.select((assigned != families.reserved) & capped), config).models
     return score_family(models, test, families.reserved, min_positives)
 
 
@@ -248,6 +274,7 @@ __all__ = [
     'SCORED',
     'Families',
     'FamilyScore',
+    'cap_families',
     'final_test',
     'generalization_markdown',
     'leave_family_out',
