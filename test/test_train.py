@@ -45,6 +45,29 @@ def test_threshold_selection_reaches_the_target_precision_with_most_recall():
             assert (p & y).sum() / p.sum() < target or (p & y).sum() <= (pred & y).sum()
 
 
+def test_a_threshold_prior_makes_the_threshold_independent_of_the_mix():
+    # the same classifier on two mixes, 60 % and 15 % positives: precision-targeted thresholds
+    # differ (the rich mix reaches 0.8 precision far lower), prior-targeted ones agree
+    rng = np.random.default_rng(3)
+
+    def mix(share: float, n: int = 4000):
+        y = rng.random(n) < share
+        return y, np.clip(0.3 * y + rng.normal(0.35, 0.12, n), 0, 1)
+
+    mixes = mix(0.6), mix(0.15)
+    y_rich, s_rich = mixes[0]
+    plain = [choose_threshold(y, s, 0.8).threshold for y, s in mixes]
+    assert plain[1] - plain[0] > 0.1
+    prior = [choose_threshold(y, s, 0.8, prior=0.25) for y, s in mixes]
+    assert abs(prior[0].threshold - prior[1].threshold) < 0.03
+    assert 'at a 0.25 share of positives' in prior[0].rule
+    # and the reported figures are those of the mix itself
+    pred = s_rich >= prior[0].threshold
+    assert prior[0].precision == pytest.approx((pred & y_rich).sum() / pred.sum())
+    with pytest.raises(ConfigError, match='threshold_prior'):
+        TrainConfig(threshold_prior=1.0)
+
+
 def test_unreachable_precision_is_reported_not_hidden():
     rng = np.random.default_rng(2)
     y = rng.random(500) < 0.5

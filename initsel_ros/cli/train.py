@@ -49,6 +49,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='model file to write (JSON); with --leave-family-out, the Markdown table',
     )
     parser.add_argument(
+        '--threshold-prior',
+        type=float,
+        default=None,
+        metavar='SHARE',
+        help='measure the validation precision as if positives were this share of the pairs '
+        "(0-1), not the training mix's own share: thresholds that do not move with the mix",
+    )
+    parser.add_argument(
         '--target-precision',
         type=float,
         default=0.8,
@@ -235,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
         C=args.C,
         class_weight=ClassWeight(args.class_weight),
         target_precision=args.target_precision,
+        threshold_prior=args.threshold_prior,
         folds=args.folds,
         group_by=args.validation_groups,
         seed=args.seed,

@@ -117,6 +117,10 @@ class TrainConfig:
             rare on planar scenes); ``none`` leaves them as they are.
         target_precision: the threshold is the lowest one whose out-of-fold precision reaches
             this.
+        threshold_prior: None (default): that precision is measured on the training mix as
+            it is, so it depends on the mix's share of positives; a share p in (0, 1): it is
+            measured as if positives were p of the pairs (from the true and false positive
+            rates alone), a threshold that does not move with the mix's base rate.
         group_by: the unit of the validation folds: ``batch`` (a pair's batch) or
             ``sequence`` (its whole sequence: a fold then holds scenes and motions the models
             were not fitted on, so thresholds are chosen for sequences never seen).
@@ -138,6 +142,7 @@ class TrainConfig:
     C: float = 1.0
     class_weight: ClassWeight = ClassWeight.BALANCED
     target_precision: float = 0.8
+    threshold_prior: float | None = None
     group_by: str = 'batch'
     folds: int = 5
     min_predicted: int = 5
@@ -161,6 +166,8 @@ class TrainConfig:
             raise ConfigError(
                 f'unknown paper features {unknown}; known: {", ".join(FEATURE_NAMES)}'
             )
+        if self.threshold_prior is not None and not 0.0 < self.threshold_prior < 1.0:
+            raise ConfigError(f'threshold_prior must be in (0, 1), got {self.threshold_prior}')
         if self.group_by not in GROUP_BY:
             raise ConfigError(f'group_by must be one of {", ".join(GROUP_BY)}')
         bad = [m for m in self.families if m not in METHODS]
@@ -282,12 +289,18 @@ def _curve(y: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def choose_threshold(
-    y: np.ndarray, scores: np.ndarray, target_precision: float, min_predicted: int = 5
+    y: np.ndarray,
+    scores: np.ndarray,
+    target_precision: float,
+    min_predicted: int = 5,
+    prior: float | None = None,
 ) -> ThresholdChoice:
     """Lowest threshold whose precision reaches ``target_precision`` (highest recall).
 
     When no threshold predicting at least ``min_predicted`` positives reaches the target, the
-    threshold maximizing F0.5 (precision-weighted) is taken and ``reached`` is False.
+    threshold maximizing F0.5 (precision-weighted) is taken and ``reached`` is False. With a
+    ``prior`` the precision is that of a mix whose share of positives is ``prior``:
+    ``prior TPR / (prior TPR + (1 - prior) FPR)`` (the reported figures stay those of ``y``).
     """
     y = np.asarray(y).astype(bool)
     scores = np.asarray(scores, dtype=float)
@@ -300,10 +313,16 @@ def choose_threshold(
     predicted = tp + fp
     precision = tp / predicted
     recall = tp / pos
+    at = ''
+    if prior is not None:
+        weighted_tp, weighted_fp = prior * recall, (1.0 - prior) * fp / (n - pos)
+        with np.errstate(invalid='ignore', divide='ignore'):
+            precision = np.where(predicted > 0, weighted_tp / (weighted_tp + weighted_fp), 0.0)
+        at = f' at a {prior:g} share of positives'
     ok = (precision >= target_precision) & (predicted >= min_predicted)
     if ok.any():
         i = int(np.flatnonzero(ok)[np.argmax(recall[ok])])
-        rule = f'lowest threshold with precision >= {target_precision:g}'
+        rule = f'lowest threshold with precision >= {target_precision:g}{at}'
         reached = True
     else:
         beta2 = 0.25
@@ -311,7 +330,7 @@ def choose_threshold(
             fbeta = (1 + beta2) * precision * recall / (beta2 * precision + recall)
         fbeta = np.where(predicted >= min(min_predicted, pos), np.nan_to_num(fbeta), -1.0)
         i = int(np.argmax(fbeta))
-        rule = f'precision {target_precision:g} unreachable: max F0.5'
+        rule = f'precision {target_precision:g}{at} unreachable: max F0.5'
         reached = False
     # keep away from 0 and 1: out-of-fold probabilities saturate in float64
     t = float(min(max(thr[i], THRESHOLD_MARGIN), 1.0 - THRESHOLD_MARGIN))
@@ -519,7 +538,9 @@ def train_models(
             scores = out_of_fold_scores(
                 X, y, groups, _scorer(family, features, config), config.folds, config.seed
             )
-            choice = choose_threshold(y, scores, config.target_precision, config.min_predicted)
+            choice = choose_threshold(
+                y, scores, config.target_precision, config.min_predicted, config.threshold_prior
+            )
             model = fit_model(family, name, features, X, y, config)
         choices[name] = choice
         models[name] = replace(
