@@ -218,3 +218,17 @@ def test_train_models_refuses_single_class_labels_by_default():
         train_models(synthetic_table(F_label=0), TrainConfig())
     report = train_models(synthetic_table(F_label=0), TrainConfig(allow_degenerate=True))
     assert report.models.models['F'].bias < -math.log(1e4)
+
+
+def test_the_model_file_records_the_threshold_prior_and_the_r_label_rule(tmp_path):
+    path = tmp_path / 'pairs.csv'
+    write_table(synthetic_table(), path)
+    out = tmp_path / 'models.json'
+    args = ['train', str(path), '--out', str(out), '--family', 'logistic']
+    assert main([*args, '--threshold-prior', '0.3', '--rotation-label', 'parallax']) == 0
+    meta = ModelSet.load(out).metadata
+    assert meta['training']['threshold_prior'] == 0.3
+    assert meta['labels']['rotation_label'] == 'parallax'
+    assert meta['labels']['rotation_parallax_deg'] == 1.0
+    rules = {ModelSet.load(out).models[m].metrics['validation']['rule'] for m in 'FEHR'}
+    assert all('at a 0.3 share of positives' in r for r in rules if 'single class' not in r)

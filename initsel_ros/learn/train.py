@@ -591,6 +591,12 @@ def train_models(
             'et_max': labels.et_max,
             'er_max': labels.er_max,
             'rotation_baseline_m': labels.rotation_baseline_m,
+            'rotation_label': labels.rotation_label,
+            **(
+                {'rotation_parallax_deg': labels.rotation_parallax_deg}
+                if labels.rotation_label == 'parallax'
+                else {}
+            ),
             'scale_rule': rules[0] if len(rules) == 1 else rules,
             'relabelled_at_training': config.labels is not None,
         },
@@ -598,6 +604,7 @@ def train_models(
             'C': config.C,
             'class_weight': config.class_weight.value,
             'target_precision': config.target_precision,
+            'threshold_prior': config.threshold_prior,
             'validation_groups': config.group_by,
             'min_predicted': config.min_predicted,
             'validation': f'grouped {config.folds}-fold cross-validation over '
