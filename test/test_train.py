@@ -225,10 +225,15 @@ def test_the_model_file_records_the_threshold_prior_and_the_r_label_rule(tmp_pat
     write_table(synthetic_table(), path)
     out = tmp_path / 'models.json'
     args = ['train', str(path), '--out', str(out), '--family', 'logistic']
-    assert main([*args, '--threshold-prior', '0.3', '--rotation-label', 'parallax']) == 0
+    priors = ['--threshold-prior', '0.3', '--threshold-prior', 'R=0.15']
+    assert main([*args, *priors, '--rotation-label', 'parallax']) == 0
     meta = ModelSet.load(out).metadata
-    assert meta['training']['threshold_prior'] == 0.3
+    assert meta['training']['threshold_prior'] == {'F': 0.3, 'E': 0.3, 'H': 0.3, 'R': 0.15}
     assert meta['labels']['rotation_label'] == 'parallax'
     assert meta['labels']['rotation_parallax_deg'] == 1.0
-    rules = {ModelSet.load(out).models[m].metrics['validation']['rule'] for m in 'FEHR'}
-    assert all('at a 0.3 share of positives' in r for r in rules if 'single class' not in r)
+    rules = {m: ModelSet.load(out).models[m].metrics['validation']['rule'] for m in 'FEHR'}
+    assert 'at a 0.15 share of positives' in rules['R']
+    assert all('at a 0.3 share of positives' in rules[m] for m in 'FEH')
+    with pytest.raises(ConfigError, match="unknown model 'X'"):
+        TrainConfig(threshold_priors={'X': 0.2})
+    assert main([*args, '--threshold-prior', 'R=lots']) == 1

@@ -50,11 +50,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--threshold-prior',
-        type=float,
-        default=None,
-        metavar='SHARE',
+        action='append',
+        default=[],
+        metavar='[MODEL=]SHARE',
         help='measure the validation precision as if positives were this share of the pairs '
-        "(0-1), not the training mix's own share: thresholds that do not move with the mix",
+        "(0-1), not the training mix's own share: thresholds that do not move with the mix; "
+        'MODEL=SHARE for one model (repeat)',
     )
     parser.add_argument(
         '--target-precision',
@@ -238,12 +239,25 @@ def run(args: argparse.Namespace) -> int:
             families[model] = Family(name)
         else:
             family, families = Family(name), {}
+    prior, priors = None, {}
+    for spec in args.threshold_prior:
+        model, _, share = spec.rpartition('=')
+        try:
+            value = float(share)
+        except ValueError:
+            message = f'--threshold-prior {spec!r}: expected SHARE or MODEL=SHARE'
+            raise ConfigError(message) from None
+        if model:
+            priors[model] = value
+        else:
+            prior = value
     config = TrainConfig(
         scaling=Scaling(args.scaling),
         C=args.C,
         class_weight=ClassWeight(args.class_weight),
         target_precision=args.target_precision,
-        threshold_prior=args.threshold_prior,
+        threshold_prior=prior,
+        threshold_priors=priors,
         folds=args.folds,
         group_by=args.validation_groups,
         seed=args.seed,

@@ -121,6 +121,7 @@ class TrainConfig:
             it is, so it depends on the mix's share of positives; a share p in (0, 1): it is
             measured as if positives were p of the pairs (from the true and false positive
             rates alone), a threshold that does not move with the mix's base rate.
+        threshold_priors: per-model shares overriding ``threshold_prior``, e.g. ``{'R': 0.15}``.
         group_by: the unit of the validation folds: ``batch`` (a pair's batch) or
             ``sequence`` (its whole sequence: a fold then holds scenes and motions the models
             were not fitted on, so thresholds are chosen for sequences never seen).
@@ -143,6 +144,7 @@ class TrainConfig:
     class_weight: ClassWeight = ClassWeight.BALANCED
     target_precision: float = 0.8
     threshold_prior: float | None = None
+    threshold_priors: dict[str, float] = field(default_factory=dict)
     group_by: str = 'batch'
     folds: int = 5
     min_predicted: int = 5
@@ -166,13 +168,20 @@ class TrainConfig:
             raise ConfigError(
                 f'unknown paper features {unknown}; known: {", ".join(FEATURE_NAMES)}'
             )
-        if self.threshold_prior is not None and not 0.0 < self.threshold_prior < 1.0:
-            raise ConfigError(f'threshold_prior must be in (0, 1), got {self.threshold_prior}')
+        for name, share in [('', self.threshold_prior), *self.threshold_priors.items()]:
+            if name and name not in METHODS:
+                raise ConfigError(f'threshold prior of an unknown model {name!r}')
+            if share is not None and not 0.0 < share < 1.0:
+                raise ConfigError(f'threshold_prior must be in (0, 1), got {share}')
         if self.group_by not in GROUP_BY:
             raise ConfigError(f'group_by must be one of {", ".join(GROUP_BY)}')
         bad = [m for m in self.families if m not in METHODS]
         if bad:
             raise ConfigError(f'unknown models {bad} (models: {", ".join(METHODS)})')
+
+    def prior_of(self, model: str) -> float | None:
+        """The threshold prior of ``model`` (None: the training mix's own share)."""
+        return self.threshold_priors.get(model, self.threshold_prior)
 
     def family_of(self, model: str) -> Family:
         """The family of ``model``."""
@@ -539,7 +548,7 @@ def train_models(
                 X, y, groups, _scorer(family, features, config), config.folds, config.seed
             )
             choice = choose_threshold(
-                y, scores, config.target_precision, config.min_predicted, config.threshold_prior
+                y, scores, config.target_precision, config.min_predicted, config.prior_of(name)
             )
             model = fit_model(family, name, features, X, y, config)
         choices[name] = choice
@@ -604,7 +613,7 @@ def train_models(
             'C': config.C,
             'class_weight': config.class_weight.value,
             'target_precision': config.target_precision,
-            'threshold_prior': config.threshold_prior,
+            'threshold_prior': {m: config.prior_of(m) for m in METHODS},
             'validation_groups': config.group_by,
             'min_predicted': config.min_predicted,
             'validation': f'grouped {config.folds}-fold cross-validation over '
