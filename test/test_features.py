@@ -159,17 +159,25 @@ def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height
         scale = 2.0 ** -math.frexp(max(width, height))[1]
         X, Y = ((p0 - [width / 2, height / 2]) * scale).T
         u, v = ((p1 - [width / 2, height / 2]) * scale).T
-        zero, one = np.zeros(n), np.ones(n)
-        A = np.concatenate(
-            (
-                np.column_stack((X, Y, one, zero, zero, zero, -u * X, -u * Y)),
-                np.column_stack((zero, zero, zero, X, Y, one, -v * X, -v * Y)),
-            )
-        )
-        b = np.concatenate((u, v))
+        A, b = _dlt_system(X, Y, u, v)
         h, *_ = np.linalg.lstsq(A, b, rcond=None)
         out[15] = math.sqrt(np.mean((A @ h - b) ** 2) * 2) / scale / diag
     return out
+
+
+def _dlt_system(
+    X: np.ndarray, Y: np.ndarray, u: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The linear homography's equations A h = b (h33 = 1), two rows per point, written out
+    as a textbook does."""
+    zero, one = np.zeros_like(X), np.ones_like(X)
+    A = np.concatenate(
+        (
+            np.column_stack((X, Y, one, zero, zero, zero, -u * X, -u * Y)),
+            np.column_stack((zero, zero, zero, X, Y, one, -v * X, -v * Y)),
+        )
+    )
+    return A, np.concatenate((u, v))
 
 
 def _perspective_tracks(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -258,14 +266,7 @@ def test_linear_homography_from_the_gram_matrix_equals_least_squares(motion):
     assert bordered_ok == (motion != 'exact shift')  # both paths are taken
     ss, vector, factor = features._linear_homography(gram)
     X, Y, _, u, v = fit[0:5]
-    zero, one = np.zeros_like(X), np.ones_like(X)
-    A = np.vstack(
-        (
-            np.column_stack((X, Y, one, zero, zero, zero, -u * X, -u * Y)),
-            np.column_stack((zero, zero, zero, X, Y, one, -v * X, -v * Y)),
-        )
-    )
-    b = np.concatenate((u, v))
+    A, b = _dlt_system(X, Y, u, v)
     h, *_ = np.linalg.lstsq(A, b, rcond=None)
     np.testing.assert_allclose((vector * factor)[:, 0], h, rtol=1e-7, atol=1e-10)
     assert ss == pytest.approx(float(np.sum((A @ h - b) ** 2)), rel=1e-6, abs=1e-12)

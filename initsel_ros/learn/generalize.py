@@ -183,22 +183,17 @@ def leave_family_out(
         DatasetError: fewer than two families with pairs to hold out.
         ConfigError: a sequence in no family.
     """
-    table = prepare(table, config)
-    assigned = families.assign(table['sequence'])
+    table, assigned, usable = _training_rows(table, families, config, family_cap)
     present = [f for f in families.patterns if f != families.reserved and (assigned == f).any()]
     empty = [f for f in families.patterns if f != families.reserved and f not in present]
     if empty:
         LOG.warning('families with no pairs in these tables, not scored: %s', ', '.join(empty))
     if len(present) < 2:
         raise DatasetError(f'leaving one family out needs two families with pairs: {present}')
-    capped = cap_families(table, assigned, family_cap, config.seed)
-    usable = (assigned != families.reserved) & capped
     scores: list[FamilyScore] = []
     for family in present:
-        train = table.select(usable & (assigned != family))
-        test = table.select(assigned == family)
-        models = train_models(train, config).models
-        scores += score_family(models, test, family, min_positives)
+        rows = usable & (assigned != family)
+        scores += _score_held_out(table, assigned, rows, family, config, min_positives)
     return scores
 
 
@@ -213,14 +208,34 @@ def final_test(
     capped to ``family_cap`` pairs, as in :func:`leave_family_out`)."""
     if families.reserved is None:
         raise ConfigError('the families file reserves no family for the final test')
+    table, assigned, usable = _training_rows(table, families, config, family_cap)
+    if not np.any(assigned == families.reserved):
+        raise DatasetError(f'no pairs of the reserved family {families.reserved!r}')
+    return _score_held_out(table, assigned, usable, families.reserved, config, min_positives)
+
+
+def _training_rows(
+    table: PairTable, families: Families, config: TrainConfig, family_cap: int | None
+) -> tuple[PairTable, np.ndarray, np.ndarray]:
+    """The table relabelled and cleaned as training does, each row's family, and the rows a
+    fold may train on: not the reserved family, and at most ``family_cap`` of each family."""
     table = prepare(table, config)
     assigned = families.assign(table['sequence'])
-    test = table.select(assigned == families.reserved)
-    if len(test) == 0:
-        raise DatasetError(f'no pairs of the reserved family {families.reserved!r}')
     capped = cap_families(table, assigned, family_cap, config.seed)
-    models = train_models(table.select((assigned != families.reserved) & capped), config).models
-    return score_family(models, test, families.reserved, min_positives)
+    return table, assigned, (assigned != families.reserved) & capped
+
+
+def _score_held_out(
+    table: PairTable,
+    assigned: np.ndarray,
+    train_rows: np.ndarray,
+    family: str,
+    config: TrainConfig,
+    min_positives: int,
+) -> list[FamilyScore]:
+    """Train on ``train_rows`` and score every pair of ``family``."""
+    models = train_models(table.select(train_rows), config).models
+    return score_family(models, table.select(assigned == family), family, min_positives)
 
 
 def _fmt(v: float) -> str:
