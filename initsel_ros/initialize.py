@@ -14,7 +14,10 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
    and the winner fits an object moving on its own, a board held by a person or a passing
    car, which the first test cannot see once such objects hold most of the tracks; or the
    winner fits one plane of a scene whose other parts show no parallax yet. Either way the
-   pair is refused as a rotation and the next frames decide;
+   pair is refused as a rotation and the next frames decide. When instead those tracks show
+   parallax and the winner is an H that no general model was there to contest (the models
+   fired H alone), E is estimated and GRIC chooses again on all tracks: H then fitted one
+   plane of a scene with depth;
 6. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``).
 
 Each step can be switched off (labels need the estimates only). The result carries every
@@ -220,6 +223,24 @@ def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEsti
     )
 
 
+def _estimate(
+    method: Method | str, ref: np.ndarray, cur: np.ndarray, K: np.ndarray, config: FireConfig
+) -> PoseEstimate:
+    """One method's estimate as the fire path makes it (an H too close to call is refused
+    unless both its decompositions pass the pose check)."""
+    estimate = estimate_pose(
+        Method(method),
+        ref,
+        cur,
+        K,
+        ransac_threshold_px=config.ransac_threshold_px,
+        # only a selection goes on to verification, which can choose between the two;
+        # without one (labels, the baselines' rules) an ambiguous H is refused as before
+        keep_ambiguous=config.select,
+    )
+    return _resolve_ambiguity(estimate, config.policy)
+
+
 def initialize_pair(
     ref: np.ndarray,
     cur: np.ndarray,
@@ -254,20 +275,7 @@ def initialize_pair(
                 f'{threshold:g} x)',
                 residual,
             )
-    estimates = tuple(
-        estimate_pose(
-            Method(m),
-            ref,
-            cur,
-            K,
-            ransac_threshold_px=config.ransac_threshold_px,
-            # only a selection goes on to verification, which can choose between the two;
-            # without one (labels, the baselines' rules) an ambiguous H is refused as before
-            keep_ambiguous=config.select,
-        )
-        for m in methods
-    )
-    estimates = tuple(_resolve_ambiguity(e, policy) for e in estimates)
+    estimates = tuple(_estimate(m, ref, cur, K, config) for m in methods)
     checks = tuple(check_pose(e, policy) for e in estimates)
     passed = [e for e, c in zip(estimates, checks, strict=True) if c is None]
     first_problem = next((c for c in checks if c is not None), Reason.POSE_FAILED)
@@ -285,6 +293,16 @@ def initialize_pair(
     if residual is not None and config.background_test:
         threshold = policy.min_rotation_residual_sigma
         background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
+        if _needs_general_model(winner, background, threshold, estimates):
+            # H explains one plane and the rest shows parallax: the scene is not that plane,
+            # and only a general model, scored by GRIC on all tracks, can say so
+            general = _estimate(Method.E, ref, cur, K, config)
+            estimates += (general,)
+            checks += (check_pose(general, policy),)
+            problems.append(_problem_text(general, checks[-1]))
+            selection = select_method(estimates, problems, ref, cur, K)
+            winner = next(e for e in estimates if e.method is selection.winner)
+            background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
         if background is not None and background.statistic < threshold:
             n_out = int(np.count_nonzero(~np.asarray(winner.inliers, dtype=bool)))
             return FireResult(
@@ -347,6 +365,22 @@ def initialize_pair(
         seed,
         alternatives,
         background,
+    )
+
+
+def _needs_general_model(
+    winner: PoseEstimate,
+    background: RotationTest | None,
+    threshold: float,
+    estimates: Sequence[PoseEstimate],
+) -> bool:
+    """H won without a general model to compare with, and the tracks it leaves out show
+    parallax (the background test ran and no rotation explains them)."""
+    return (
+        winner.method is Method.H
+        and background is not None
+        and background.statistic >= threshold
+        and not any(e.method in (Method.E, Method.F) for e in estimates)
     )
 
 

@@ -9,9 +9,18 @@ from model_fixtures import constant_models
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
+from initsel_ros.geometry import Method
 from initsel_ros.models import ModelSet
 from initsel_ros.policy import PolicyConfig, Reason
-from initsel_ros.selector import Selector, SelectorConfig, to_gray
+from initsel_ros.selector import (
+    Initialization,
+    Selector,
+    SelectorConfig,
+    _Candidate,
+    _verified_choice,
+    to_gray,
+)
+from initsel_ros.verify import VerifyStep
 
 
 def ns(seconds: float) -> int:
@@ -334,3 +343,23 @@ def test_boards_moving_in_front_of_a_pan_do_not_pass_for_parallax(tmp_path):
     assert not any(r.initialization for r in results)
     assert not any(r.decision.reason is Reason.VERIFYING for r in results)
     assert any(r.decision.reason is Reason.ROTATION for r in results)
+
+
+def _held(rms: tuple[float, ...], tag: int) -> _Candidate:
+    """A candidate that held on every frame with these RMS reprojection errors."""
+    steps = tuple(VerifyStep(True, 100, 100, 1.0, r, np.eye(3), np.zeros(3), '') for r in rms)
+    init = Initialization(
+        Method.H, np.eye(3), np.zeros(3), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, tag, 1, {}, 1.0,
+    )  # fmt: skip
+    return _Candidate(init, np.arange(3), steps)
+
+
+def test_a_rival_decomposition_replaces_the_choice_only_when_it_reprojects_clearly_better():
+    chosen = _held((0.25, 0.24, 0.27), 1)
+    slightly = _held((0.23, 0.22, 0.25), 2)  # 8 % lower: chance, on the same points
+    clearly = _held((0.20, 0.19, 0.21), 3)  # 21 % lower
+    assert _verified_choice(chosen, (slightly,)) is chosen
+    assert _verified_choice(chosen, (slightly, clearly)) is clearly
+    assert _verified_choice(clearly, (chosen,)) is clearly
+    assert _verified_choice(chosen, ()) is chosen
