@@ -102,6 +102,11 @@ class SeedMap:
         """Map points kept."""
         return int(self.points.shape[0])
 
+    @property
+    def translation_sigma_deg(self) -> float:
+        """Standard deviation of the translation direction, degrees (NaN unrefined)."""
+        return math.nan if self.refinement is None else self.refinement.translation_sigma_deg
+
 
 @dataclass(frozen=True)
 class FireResult:
@@ -345,6 +350,20 @@ def initialize_pair(
         return FireResult(
             Reason.TOO_FEW_POINTS,
             detail,
+            residual,
+            estimates,
+            checks,
+            selection,
+            seed,
+            background=background,
+        )
+    sigma = seed.translation_sigma_deg
+    if 0.0 < policy.max_translation_sigma_deg < sigma:
+        return FireResult(
+            Reason.LOW_PARALLAX,
+            f'{selection.winner.value} fixes the direction of motion only to +-{sigma:.1f} deg'
+            f' (max {policy.max_translation_sigma_deg:g} deg): the baseline is too short yet; '
+            + selection.summary(),
             residual,
             estimates,
             checks,

@@ -51,6 +51,10 @@ class PolicyConfig:
             objects on under half of the tracks do not sway, under focal lengths up to 20 %
             off, against the noise of a fundamental matrix on the same tracks): a rotation
             alone explains any flow with less, whatever the pose estimators make of it.
+        max_translation_sigma_deg: a refined seed map is published only when the direction
+            of its translation is known to within this standard deviation, degrees (first
+            order, from the bundle adjustment: ``refine.translation_sigma_deg``); a larger one
+            waits for more baseline. 0 or less turns the check off.
     """
 
     thresholds: Mapping[str, float] = field(default_factory=dict)
@@ -59,6 +63,7 @@ class PolicyConfig:
     min_points: int = 50
     min_parallax_deg: float = 1.0
     min_rotation_residual_sigma: float = 3.0
+    max_translation_sigma_deg: float = 2.0
 
 
 @dataclass(slots=True)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import cv2
@@ -52,6 +52,10 @@ class Refinement:
         iterations: cost evaluations of the optimizer (one per step tried).
         converged: the optimizer stopped because the cost or the step became negligible
             (not at its evaluation cap).
+        translation_sigma_deg: standard deviation of the translation's direction along its
+            least certain axis, degrees (first-order, from the solution's normal equations
+            and the noise its residuals imply; NaN when not computed): how well the pair
+            fixes the direction the camera moved.
     """
 
     R: np.ndarray
@@ -62,6 +66,7 @@ class Refinement:
     rms_after_px: float
     iterations: int
     converged: bool
+    translation_sigma_deg: float = float('nan')
 
 
 def _tangent_basis(t: np.ndarray) -> np.ndarray:
@@ -610,4 +615,28 @@ def solve_two_view(
     X = np.full_like(X0, np.nan)
     with np.errstate(divide='ignore', invalid='ignore'):  # inf/NaN where rho ended at 0
         X[usable] = np.column_stack([Q[0], Q[1], np.ones(Q.shape[1])]) / Q[2][:, None]
-    return problem.refinement(Rk, tk, X, evaluations, converged, max_reprojection_px)
+    refinement = problem.refinement(Rk, tk, X, evaluations, converged, max_reprojection_px)
+    sigma_deg = translation_sigma_deg(linearize((Rk, tk, Q)), refinement.rms_after_px)
+    return replace(refinement, translation_sigma_deg=sigma_deg)
+
+
+def translation_sigma_deg(lin: _Linearization, rms_px: float) -> float:
+    """First-order standard deviation of the translation direction along its least certain
+    axis, degrees: the pose block of the inverse normal equations (the points eliminated) at
+    the solution, times the noise variance per coordinate. Each point gives 4 coordinates for
+    its 3 unknowns, so N points leave N - 5 degrees of freedom to the 2N residual lengths
+    whose RMS is ``rms_px``: ``sigma^2 = 2 N rms^2 / (N - 5)``. NaN when the system is
+    singular or too small."""
+    n = lin.V.shape[2]
+    if n <= 5 or not math.isfinite(rms_px):
+        return math.nan
+    try:
+        V_inv = _inverse_3x3(lin.V)
+        WV = (lin.W[:, :, None] * V_inv[None]).sum(axis=1)  # (5, 3, N)
+        S = lin.U - WV.reshape(5, -1) @ lin.W.reshape(5, -1).T
+        largest = float(np.linalg.eigvalsh(np.linalg.inv(S)[3:, 3:])[-1])
+    except np.linalg.LinAlgError:
+        return math.nan
+    if not (math.isfinite(largest) and largest >= 0.0):
+        return math.nan
+    return math.degrees(math.sqrt(largest * 2.0 * n * rms_px**2 / (n - 5)))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -265,3 +267,20 @@ def test_the_background_test_leaves_a_static_scene_with_depth_alone():
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H))
     assert fire.reason is Reason.INITIALIZED, fire.detail
     assert fire.selection.winner is Method.E
+
+
+def test_a_direction_of_motion_known_worse_than_the_bound_waits_for_more_baseline():
+    # 6 cm of baseline at 1 px of noise fixes the direction to about 1 degree; a bound of
+    # 0.5 degrees makes that pair wait, and the same scene from 30 cm passes it
+    p0, p1, _, _, _ = two_view(planar=False, baseline=0.06, noise_px=1.0, seed=3)
+    strict = FireConfig(rotation_test=False, policy=PolicyConfig(max_translation_sigma_deg=0.5))
+    fire = initialize_pair(p0, p1, K, (Method.E,), strict)
+    assert fire.reason is Reason.LOW_PARALLAX, fire.detail
+    assert fire.seed.translation_sigma_deg > 0.5
+    assert 'fixes the direction of motion only to' in fire.detail
+    off = replace(strict, policy=PolicyConfig(max_translation_sigma_deg=0.0))
+    assert initialize_pair(p0, p1, K, (Method.E,), off).reason is Reason.INITIALIZED
+    longer = two_view(planar=False, baseline=0.3, noise_px=1.0, seed=3)
+    wide = initialize_pair(longer[0], longer[1], K, (Method.E,), strict)
+    assert wide.reason is Reason.INITIALIZED, wide.detail
+    assert wide.seed.translation_sigma_deg < 0.5

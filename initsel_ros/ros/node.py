@@ -658,7 +658,8 @@ class SelectorNode(Node):
             )
             + (
                 f'; refined: RMS {init.refinement.rms_before_px:.2f} -> '
-                f'{init.refinement.rms_after_px:.2f} px'
+                f'{init.refinement.rms_after_px:.2f} px, direction of motion +-'
+                f'{init.refinement.translation_sigma_deg:.2f} deg'
                 if init.refinement is not None
                 else ''
             )

@@ -284,6 +284,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0.0, 100.0),
     ),
     ParameterSpec(
+        'max_translation_sigma_deg',
+        _POLICY.max_translation_sigma_deg,
+        'a refined seed map is published only when it fixes the direction of motion to '
+        'within this standard deviation, degrees (0 = off)',
+        Number(0.0, 90.0),
+    ),
+    ParameterSpec(
         'max_frames_since_reference',
         _SELECTOR.max_frames_since_reference,
         "frames after which a new reference frame is taken (the paper's batch length)",
@@ -420,6 +427,7 @@ class NodeSettings:
     min_points: int
     min_parallax_deg: float
     min_rotation_residual_sigma: float
+    max_translation_sigma_deg: float
     max_frames_since_reference: int
     mode: Mode
     refine: bool
@@ -512,6 +520,7 @@ class NodeSettings:
                 min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
                 min_rotation_residual_sigma=self.min_rotation_residual_sigma,
+                max_translation_sigma_deg=self.max_translation_sigma_deg,
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
