@@ -18,7 +18,11 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
    parallax and the winner is an H that no general model was there to contest (the models
    fired H alone), E is estimated and GRIC chooses again on all tracks: H then fitted one
    plane of a scene with depth;
-6. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``).
+6. the better-model test: an E or F winner is refused when an H that failed the pose check
+   scores a lower GRIC (the tracks are a plane, where E and F are degenerate), and an H
+   winner when a failed E or F does (the tracks have depth): the pair waits for that model;
+7. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``), refused when
+   it fixes the direction of motion worse than ``max_translation_sigma_deg``.
 
 Each step can be switched off (labels need the estimates only). The result carries every
 method's estimate and check, not only the winner's. Verification over the next frames is not
@@ -324,6 +328,11 @@ def initialize_pair(
                 selection,
                 background=background,
             )
+    plane = _better_model_not_ready(selection, estimates, checks)
+    if plane is not None:
+        return FireResult(
+            plane[0], plane[1], residual, estimates, checks, selection, background=background
+        )
     seed = seed_map(
         winner,
         ref,
@@ -384,6 +393,41 @@ def initialize_pair(
         seed,
         alternatives,
         background,
+    )
+
+
+def _better_model_not_ready(
+    selection: Selection, estimates: Sequence[PoseEstimate], checks: Sequence[Reason | None]
+) -> tuple[Reason, str] | None:
+    """Why the winner is refused because the other kind of model fits better, or None.
+
+    GRIC scores every estimate with a matrix, the ones that failed the pose check too. When
+    a failed H scores lower than the E or F that won, the tracks are a plane (or as good as
+    one at this baseline), where E and F are degenerate (every ``[e']_x H`` fits a plane's
+    points, for any epipole e'); when a failed E or F scores lower than the H that won, the
+    tracks have depth that H's plane does not explain. Either way the winner won only
+    because the model that fits did not pass yet: the pair waits, with that model's reason.
+    """
+    scores = {s.method: s for s in selection.scores}
+    won = scores.get(selection.winner) if selection.winner is not None else None
+    if won is None:
+        return None
+    rivals = (Method.E, Method.F) if won.method is Method.H else (Method.H,)
+    better = [
+        s for m in rivals if (s := scores.get(m)) is not None and not s.ok and s.gric < won.gric
+    ]
+    if not better:
+        return None
+    best = min(better, key=lambda s: s.gric)
+    reason = next(
+        (c for e, c in zip(estimates, checks, strict=True) if e.method is best.method), None
+    )
+    kind = 'a plane' if best.method is Method.H else 'not a plane'
+    return (
+        reason or Reason.POSE_FAILED,
+        f'the tracks are {kind} (GRIC {best.method.value} {best.gric:.0f} < '
+        f'{won.method.value} {won.gric:.0f}), and {best.method.value} is not ready: '
+        f'{best.problem}',
     )
 
 

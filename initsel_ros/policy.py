@@ -45,6 +45,9 @@ class PolicyConfig:
             selector picks a new reference).
         min_points: a pose needs at least this many triangulated points.
         min_parallax_deg: a pose needs at least this median parallax, degrees.
+        min_homography_parallax_deg: the same floor for H, whose pose comes from the
+            perspective change of a plane rather than from each point's parallax (the
+            rotation test and the translation's standard deviation judge that change).
         min_rotation_residual_sigma: when a model fires, the flow left after the best pure
             rotation is taken out must reach this many times the tracking noise
             (``geometry.rotation_test``: a least-median rotation fit that independently moving
@@ -62,6 +65,7 @@ class PolicyConfig:
     min_tracks: int = 50
     min_points: int = 50
     min_parallax_deg: float = 1.0
+    min_homography_parallax_deg: float = 1.0
     min_rotation_residual_sigma: float = 3.0
     max_translation_sigma_deg: float = 2.0
 
@@ -252,18 +256,25 @@ def decide(
 _METHODS = {m: Method(m) for m in PREFERENCE}
 
 
+def min_parallax_of(method: str, config: PolicyConfig) -> float:
+    """The median parallax floor of ``method`` ('F', 'E' or 'H'), degrees."""
+    return config.min_homography_parallax_deg if method == 'H' else config.min_parallax_deg
+
+
 def check_pose_batch(
     ok: np.ndarray,
     n_points: np.ndarray,
     parallax_deg: np.ndarray,
     config: PolicyConfig,
+    method: str = 'E',
 ) -> np.ndarray:
-    """:func:`check_pose` on N estimates: (N,) object array of Reason, or None when good."""
+    """:func:`check_pose` on N estimates of ``method``: (N,) object array of Reason, or None
+    when good."""
     ok = np.asarray(ok, dtype=bool)
     n_points = np.asarray(n_points)
     parallax_deg = np.asarray(parallax_deg, dtype=float)
     out = np.full(ok.shape[0], None, dtype=object)
-    out[~(parallax_deg >= config.min_parallax_deg)] = Reason.LOW_PARALLAX
+    out[~(parallax_deg >= min_parallax_of(method, config))] = Reason.LOW_PARALLAX
     out[n_points < config.min_points] = Reason.TOO_FEW_POINTS
     out[~ok] = Reason.POSE_FAILED
     return out
@@ -278,6 +289,7 @@ def check_pose(estimate: PoseEstimate, config: PolicyConfig) -> Reason | None:
         return Reason.POSE_FAILED
     if estimate.n_points < config.min_points:
         return Reason.TOO_FEW_POINTS
-    if not estimate.parallax_deg >= config.min_parallax_deg:  # NaN parallax fails too
+    floor = min_parallax_of(estimate.method.value, config)
+    if not estimate.parallax_deg >= floor:  # NaN parallax fails too
         return Reason.LOW_PARALLAX
     return None

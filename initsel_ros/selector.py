@@ -8,6 +8,7 @@ when a model fires, recovers the pose with that method and checks it.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -45,6 +46,9 @@ LAST_FRAME_MAX_E_T = 0.1
 #: one plane fit the same points about equally well (on the seed-map planes the RMS of one
 #: was 0.92-1.07 times the other's), and a few percent less by chance chose the wrong one.
 RIVAL_MAX_RMS_RATIO = 0.9
+#: What the fire path tries when the rotation test re-checks model R's veto: E (the general
+#: model of a calibrated camera) and H (a plane), GRIC choosing.
+RECHECK_METHODS = (Method.E, Method.H)
 
 
 @dataclass(frozen=True)
@@ -63,6 +67,12 @@ class SelectorConfig:
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
         refine: bundle-adjust the chosen pose and points before publishing (refine.py).
         verify: hold the candidate back and confirm it on the next frames (verify.py).
+        rotation_recheck_frames: while model R's yes is what holds every other model back
+            (the reason is ``rotation`` from the models), the fire path runs with E and H
+            every this many frames after the reference: its rotation test, which measures
+            the flow a rotation leaves against the tracking noise, either confirms R (cheap:
+            it stops at the first good rotation) or finds the parallax of a plane seen from
+            a sideways arc, which the models' summary features do not see. 0 = never.
         bit_depth: significant bits of 16-bit frames (8-16); 0 = automatic, per stream
             (:class:`~initsel_ros.image.BitDepth`; :meth:`Selector.reset` forgets it).
     """
@@ -74,6 +84,7 @@ class SelectorConfig:
     ransac_threshold_px: float = 1.0
     refine: bool = True
     verify: VerifyConfig = field(default_factory=VerifyConfig)
+    rotation_recheck_frames: int = 3
     bit_depth: int = 0
 
     def __post_init__(self) -> None:
@@ -83,6 +94,8 @@ class SelectorConfig:
         object.__setattr__(self, 'mode', Mode(self.mode))  # 'once' -> Mode.ONCE
         if self.max_frames_since_reference < 1:
             raise ConfigError('max_frames_since_reference must be at least 1')
+        if self.rotation_recheck_frames < 0:
+            raise ConfigError('rotation_recheck_frames must be 0 (never) or more')
         if isinstance(self.bit_depth, bool) or self.bit_depth not in (0, *range(8, 17)):
             raise ConfigError(f'bit_depth must be 0 or 8 to 16, got {self.bit_depth!r}')
 
@@ -374,6 +387,8 @@ class Selector:
             )
             if decision.positive:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since)
+            elif self._recheck_rotation(decision, since):
+                result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since, RECHECK_METHODS)
         if result.initialization is not None:
             self.initialized = self.config.mode is Mode.ONCE
             if self.config.mode is Mode.CONTINUOUS:  # re-anchor on the initializing frame
@@ -386,6 +401,11 @@ class Selector:
             result = replace(result, new_reference=True)
         return result
 
+    def _recheck_rotation(self, decision: Decision, since: int) -> bool:
+        """Is this a frame on which the rotation test re-checks model R's veto?"""
+        every = self.config.rotation_recheck_frames
+        return every > 0 and decision.reason is Reason.ROTATION and since % every == 0
+
     def _fire(
         self,
         result: FrameResult,
@@ -394,12 +414,35 @@ class Selector:
         ids: np.ndarray,
         stamp_ns: int,
         since: int,
+        methods: tuple[Method, ...] | None = None,
     ) -> FrameResult:
-        """A model fired: run the fire path (initialize.py); hold the seed map for verification."""
+        """A model fired (or R's veto is re-checked with ``methods``): run the fire path
+        (initialize.py); hold the seed map for verification."""
         decision = result.decision
-        methods = fire_methods(decision, self.thresholds, self.config.policy)
+        recheck = methods is not None
+        if methods is None:
+            methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
         result = replace(result, rotation=fire.rotation, background=fire.background)
+        if recheck and fire.reason is not Reason.INITIALIZED:
+            # R stands: the frame keeps its reason, the detail says what the check found
+            return replace(
+                result,
+                selection=fire.selection,
+                decision=replace(
+                    decision,
+                    detail=f'R fired; the rotation test re-checked it: {fire.detail}',
+                ),
+            )
+        context = ''
+        if recheck:
+            statistic = fire.rotation.statistic if fire.rotation is not None else math.nan
+            context = (
+                f'R fired, but the flow a rotation leaves is {statistic:.1f} x the noise '
+                f'(re-checked every {self.config.rotation_recheck_frames} frames), so '
+                + '/'.join(m.value for m in methods)
+                + ' were tried; '
+            )
         if fire.reason is Reason.ROTATION:
             fired = '/'.join(m.value for m in decision.candidates)
             return replace(
@@ -414,7 +457,7 @@ class Selector:
                 result, decision=replace(decision, reason=fire.reason, detail=fire.detail)
             )
         init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
-        detail = f'{init.method.value}: {fire.detail}'
+        detail = f'{context}{init.method.value}: {fire.detail}'
         if self.config.verify.frames > 0:
             rivals = tuple(
                 _Candidate(

@@ -149,7 +149,7 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     # The mirrored solution puts the plane far away, with 0.3 degrees of parallax and 48
     # points: the default pose check would drop it; a laxer one keeps both, as happens when
     # the two are closer. (The rotation test is not what this is about.)
-    policy = PolicyConfig(min_points=30, min_parallax_deg=0.2)
+    policy = PolicyConfig(min_points=30, min_homography_parallax_deg=0.2)
     config = FireConfig(policy=policy, rotation_test=False)
     fire = initialize_pair(p0, p1, K, (Method.H,), config)
     assert fire.reason is Reason.INITIALIZED and fire.seed is not None
@@ -168,8 +168,8 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
         for s in seeds
     ]
     # Both maps may hold on a plane (PnP on a plane has the same two-fold ambiguity), but
-    # the right one reprojects better and keeps more inliers: the selector publishes the
-    # smallest RMS among those that held.
+    # the right one reprojects better and keeps more inliers (the selector lets the rival
+    # replace its first choice only when it reprojects clearly better).
     right = int(np.argmin(errors))
     assert steps[right].ok
     assert int(np.argmin([st.rms_px for st in steps])) == right
@@ -284,3 +284,38 @@ def test_a_direction_of_motion_known_worse_than_the_bound_waits_for_more_baselin
     wide = initialize_pair(longer[0], longer[1], K, (Method.E,), strict)
     assert wide.reason is Reason.INITIALIZED, wide.detail
     assert wide.seed.translation_sigma_deg < 0.5
+
+
+def test_an_e_winner_waits_when_the_tracks_are_a_plane_and_h_is_not_ready():
+    # A wall: H fits as well as E with fewer dimensions (lower GRIC), but keeps fewer points
+    # than this policy asks, so it fails its pose check; E, degenerate on a plane, would win
+    # alone. The pair waits for H instead.
+    p0, p1, _, _, _ = two_view(planar=True, baseline=0.15, noise_px=0.3, seed=1)
+    picky = FireConfig(policy=PolicyConfig(min_points=240))
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H), picky)
+    h, e = fire.estimate('H'), fire.estimate('E')
+    assert h.n_points < 240 <= e.n_points  # (the premise)
+    assert fire.reason is Reason.TOO_FEW_POINTS and fire.seed is None, fire.detail
+    assert 'the tracks are a plane' in fire.detail
+    # with depth H scores worse than E, and E wins as before
+    q0, q1, _, _, _ = two_view(planar=False, baseline=0.15, noise_px=0.3, seed=1)
+    deep = initialize_pair(q0, q1, K, (Method.E, Method.H), FireConfig())
+    assert deep.selection.scores[1].gric > deep.selection.scores[0].gric  # H worse than E
+    assert deep.reason is Reason.INITIALIZED and deep.seed.method is Method.E, deep.detail
+
+
+def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
+    # A wall (70 % of the tracks) and objects off it: E fits all of them and scores a lower
+    # GRIC than H, which fits the wall. With E's parallax floor out of reach, H would win
+    # alone; it waits for E instead.
+    wall = two_view(planar=True, seed=4)
+    objects = two_view(planar=False, seed=5)
+    p0 = np.vstack((wall[0][:175], objects[0][:75]))
+    p1 = np.vstack((wall[1][:175], objects[1][:75]))
+    far = PolicyConfig(min_parallax_deg=5.0, min_homography_parallax_deg=0.5)
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=far))
+    assert fire.reason is Reason.LOW_PARALLAX and fire.seed is None, fire.detail
+    assert 'the tracks are not a plane (GRIC E' in fire.detail
+    near = PolicyConfig(min_homography_parallax_deg=0.5)
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=near))
+    assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.E

@@ -58,9 +58,9 @@ def test_threshold_overrides_replace_model_file_values():
     assert merged == {**T, 'E': 0.9}
 
 
-def _estimate(ok=True, n=100, parallax=3.0):
+def _estimate(ok=True, n=100, parallax=3.0, method=Method.E):
     return PoseEstimate(
-        Method.E,
+        method,
         ok,
         '' if ok else 'bad',
         np.eye(3),
@@ -78,6 +78,16 @@ def test_pose_check_reasons():
     assert check_pose(_estimate(ok=False), cfg) is Reason.POSE_FAILED
     assert check_pose(_estimate(n=20), cfg) is Reason.TOO_FEW_POINTS
     assert check_pose(_estimate(parallax=0.5), cfg) is Reason.LOW_PARALLAX
+
+
+def test_h_has_its_own_parallax_floor_in_both_pose_checks():
+    cfg = PolicyConfig(min_parallax_deg=1.0, min_homography_parallax_deg=0.5)
+    assert check_pose(_estimate(parallax=0.7, method=Method.H), cfg) is None
+    assert check_pose(_estimate(parallax=0.7, method=Method.E), cfg) is Reason.LOW_PARALLAX
+    assert check_pose(_estimate(parallax=0.4, method=Method.H), cfg) is Reason.LOW_PARALLAX
+    ok, n, parallax = np.ones(2, bool), np.array([100, 100]), np.array([0.7, 0.4])
+    assert list(check_pose_batch(ok, n, parallax, cfg, 'H')) == [None, Reason.LOW_PARALLAX]
+    assert list(check_pose_batch(ok, n, parallax, cfg, 'E')) == [Reason.LOW_PARALLAX] * 2
 
 
 def _agree(probs: dict, thresholds: dict, n_tracks: np.ndarray, config: PolicyConfig) -> None:

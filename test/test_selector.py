@@ -363,3 +363,44 @@ def test_a_rival_decomposition_replaces_the_choice_only_when_it_reprojects_clear
     assert _verified_choice(chosen, (slightly, clearly)) is clearly
     assert _verified_choice(clearly, (chosen,)) is clearly
     assert _verified_choice(chosen, ()) is chosen
+
+
+def _run_with(path, models, config):
+    from initsel_ros.datasets import open_sequence
+
+    seq = open_sequence(path)
+    sel = Selector(models, seq.intrinsics, config)
+    return seq, [sel.process(seq.image(i), int(t)) for i, t in enumerate(seq.stamps_ns)]
+
+
+def test_the_rotation_test_re_checks_r_and_a_wall_seen_from_an_arc_initializes(
+    wall_arc_sequence,
+):
+    # Model R says rotation on every frame and vetoes E and F, and H never fires: only the
+    # periodic geometric re-check of R's yes can find the wall's parallax.
+    stubborn_r = constant_models(R=0.99)
+    seq, results = _run_with(wall_arc_sequence, stubborn_r, SelectorConfig())
+    inits = [r for r in results if r.initialization is not None]
+    assert len(inits) == 1
+    checked = [r for r in results if r.rotation is not None]
+    assert all(r.frames_since_reference % 3 == 0 for r in checked)
+    fired = next(r for r in results if r.decision.reason is Reason.VERIFYING)
+    assert 'R fired, but the flow a rotation leaves is' in fired.decision.detail
+    e_t, rotation_error = _pose_errors(seq, inits[0].initialization)
+    assert e_t < 0.1 and rotation_error < 1.0
+    _, never = _run_with(wall_arc_sequence, stubborn_r, SelectorConfig(rotation_recheck_frames=0))
+    assert not any(r.initialization for r in never)
+    assert all(r.rotation is None for r in never)
+
+
+def test_the_re_check_confirms_r_on_a_pan(rotation_sequence):
+    _, results = _run_with(rotation_sequence, constant_models(R=0.99), SelectorConfig())
+    assert not any(r.initialization for r in results)
+    checked = [r for r in results if r.rotation is not None]
+    assert checked and all(r.decision.reason is Reason.ROTATION for r in checked)
+    assert all('the rotation test re-checked it' in r.decision.detail for r in checked)
+
+
+def test_rotation_recheck_frames_must_not_be_negative():
+    with pytest.raises(ConfigError, match='rotation_recheck_frames'):
+        SelectorConfig(rotation_recheck_frames=-1)

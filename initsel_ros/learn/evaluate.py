@@ -171,6 +171,7 @@ def _pose_ok(
             np.asarray(test[f'{m}_n_points']),
             np.asarray(test[f'{m}_parallax_deg'], dtype=float),
             config,
+            m,
         )
         out |= sel & np.array([r is None for r in reasons])
     return out

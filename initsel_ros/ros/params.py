@@ -277,6 +277,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0.0, 90.0),
     ),
     ParameterSpec(
+        'min_homography_parallax_deg',
+        _POLICY.min_homography_parallax_deg,
+        "H's median parallax floor, degrees (its pose comes from a plane's perspective "
+        'change; 0.5 initializes planes seen from sideways arcs sooner)',
+        Number(0.0, 90.0),
+    ),
+    ParameterSpec(
         'min_rotation_residual_sigma',
         _POLICY.min_rotation_residual_sigma,
         'flow left after the best pure rotation must reach this many times the tracking '
@@ -295,6 +302,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         _SELECTOR.max_frames_since_reference,
         "frames after which a new reference frame is taken (the paper's batch length)",
         Number(1, 1_000_000, integer=True),
+    ),
+    ParameterSpec(
+        'rotation_recheck_frames',
+        _SELECTOR.rotation_recheck_frames,
+        "while model R's yes holds every other model back, the rotation test re-checks it "
+        'every this many frames after the reference (0 = never)',
+        Number(0, 1_000_000, integer=True),
     ),
     ParameterSpec(
         'mode',
@@ -426,9 +440,11 @@ class NodeSettings:
     min_tracks: int
     min_points: int
     min_parallax_deg: float
+    min_homography_parallax_deg: float
     min_rotation_residual_sigma: float
     max_translation_sigma_deg: float
     max_frames_since_reference: int
+    rotation_recheck_frames: int
     mode: Mode
     refine: bool
     verify_frames: int
@@ -519,11 +535,13 @@ class NodeSettings:
                 min_tracks=self.min_tracks,
                 min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
+                min_homography_parallax_deg=self.min_homography_parallax_deg,
                 min_rotation_residual_sigma=self.min_rotation_residual_sigma,
                 max_translation_sigma_deg=self.max_translation_sigma_deg,
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
+            rotation_recheck_frames=self.rotation_recheck_frames,
             refine=self.refine,
             verify=VerifyConfig(
                 frames=self.verify_frames,
