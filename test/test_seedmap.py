@@ -62,3 +62,25 @@ def test_seedmap_command_refuses_bad_baselines_groups_and_a_missing_orbslam3(
     nowhere = str(tmp_path / 'no-venv')
     assert main(['seedmap', seq, '--baselines', 'orbslam3', '--orbslam3-venv', nowhere]) == 2
     assert 'scripts/setup_orbslam3.sh' in capsys.readouterr().err
+
+
+def test_params_file_gives_the_node_settings_and_a_bad_one_is_refused(tmp_path, capsys):
+    import argparse
+
+    from initsel_ros.cli import main, options
+
+    good = tmp_path / 'selector.yaml'
+    good.write_text(
+        'selector:\n  ros__parameters:\n    min_homography_parallax_deg: 0.5\n'
+        '    rotation_recheck_frames: 0\n    verify_frames: 2\n'
+    )
+    config = options.selector_config(argparse.Namespace(params_file=good))
+    assert config.policy.min_homography_parallax_deg == 0.5
+    assert config.rotation_recheck_frames == 0 and config.verify.frames == 2
+    assert config.policy.min_parallax_deg == 1.0  # what the file does not name: defaults
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('selector:\n  ros__parameters:\n    min_homography_parallax_deg: .nan\n')
+    for command in ('seedmap', 'planar_arc'):
+        args = [command, str(tmp_path), '--params-file', str(bad), '--out-dir', str(tmp_path)]
+        assert main(args) == 2
+        assert 'min_homography_parallax_deg must be a finite number' in capsys.readouterr().err

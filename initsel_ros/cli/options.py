@@ -6,9 +6,12 @@ import argparse
 import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from initsel_ros.names import Mode
+
+if TYPE_CHECKING:
+    from initsel_ros.selector import SelectorConfig
 
 Options = TypeVar('Options')
 
@@ -23,6 +26,33 @@ def add_models_option(
 ) -> None:
     """``--models PATH``: one model file (default: the packaged config/models.json)."""
     parser.add_argument('--models', type=Path, default=None, metavar='PATH', help=help_text)
+
+
+def add_params_file_option(parser: argparse.ArgumentParser) -> None:
+    """``--params-file YAML``: the selector's settings from a node parameter file."""
+    parser.add_argument(
+        '--params-file',
+        type=Path,
+        default=None,
+        metavar='YAML',
+        help="the selector's settings from a ROS 2 parameter file of the node (as "
+        'config/selector.yaml; default: its defaults)',
+    )
+
+
+def selector_config(args: argparse.Namespace) -> SelectorConfig:
+    """The settings ``--params-file`` names, validated as the node validates them.
+
+    Raises:
+        ConfigError: an unreadable file, or a value the node would refuse.
+    """
+    from initsel_ros.selector import SelectorConfig
+
+    if getattr(args, 'params_file', None) is None:
+        return SelectorConfig()
+    from initsel_ros.ros.params import NodeSettings, load_params_file
+
+    return NodeSettings.from_values(load_params_file(args.params_file)).selector_config()
 
 
 def add_inputs_argument(

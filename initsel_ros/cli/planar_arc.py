@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from initsel_ros.cli import options
 
@@ -17,14 +18,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "'static' must not initialize",
     )
     options.add_models_option(parser)
+    options.add_params_file_option(parser)
     options.add_out_dir_option(parser, 'write planar_arc.md and planar_arc.csv', required=True)
     options.add_jobs_option(parser, 1)
 
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate the sequences, print the table and write it."""
+    from initsel_ros.errors import ConfigError
     from initsel_ros.learn.planar_arc import evaluate_arcs, write_outputs
 
-    outcomes = evaluate_arcs(args.sequences, options.model_path(args.models), jobs=args.jobs)
+    try:
+        config = options.selector_config(args)
+    except ConfigError as exc:
+        print(f'initsel planar_arc: error: {exc}', file=sys.stderr)
+        return 2
+    outcomes = evaluate_arcs(
+        args.sequences, options.model_path(args.models), config, jobs=args.jobs
+    )
     print(write_outputs(outcomes, args.out_dir))
     return 0

@@ -94,6 +94,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='seeds of the sensor noise; with several, every batch runs once per seed and '
         'the table pools them (default 0)',
     )
+    options.add_params_file_option(parser)
     parser.add_argument(
         '--min-rotation-residual-sigma',
         type=float,
@@ -120,9 +121,14 @@ def run(args: argparse.Namespace) -> int:
         summarize,
         summary_markdown,
     )
-    from initsel_ros.selector import SelectorConfig
 
-    config = SelectorConfig(refine=not args.no_refine)
+    try:
+        config = options.selector_config(args)
+    except ConfigError as exc:
+        print(f'initsel seedmap: error: {exc}', file=sys.stderr)
+        return 2
+    if args.no_refine:
+        config = replace(config, refine=False)
     if args.min_rotation_residual_sigma is not None:
         config = replace(
             config,
