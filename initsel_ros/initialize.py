@@ -37,7 +37,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from initsel_ros.geometry import Method, PoseEstimate, RotationTest, estimate_pose, rotation_test
+from initsel_ros.geometry import (
+    Method,
+    PoseEstimate,
+    RotationTest,
+    estimate_pose,
+    fundamental_from_essential,
+    rotation_test,
+    sampson_fundamental,
+    skew,
+)
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.policy import Decision, PolicyConfig, Reason, check_pose
 from initsel_ros.refine import Refinement, refine_two_view
@@ -57,8 +66,10 @@ class FireConfig:
     """Settings of :func:`initialize_pair`.
 
     Attributes:
-        policy: the pose check (``min_points``, ``min_parallax_deg``) and the rotation
-            test's threshold (``min_rotation_residual_sigma``).
+        policy: the pose check (``min_points``, ``min_parallax_deg``,
+            ``min_homography_parallax_deg``), the rotation test's threshold
+            (``min_rotation_residual_sigma``) and the bound on the refined direction of
+            motion (``max_translation_sigma_deg``; it needs ``refine``).
         ransac_threshold_px: RANSAC inlier threshold of the estimators, pixels.
         rotation_test: run the rotation test first (a rotation stops the path).
         background_test: run the background test on the winner (needs ``rotation_test``,
@@ -310,8 +321,9 @@ def initialize_pair(
             checks += (check_pose(general, policy),)
             problems.append(_problem_text(general, checks[-1]))
             selection = select_method(estimates, problems, ref, cur, K)
-            winner = next(e for e in estimates if e.method is selection.winner)
-            background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
+            if selection.winner is not winner.method:
+                winner = next(e for e in estimates if e.method is selection.winner)
+                background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
         if background is not None and background.statistic < threshold:
             n_out = int(np.count_nonzero(~np.asarray(winner.inliers, dtype=bool)))
             return FireResult(
@@ -333,6 +345,7 @@ def initialize_pair(
         return FireResult(
             plane[0], plane[1], residual, estimates, checks, selection, background=background
         )
+    winner = _decomposition_by_the_rest(winner, ref, cur, K)
     seed = seed_map(
         winner,
         ref,
@@ -352,7 +365,7 @@ def initialize_pair(
             refine=config.refine,
             max_reprojection_px=config.map_max_reprojection_px,
         )
-        if other.n_points >= policy.min_points:
+        if other.n_points >= policy.min_points and _direction_known(other, config):
             alternatives = (other,)
     if seed.n_points < policy.min_points:
         detail = f'{seed.n_points} points left after refinement; ' + selection.summary()
@@ -366,11 +379,12 @@ def initialize_pair(
             seed,
             background=background,
         )
-    sigma = seed.translation_sigma_deg
-    if 0.0 < policy.max_translation_sigma_deg < sigma:
+    if not _direction_known(seed, config):
+        sigma = seed.translation_sigma_deg
+        known = f'only to +-{sigma:.1f} deg' if math.isfinite(sigma) else 'not at all'
         return FireResult(
             Reason.LOW_PARALLAX,
-            f'{selection.winner.value} fixes the direction of motion only to +-{sigma:.1f} deg'
+            f'{selection.winner.value} fixes the direction of motion {known}'
             f' (max {policy.max_translation_sigma_deg:g} deg): the baseline is too short yet; '
             + selection.summary(),
             residual,
@@ -394,6 +408,44 @@ def initialize_pair(
         alternatives,
         background,
     )
+
+
+#: An H's two decompositions are told apart by the tracks off its plane when there are at
+#: least this many of them ...
+OFF_PLANE_MIN_TRACKS = 10
+#: ... and one motion's median epipolar (Sampson) error on them is this many times the
+#: other's.
+OFF_PLANE_MIN_RATIO = 3.0
+
+
+def _decomposition_by_the_rest(
+    winner: PoseEstimate, ref: np.ndarray, cur: np.ndarray, K: np.ndarray
+) -> PoseEstimate:
+    """Of an H whose two decompositions are close, the one the tracks off its plane confirm.
+
+    Both motions explain the plane's points alike (that is the ambiguity); a static point off
+    the plane lies on the epipolar lines of the true motion only. When the tracks H left out
+    sit clearly nearer one motion's epipolar lines (median Sampson error
+    :data:`OFF_PLANE_MIN_RATIO` times smaller), that decomposition is kept alone; otherwise
+    (a single plane, mismatches or objects moving on their own off it) both go on to the
+    verification.
+    """
+    rival = winner.alternative
+    if winner.method is not Method.H or rival is None:
+        return winner
+    off = ~np.asarray(winner.inliers, dtype=bool)
+    if off.shape != (len(ref),) or np.count_nonzero(off) < OFF_PLANE_MIN_TRACKS:
+        return winner
+    a, b = ref[off], cur[off]
+    first, second = (
+        float(np.median(sampson_fundamental(fundamental_from_essential(skew(e.t) @ e.R, K), a, b)))
+        for e in (winner, rival)
+    )
+    if first * OFF_PLANE_MIN_RATIO <= second:
+        return replace(winner, alternative=None)
+    if second * OFF_PLANE_MIN_RATIO <= first:
+        return replace(rival, alternative=None)
+    return winner
 
 
 def _better_model_not_ready(
@@ -429,6 +481,16 @@ def _better_model_not_ready(
         f'{won.method.value} {won.gric:.0f}), and {best.method.value} is not ready: '
         f'{best.problem}',
     )
+
+
+def _direction_known(seed: SeedMap, config: FireConfig) -> bool:
+    """The refined seed map fixes its direction of motion to within the policy's bound
+    (always true without refinement, which is where the bound is measured, or without a
+    bound). A covariance that could not be computed is no knowledge."""
+    bound = config.policy.max_translation_sigma_deg
+    if not config.refine or not bound > 0.0:
+        return True
+    return seed.translation_sigma_deg <= bound
 
 
 def _needs_general_model(

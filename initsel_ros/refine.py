@@ -346,6 +346,12 @@ def _inverse_3x3(V: np.ndarray) -> np.ndarray:
     return np.array([[A, B, C], [B, D, E], [C, E, F]]) / det
 
 
+def _pose_schur(W: np.ndarray, V_inv: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``W V^-1`` (5, 3, N) and the pose's Schur complement ``U - sum W V^-1 W^T`` (5, 5)."""
+    WV = (W[:, :, None] * V_inv[None]).sum(axis=1)
+    return WV, U - WV.reshape(5, -1) @ W.reshape(5, -1).T
+
+
 def _damped_step(lin: _Linearization, damping: float) -> tuple[np.ndarray, np.ndarray]:
     """Solve the damped normal equations through the pose's Schur complement.
 
@@ -365,8 +371,7 @@ def _damped_step(lin: _Linearization, damping: float) -> tuple[np.ndarray, np.nd
     for i in range(3):
         V[i, i] += damping * np.maximum(lin.V[i, i], _MIN_DIAGONAL)
     V_inv = _inverse_3x3(V)  # (3, 3, N)
-    WV = (lin.W[:, :, None] * V_inv[None]).sum(axis=1)  # (5, 3, N)
-    S = U - WV.reshape(5, -1) @ lin.W.reshape(5, -1).T
+    WV, S = _pose_schur(lin.W, V_inv, U)
     b = -lin.g_pose + WV.reshape(5, -1) @ lin.g_points.ravel()
     dp = np.linalg.solve(S, b)
     rhs = lin.g_points + np.tensordot(dp, lin.W, axes=1)  # (3, N)
@@ -631,9 +636,7 @@ def translation_sigma_deg(lin: _Linearization, rms_px: float) -> float:
     if n <= 5 or not math.isfinite(rms_px):
         return math.nan
     try:
-        V_inv = _inverse_3x3(lin.V)
-        WV = (lin.W[:, :, None] * V_inv[None]).sum(axis=1)  # (5, 3, N)
-        S = lin.U - WV.reshape(5, -1) @ lin.W.reshape(5, -1).T
+        _, S = _pose_schur(lin.W, _inverse_3x3(lin.V), lin.U)
         largest = float(np.linalg.eigvalsh(np.linalg.inv(S)[3:, 3:])[-1])
     except np.linalg.LinAlgError:
         return math.nan

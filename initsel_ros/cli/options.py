@@ -36,23 +36,30 @@ def add_params_file_option(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar='YAML',
         help="the selector's settings from a ROS 2 parameter file of the node (as "
-        'config/selector.yaml; default: its defaults)',
+        'config/selector.yaml; its model_file and camera.* are not read: use --models and '
+        "the sequence's own intrinsics; default: the node's defaults)",
     )
 
 
-def selector_config(args: argparse.Namespace) -> SelectorConfig:
-    """The settings ``--params-file`` names, validated as the node validates them.
-
-    Raises:
-        ConfigError: an unreadable file, or a value the node would refuse.
+def selector_config(args: argparse.Namespace, command: str) -> SelectorConfig | None:
+    """The settings ``--params-file`` names, validated as the node validates them (the
+    selector's: ``model_file`` and ``camera.*`` are the command's own business), or None
+    after printing why to stderr (an unreadable file, or a value the node would refuse).
     """
+    import sys
+
+    from initsel_ros.errors import ConfigError
     from initsel_ros.selector import SelectorConfig
 
     if getattr(args, 'params_file', None) is None:
         return SelectorConfig()
     from initsel_ros.ros.params import NodeSettings, load_params_file
 
-    return NodeSettings.from_values(load_params_file(args.params_file)).selector_config()
+    try:
+        return NodeSettings.from_values(load_params_file(args.params_file)).selector_config()
+    except ConfigError as exc:
+        print(f'initsel {command}: error: {exc}', file=sys.stderr)
+        return None
 
 
 def add_inputs_argument(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 from initsel_ros.cli import options
 
@@ -25,13 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate the sequences, print the table and write it."""
-    from initsel_ros.errors import ConfigError
     from initsel_ros.learn.planar_arc import evaluate_arcs, write_outputs
 
-    try:
-        config = options.selector_config(args)
-    except ConfigError as exc:
-        print(f'initsel planar_arc: error: {exc}', file=sys.stderr)
+    config = options.selector_config(args, 'planar_arc')
+    if config is None:
         return 2
     outcomes = evaluate_arcs(
         args.sequences, options.model_path(args.models), config, jobs=args.jobs

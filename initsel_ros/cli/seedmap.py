@@ -122,10 +122,8 @@ def run(args: argparse.Namespace) -> int:
         summary_markdown,
     )
 
-    try:
-        config = options.selector_config(args)
-    except ConfigError as exc:
-        print(f'initsel seedmap: error: {exc}', file=sys.stderr)
+    config = options.selector_config(args, 'seedmap')
+    if config is None:
         return 2
     if args.no_refine:
         config = replace(config, refine=False)
