@@ -389,7 +389,7 @@ def _levenberg_marquardt(
     linearize: Callable[[State], Any],
     propose: Callable[[State, Any, float], tuple[State, float] | None],
     max_evaluations: int,
-) -> tuple[State, int, bool]:
+) -> tuple[State, int, bool, Any]:
     """The damping loop shared by both refinements.
 
     Each step tried is linearized at once (its cost decides whether it is kept; steps are
@@ -404,7 +404,8 @@ def _levenberg_marquardt(
         max_evaluations: cap on evaluations of a step tried.
 
     Returns:
-        ``(state, evaluations, converged)``.
+        ``(state, evaluations, converged, linearization)``, the last the state's own (what
+        its covariance is read from).
     """
     lin = linearize(state)
     damping = LM_INITIAL_DAMPING
@@ -418,15 +419,15 @@ def _levenberg_marquardt(
         if trial is None or not trial.cost < lin.cost:
             damping *= LM_GROW
             if damping > LM_MAX_DAMPING:
-                return state, evaluations, True  # no step lowers the cost: at a minimum
+                return state, evaluations, True, lin  # no step lowers the cost: at a minimum
             continue
         new_state, relative_step = proposal
         decrease = (lin.cost - trial.cost) / max(lin.cost, 1e-300)
         state, lin = new_state, trial
         damping = max(damping * LM_SHRINK, LM_MIN_DAMPING)
         if decrease < LM_FTOL or relative_step < LM_XTOL:
-            return state, evaluations, True
-    return state, evaluations, False
+            return state, evaluations, True, lin
+    return state, evaluations, False, lin
 
 
 def _sampson_residuals(
@@ -544,7 +545,7 @@ def refine_essential(
             return None
         return _pose_step(*state, dp), float(np.linalg.norm(dp))
 
-    (R, t), _, _ = _levenberg_marquardt((R, t), linearize, propose, max_evaluations)
+    (R, t), _, _, _ = _levenberg_marquardt((R, t), linearize, propose, max_evaluations)
     return R, t
 
 
@@ -614,14 +615,14 @@ def solve_two_view(
         return (*_pose_step(Rk, tk, dp), Q + dq), size / norm
 
     Q0 = np.vstack([Xu[:, 0] / Xu[:, 2], Xu[:, 1] / Xu[:, 2], 1.0 / Xu[:, 2]])
-    (Rk, tk, Q), evaluations, converged = _levenberg_marquardt(
+    (Rk, tk, Q), evaluations, converged, final = _levenberg_marquardt(
         (problem.R, problem.t, Q0), linearize, propose, max_evaluations
     )
     X = np.full_like(X0, np.nan)
     with np.errstate(divide='ignore', invalid='ignore'):  # inf/NaN where rho ended at 0
         X[usable] = np.column_stack([Q[0], Q[1], np.ones(Q.shape[1])]) / Q[2][:, None]
     refinement = problem.refinement(Rk, tk, X, evaluations, converged, max_reprojection_px)
-    sigma_deg = translation_sigma_deg(linearize((Rk, tk, Q)), refinement.rms_after_px)
+    sigma_deg = translation_sigma_deg(final, refinement.rms_after_px)
     return replace(refinement, translation_sigma_deg=sigma_deg)
 
 
