@@ -14,10 +14,7 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
    and the winner fits an object moving on its own, a board held by a person or a passing
    car, which the first test cannot see once such objects hold most of the tracks; or the
    winner fits one plane of a scene whose other parts show no parallax yet. Either way the
-   pair is refused as a rotation and the next frames decide. When instead those tracks show
-   parallax and the winner is an H that no general model was there to contest (the models
-   fired H alone), E is estimated and GRIC chooses again on all tracks: H then fitted one
-   plane of a scene with depth;
+   pair is refused as a rotation and the next frames decide;
 6. the better-model test: an E or F winner is refused when an H that failed the pose check
    scores a lower GRIC (the tracks are a plane, where E and F are degenerate), and an H
    winner when a failed E or F does (the tracks have depth): the pair waits for that model;
@@ -313,17 +310,6 @@ def initialize_pair(
     if residual is not None and config.background_test:
         threshold = policy.min_rotation_residual_sigma
         background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
-        if _needs_general_model(winner, background, threshold, estimates):
-            # H explains one plane and the rest shows parallax: the scene is not that plane,
-            # and only a general model, scored by GRIC on all tracks, can say so
-            general = _estimate(Method.E, ref, cur, K, config)
-            estimates += (general,)
-            checks += (check_pose(general, policy),)
-            problems.append(_problem_text(general, checks[-1]))
-            selection = select_method(estimates, problems, ref, cur, K)
-            if selection.winner is not winner.method:
-                winner = next(e for e in estimates if e.method is selection.winner)
-                background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
         if background is not None and background.statistic < threshold:
             n_out = int(np.count_nonzero(~np.asarray(winner.inliers, dtype=bool)))
             return FireResult(
@@ -491,22 +477,6 @@ def _direction_known(seed: SeedMap, config: FireConfig) -> bool:
     if not config.refine or not bound > 0.0:
         return True
     return seed.translation_sigma_deg <= bound
-
-
-def _needs_general_model(
-    winner: PoseEstimate,
-    background: RotationTest | None,
-    threshold: float,
-    estimates: Sequence[PoseEstimate],
-) -> bool:
-    """H won without a general model to compare with, and the tracks it leaves out show
-    parallax (the background test ran and no rotation explains them)."""
-    return (
-        winner.method is Method.H
-        and background is not None
-        and background.statistic >= threshold
-        and not any(e.method in (Method.E, Method.F) for e in estimates)
-    )
 
 
 def background_test(

