@@ -353,32 +353,24 @@ def initialize_pair(
         )
         if other.n_points >= policy.min_points and _direction_known(other, config):
             alternatives = (other,)
+    refusal = None
     if seed.n_points < policy.min_points:
-        detail = f'{seed.n_points} points left after refinement; ' + selection.summary()
-        return FireResult(
+        refusal = (
             Reason.TOO_FEW_POINTS,
-            detail,
-            residual,
-            estimates,
-            checks,
-            selection,
-            seed,
-            background=background,
+            f'{seed.n_points} points left after refinement; ' + selection.summary(),
         )
-    if not _direction_known(seed, config):
+    elif not _direction_known(seed, config):
         sigma = seed.translation_sigma_deg
         known = f'only to +-{sigma:.1f} deg' if math.isfinite(sigma) else 'not at all'
-        return FireResult(
+        refusal = (
             Reason.LOW_PARALLAX,
             f'{selection.winner.value} fixes the direction of motion {known}'
             f' (max {policy.max_translation_sigma_deg:g} deg): the baseline is too short yet; '
             + selection.summary(),
-            residual,
-            estimates,
-            checks,
-            selection,
-            seed,
-            background=background,
+        )
+    if refusal is not None:
+        return FireResult(
+            *refusal, residual, estimates, checks, selection, seed, background=background
         )
     why = selection.why
     if alternatives:

@@ -424,14 +424,14 @@ class Selector:
             methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
         result = replace(result, rotation=fire.rotation, background=fire.background)
-        if recheck and fire.reason is Reason.ROTATION:
-            # R stands: the frame keeps its reason, the detail says what the check found
+        if fire.reason is Reason.ROTATION:  # (after a re-check: R stands)
+            fired = '/'.join(m.value for m in decision.candidates)
+            why = f'{fired} fired, but '
+            if recheck:
+                why = 'R fired; the rotation test re-checked it: '
             return replace(
                 result,
-                decision=replace(
-                    decision,
-                    detail=f'R fired; the rotation test re-checked it: {fire.detail}',
-                ),
+                decision=replace(decision, reason=Reason.ROTATION, detail=why + fire.detail),
             )
         context = ''
         if recheck:  # the test found parallax: the pair goes on as if E and H had fired
@@ -441,14 +441,6 @@ class Selector:
                 f'(re-checked every {self.config.rotation_recheck_frames} frames), so '
                 + '/'.join(m.value for m in methods)
                 + ' were tried; '
-            )
-        if fire.reason is Reason.ROTATION:
-            fired = '/'.join(m.value for m in decision.candidates)
-            return replace(
-                result,
-                decision=replace(
-                    decision, reason=Reason.ROTATION, detail=f'{fired} fired, but {fire.detail}'
-                ),
             )
         result = replace(result, selection=fire.selection)
         if fire.reason is not Reason.INITIALIZED or fire.seed is None:
