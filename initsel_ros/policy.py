@@ -47,7 +47,12 @@ class PolicyConfig:
         min_parallax_deg: a pose needs at least this median parallax, degrees.
         min_homography_parallax_deg: the same floor for H, whose pose comes from the
             perspective change of a plane rather than from each point's parallax (the
-            rotation test and the translation's standard deviation judge that change).
+            rotation test and the translation's standard deviation judge that change). It
+            applies when the plane is the scene: see ``min_homography_plane_share``.
+        min_homography_plane_share: H's own floor holds only when H's triangulated points
+            are at least this share of the tracks; on less, the tracks have depth beyond
+            the plane, the parallax of that depth will let E or F decide, and H needs
+            ``min_parallax_deg`` as well.
         min_rotation_residual_sigma: when a model fires, the flow left after the best pure
             rotation is taken out must reach this many times the tracking noise
             (``geometry.rotation_test``: a least-median rotation fit that independently moving
@@ -65,7 +70,8 @@ class PolicyConfig:
     min_tracks: int = 50
     min_points: int = 50
     min_parallax_deg: float = 1.0
-    min_homography_parallax_deg: float = 1.0
+    min_homography_parallax_deg: float = 0.5
+    min_homography_plane_share: float = 0.8
     min_rotation_residual_sigma: float = 3.0
     max_translation_sigma_deg: float = 2.0
 
@@ -256,9 +262,18 @@ def decide(
 _METHODS = {m: Method(m) for m in PREFERENCE}
 
 
-def min_parallax_of(method: str, config: PolicyConfig) -> float:
-    """The median parallax floor of ``method`` ('F', 'E' or 'H'), degrees."""
-    return config.min_homography_parallax_deg if method == 'H' else config.min_parallax_deg
+def min_parallax_of(method: str, config: PolicyConfig, plane_share: float = 1.0) -> float:
+    """The median parallax floor of ``method`` ('F', 'E' or 'H'), degrees.
+
+    ``plane_share`` is the share of the tracks the estimate triangulated: H's own floor
+    holds alone when it reaches ``config.min_homography_plane_share``, and on less H needs
+    ``config.min_parallax_deg`` as well.
+    """
+    if method != 'H':
+        return config.min_parallax_deg
+    if plane_share >= config.min_homography_plane_share:
+        return config.min_homography_parallax_deg
+    return max(config.min_homography_parallax_deg, config.min_parallax_deg)
 
 
 def check_pose_batch(
@@ -267,14 +282,26 @@ def check_pose_batch(
     parallax_deg: np.ndarray,
     config: PolicyConfig,
     method: str = 'E',
+    n_tracks: np.ndarray | None = None,
 ) -> np.ndarray:
     """:func:`check_pose` on N estimates of ``method``: (N,) object array of Reason, or None
-    when good."""
+    when good. ``n_tracks``: the correspondences each estimate came from (H's floor depends
+    on the share it triangulated); without them every H counts as the whole scene."""
     ok = np.asarray(ok, dtype=bool)
     n_points = np.asarray(n_points)
     parallax_deg = np.asarray(parallax_deg, dtype=float)
+    share = (
+        np.ones(ok.shape[0])
+        if n_tracks is None
+        else n_points / np.maximum(np.asarray(n_tracks, dtype=float), 1.0)
+    )
+    floor = np.where(
+        share >= config.min_homography_plane_share,
+        min_parallax_of(method, config),
+        min_parallax_of(method, config, 0.0),
+    )
     out = np.full(ok.shape[0], None, dtype=object)
-    out[~(parallax_deg >= min_parallax_of(method, config))] = Reason.LOW_PARALLAX
+    out[~(parallax_deg >= floor)] = Reason.LOW_PARALLAX
     out[n_points < config.min_points] = Reason.TOO_FEW_POINTS
     out[~ok] = Reason.POSE_FAILED
     return out
@@ -289,7 +316,8 @@ def check_pose(estimate: PoseEstimate, config: PolicyConfig) -> Reason | None:
         return Reason.POSE_FAILED
     if estimate.n_points < config.min_points:
         return Reason.TOO_FEW_POINTS
-    floor = min_parallax_of(estimate.method.value, config)
+    share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
+    floor = min_parallax_of(estimate.method.value, config, share)
     if not estimate.parallax_deg >= floor:  # NaN parallax fails too
         return Reason.LOW_PARALLAX
     return None

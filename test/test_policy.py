@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -58,7 +60,9 @@ def test_threshold_overrides_replace_model_file_values():
     assert merged == {**T, 'E': 0.9}
 
 
-def _estimate(ok=True, n=100, parallax=3.0, method=Method.E):
+def _estimate(ok=True, n=100, parallax=3.0, method=Method.E, n_tracks=None):
+    tracks = np.zeros(n if n_tracks is None else n_tracks, bool)
+    tracks[:n] = True
     return PoseEstimate(
         method,
         ok,
@@ -67,7 +71,7 @@ def _estimate(ok=True, n=100, parallax=3.0, method=Method.E):
         np.array([1.0, 0, 0]),
         np.ones((n, 3)),
         np.arange(n),
-        np.ones(n, bool),
+        tracks,
         parallax,
     )
 
@@ -88,6 +92,24 @@ def test_h_has_its_own_parallax_floor_in_both_pose_checks():
     ok, n, parallax = np.ones(2, bool), np.array([100, 100]), np.array([0.7, 0.4])
     assert list(check_pose_batch(ok, n, parallax, cfg, 'H')) == [None, Reason.LOW_PARALLAX]
     assert list(check_pose_batch(ok, n, parallax, cfg, 'E')) == [Reason.LOW_PARALLAX] * 2
+
+
+def test_h_floor_holds_only_where_the_plane_is_the_scene():
+    """An H on 100 of 200 tracks leaves half the scene off its plane: E's floor binds it."""
+    cfg = PolicyConfig(
+        min_parallax_deg=1.0, min_homography_parallax_deg=0.5, min_homography_plane_share=0.8
+    )
+    plane = _estimate(parallax=0.7, method=Method.H, n_tracks=110)
+    part = _estimate(parallax=0.7, method=Method.H, n_tracks=200)
+    assert check_pose(plane, cfg) is None
+    assert check_pose(part, cfg) is Reason.LOW_PARALLAX
+    assert check_pose(replace(part, parallax_deg=1.1), cfg) is None
+    ok, n, parallax = np.ones(3, bool), np.array([100, 100, 100]), np.array([0.7, 0.7, 1.1])
+    got = check_pose_batch(ok, n, parallax, cfg, 'H', np.array([110, 200, 200]))
+    assert list(got) == [None, Reason.LOW_PARALLAX, None]
+    # A floor above E's still binds an H on part of the scene.
+    high = replace(cfg, min_homography_parallax_deg=2.0)
+    assert check_pose(replace(part, parallax_deg=1.5), high) is Reason.LOW_PARALLAX
 
 
 def _agree(probs: dict, thresholds: dict, n_tracks: np.ndarray, config: PolicyConfig) -> None:

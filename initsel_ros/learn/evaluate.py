@@ -172,6 +172,7 @@ def _pose_ok(
             np.asarray(test[f'{m}_parallax_deg'], dtype=float),
             config,
             m,
+            np.asarray(test['n_tracks']),
         )
         out |= sel & np.array([r is None for r in reasons])
     return out

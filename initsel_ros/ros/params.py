@@ -284,6 +284,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0.0, 90.0),
     ),
     ParameterSpec(
+        'min_homography_plane_share',
+        _POLICY.min_homography_plane_share,
+        "H's own parallax floor holds when H triangulates at least this share of the tracks "
+        '(the scene is one plane); on less, H needs min_parallax_deg too',
+        Number(0.0, 1.0),
+    ),
+    ParameterSpec(
         'min_rotation_residual_sigma',
         _POLICY.min_rotation_residual_sigma,
         'flow left after the best pure rotation must reach this many times the tracking '
@@ -441,6 +448,7 @@ class NodeSettings:
     min_points: int
     min_parallax_deg: float
     min_homography_parallax_deg: float
+    min_homography_plane_share: float
     min_rotation_residual_sigma: float
     max_translation_sigma_deg: float
     max_frames_since_reference: int
@@ -536,6 +544,7 @@ class NodeSettings:
                 min_points=self.min_points,
                 min_parallax_deg=self.min_parallax_deg,
                 min_homography_parallax_deg=self.min_homography_parallax_deg,
+                min_homography_plane_share=self.min_homography_plane_share,
                 min_rotation_residual_sigma=self.min_rotation_residual_sigma,
                 max_translation_sigma_deg=self.max_translation_sigma_deg,
             ),
