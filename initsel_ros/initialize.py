@@ -227,7 +227,8 @@ def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEsti
     variation seen at a small baseline such a winner was the mirrored one as often as not.
     """
     rival = estimate.alternative
-    if rival is None or check_pose(rival, policy) is None:
+    share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
+    if rival is None or check_pose(rival, policy, share) is None:
         return estimate
     return replace(
         estimate,

@@ -307,17 +307,24 @@ def check_pose_batch(
     return out
 
 
-def check_pose(estimate: PoseEstimate, config: PolicyConfig) -> Reason | None:
+def check_pose(
+    estimate: PoseEstimate, config: PolicyConfig, plane_share: float | None = None
+) -> Reason | None:
     """None when the recovered pose is good enough to initialize, else the reason.
 
+    ``plane_share``: the share of the tracks H's plane holds, for H's parallax floor
+    (:func:`min_parallax_of`); by default the estimate's triangulated points over its tracks.
+    The runner-up decomposition of an ambiguous H is judged with the winner's share: the
+    plane is the same, only fewer of its points lie in front of the mirrored cameras.
     The scalar twin of :func:`check_pose_batch` (a test holds them equal).
     """
     if not estimate.ok:
         return Reason.POSE_FAILED
     if estimate.n_points < config.min_points:
         return Reason.TOO_FEW_POINTS
-    share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
-    floor = min_parallax_of(estimate.method.value, config, share)
+    if plane_share is None:
+        plane_share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
+    floor = min_parallax_of(estimate.method.value, config, plane_share)
     if not estimate.parallax_deg >= floor:  # NaN parallax fails too
         return Reason.LOW_PARALLAX
     return None

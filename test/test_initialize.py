@@ -376,3 +376,29 @@ def test_the_tracks_off_the_plane_tell_the_two_decompositions_of_h_apart():
     right, mirrored = _decompositions_of_the_wall(wall, R, t, 0)
     alone = replace(mirrored, alternative=right)
     assert _decomposition_by_the_rest(alone, wall[0], wall[1], K) is alone
+
+
+def test_the_runner_up_of_an_ambiguous_h_is_judged_with_the_winners_plane_share():
+    """The mirrored decomposition puts fewer of the plane's points in front of both cameras;
+    the plane is no smaller for it, so H's own parallax floor applies to both."""
+    from initsel_ros.geometry import PoseEstimate
+    from initsel_ros.initialize import _resolve_ambiguity
+
+    tracks = np.ones(200, bool)
+
+    def decomposition(n_points):
+        return PoseEstimate(
+            Method.H, True, '', np.eye(3), np.array([1.0, 0, 0]), np.ones((n_points, 3)),
+            np.arange(n_points), tracks, 0.7,
+        )  # fmt: skip
+
+    policy = PolicyConfig(
+        min_parallax_deg=1.0, min_homography_parallax_deg=0.5, min_homography_plane_share=0.8
+    )
+    winner = replace(decomposition(190), alternative=decomposition(100))
+    kept = _resolve_ambiguity(winner, policy)
+    assert kept.ok and kept.alternative is not None
+    # a winner that is only part of the scene holds its runner-up to E's floor as well
+    part = replace(decomposition(120), alternative=decomposition(100))
+    refused = _resolve_ambiguity(part, policy)
+    assert not refused.ok and 'runner-up fails the pose check' in refused.reason
