@@ -236,6 +236,25 @@ def test_a_board_moving_on_its_own_with_most_of_the_tracks_is_no_baseline(camera
     assert 'moving on its own' in without.detail and without.seed is None
 
 
+@pytest.mark.parametrize('camera', ['still', 'panning'])
+def test_a_board_with_most_of_few_tracks_is_no_baseline_either(camera):
+    # Late in a pan the background has lost most of its tracks: 75 are left, 57 on the board
+    # and 18 on the background, which a rotation explains to within the noise.
+    rng = np.random.default_rng(31)
+    n = 75
+    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
+    if camera == 'still':
+        background = p0 + rng.normal(0, 0.2, (n, 2))
+    else:
+        p0, background = _pan(n=n, seed=31)
+    p1, board = _board_in_front_of(p0, background, 0.76, seed=32)
+    assert (~board).sum() == 18
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(refine=False))
+    assert fire.reason is Reason.ROTATION, fire.detail
+    assert fire.background is not None and fire.background.statistic < 3.0
+    assert 'moving on its own' in fire.detail and fire.seed is None
+
+
 def test_the_background_test_passes_a_wall_and_objects_with_parallax():
     # A translating camera before a wall (70 % of the tracks) and objects 1-4 m away, and the
     # models fired H alone: H fits the wall and leaves the objects out, whose parallax no
