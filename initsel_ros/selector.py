@@ -22,6 +22,7 @@ from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize
 from initsel_ros.model_selection import Selection
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
+from initsel_ros.plane import snap_to_plane
 from initsel_ros.policy import (
     Decision,
     PolicyConfig,
@@ -66,6 +67,9 @@ class SelectorConfig:
             new reference when nothing initialized.
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
         refine: bundle-adjust the chosen pose and points before publishing (refine.py).
+        snap_to_plane: publish the points of an H initialization that agree with one plane
+            to within the noise on that plane (plane.py); the verification uses the map as
+            triangulated.
         verify: hold the candidate back and confirm it on the next frames (verify.py).
         rotation_recheck_frames: while model R's yes is what holds every other model back
             (the reason is ``rotation`` from the models), the fire path runs with E and H
@@ -83,6 +87,7 @@ class SelectorConfig:
     max_frames_since_reference: int = 90
     ransac_threshold_px: float = 1.0
     refine: bool = True
+    snap_to_plane: bool = True
     verify: VerifyConfig = field(default_factory=VerifyConfig)
     rotation_recheck_frames: int = 3
     bit_depth: int = 0
@@ -474,9 +479,19 @@ class Selector:
             )
         return replace(
             result,
-            initialization=init,
+            initialization=self._published(init),
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
+
+    def _published(self, init: Initialization) -> Initialization:
+        """The initialization as published: an H map's points on their plane
+        (``config.snap_to_plane``)."""
+        if not self.config.snap_to_plane or init.method is not Method.H:
+            return init
+        points = snap_to_plane(init.points).points
+        depth = float(np.median(points[:, 2])) if len(points) else 0.0
+        scale = 1.0 / depth if depth > 0 else 1.0  # the median depth stays 1
+        return replace(init, points=points * scale, t=init.t * scale)
 
     def _fire_config(self) -> FireConfig:
         return FireConfig(
@@ -548,7 +563,7 @@ class Selector:
             best = _verified_choice(best, rivals)
             init, steps = best.initialization, best.steps
         init = self._on_last_frame(best, ref, cur, decision, stamp_ns, since, steps[-1]) or init
-        verified = replace(init, verification=steps)
+        verified = self._published(replace(init, verification=steps))
         return replace(
             base,
             initialization=verified,

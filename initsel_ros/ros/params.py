@@ -330,6 +330,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Flag(),
     ),
     ParameterSpec(
+        'snap_to_plane',
+        _SELECTOR.snap_to_plane,
+        'publish the points of an H initialization that agree with its plane to within the '
+        'noise on that plane (false: each point as triangulated)',
+        Flag(),
+    ),
+    ParameterSpec(
         'verify_frames',
         _VERIFY.frames,
         'frames that must confirm a candidate by PnP before it is published; 0 = off',
@@ -455,6 +462,7 @@ class NodeSettings:
     rotation_recheck_frames: int
     mode: Mode
     refine: bool
+    snap_to_plane: bool
     verify_frames: int
     verify_min_fraction: float
     verify_max_rms_px: float
@@ -552,6 +560,7 @@ class NodeSettings:
             max_frames_since_reference=self.max_frames_since_reference,
             rotation_recheck_frames=self.rotation_recheck_frames,
             refine=self.refine,
+            snap_to_plane=self.snap_to_plane,
             verify=VerifyConfig(
                 frames=self.verify_frames,
                 min_fraction=self.verify_min_fraction,
