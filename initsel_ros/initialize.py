@@ -45,7 +45,7 @@ from initsel_ros.geometry import (
     skew,
 )
 from initsel_ros.model_selection import Selection, select_method
-from initsel_ros.policy import Decision, PolicyConfig, Reason, check_pose
+from initsel_ros.policy import Decision, PolicyConfig, Reason, check_pose, min_parallax_of
 from initsel_ros.refine import Refinement, refine_two_view
 
 #: After the bundle adjustment a map point must reproject within this many pixels in both
@@ -54,7 +54,7 @@ MAP_MAX_REPROJECTION_PX = 2.0
 
 #: The background test runs when the winner's outliers are at least this many tracks and this
 #: share of all of them: fewer are mismatches and noisy tracks, not a second motion. (12 tracks
-#: give the rotation fit's 4 parameters 24 equations; late in a pan the background may keep
+#: give the rotation fit's 3 parameters 24 equations; late in a pan the background may keep
 #: only 15-20 tracks while a board moving on its own holds the rest. 20 let a pan with moving
 #: boards initialize on the board at frame 64; 10 and 14 gave the same tuning results as 12.)
 BACKGROUND_MIN_TRACKS = 12
@@ -213,13 +213,21 @@ def seed_map(
     return SeedMap(estimate.method, R, t, points, indices, estimate.parallax_deg, refinement)
 
 
-def _problem_text(estimate: PoseEstimate, problem: Reason | None) -> str:
-    """What the selection reports of a candidate: '' when it passed, else why not."""
+def _problem_text(estimate: PoseEstimate, problem: Reason | None, policy: PolicyConfig) -> str:
+    """What the selection reports of a candidate: '' when it passed, else why not (for low
+    parallax, the floor that applied: H's own, or E's where H's plane is not the scene)."""
     if problem is None:
         return ''
-    return estimate.reason or (
-        f'{problem.value}: {estimate.n_points} points, parallax {estimate.parallax_deg:.2f} deg'
-    )
+    if estimate.reason:
+        return estimate.reason
+    text = f'{problem.value}: {estimate.n_points} points, parallax {estimate.parallax_deg:.2f} deg'
+    if problem is Reason.LOW_PARALLAX:
+        share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
+        floor = min_parallax_of(estimate.method.value, policy, share)
+        text += f' < {floor:g}'
+        if estimate.method is Method.H and share < policy.min_homography_plane_share:
+            text += f' (H holds {share:.0%} of the tracks: not the whole scene)'
+    return text
 
 
 def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEstimate:
@@ -303,7 +311,7 @@ def initialize_pair(
     if not config.select:
         reason = Reason.INITIALIZED if passed else first_problem
         return FireResult(reason, '', residual, estimates, checks)
-    problems = [_problem_text(e, c) for e, c in zip(estimates, checks, strict=True)]
+    problems = [_problem_text(e, c, policy) for e, c in zip(estimates, checks, strict=True)]
     selection = select_method(estimates, problems, ref, cur, K)
     if selection.winner is None:
         return FireResult(

@@ -149,13 +149,9 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     # The mirrored solution puts the plane far away, with 0.3 degrees of parallax and 48
     # points: the default pose check would drop it; a laxer one keeps both, as happens when
     # the two are closer. (The rotation test is not what this is about.)
-    # (the mirrored pose's direction is also too uncertain for the default bound: off here,
-    # and its 48 points are too small a share of the tracks for H's own floor: that is off too)
+    # (the mirrored pose's direction is also too uncertain for the default bound: off here)
     policy = PolicyConfig(
-        min_points=30,
-        min_homography_parallax_deg=0.2,
-        min_homography_plane_share=0.0,
-        max_translation_sigma_deg=0.0,
+        min_points=30, min_homography_parallax_deg=0.2, max_translation_sigma_deg=0.0
     )
     config = FireConfig(policy=policy, rotation_test=False)
     fire = initialize_pair(p0, p1, K, (Method.H,), config)
@@ -344,6 +340,7 @@ def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=far))
     assert fire.reason is Reason.LOW_PARALLAX and fire.seed is None, fire.detail
     assert 'H failed (low parallax' in fire.detail
+    assert '< 5 (H holds 6' in fire.detail and 'not the whole scene' in fire.detail, fire.detail
     any_share = replace(far, min_homography_plane_share=0.0)
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=any_share))
     assert fire.reason is Reason.LOW_PARALLAX and fire.seed is None, fire.detail

@@ -71,11 +71,11 @@ def test_params_file_gives_the_node_settings_and_a_bad_one_is_refused(tmp_path, 
 
     good = tmp_path / 'selector.yaml'
     good.write_text(
-        'selector:\n  ros__parameters:\n    min_homography_parallax_deg: 0.5\n'
+        'selector:\n  ros__parameters:\n    min_homography_parallax_deg: 0.7\n'
         '    rotation_recheck_frames: 0\n    verify_frames: 2\n'
     )
     config = options.selector_config(argparse.Namespace(params_file=good), 'seedmap')
-    assert config.policy.min_homography_parallax_deg == 0.5
+    assert config.policy.min_homography_parallax_deg == 0.7
     assert config.rotation_recheck_frames == 0 and config.verify.frames == 2
     assert config.policy.min_parallax_deg == 1.0  # what the file does not name: defaults
     bad = tmp_path / 'bad.yaml'

@@ -73,8 +73,7 @@ def test_without_the_rotation_guard_the_pose_check_refuses_the_shift():
     sel = Selector(constant_models(E=0.9, H=0.8), CAMERA, config)
     img = texture(6)
     sel.process(img, ns(0.0))
-    # (4.3 px: under half a degree, the floor of H's pose, whose decomposition reads a rigid
-    # shift as a slide in front of a fronto-parallel plane)
+    # (4.3 px: H's decomposition finds no translation in it, E no parallax)
     result = sel.process(shifted(img, 4.0, 1.5), ns(0.1))
     assert result.initialization is None
     assert result.decision.reason in (
@@ -83,6 +82,16 @@ def test_without_the_rotation_guard_the_pose_check_refuses_the_shift():
         Reason.TOO_FEW_POINTS,
     )
     assert 'E failed' in result.decision.detail and 'H failed' in result.decision.detail
+    # Twice as far (8.5 px) a rigid shift is what a slide in front of a fronto-parallel plane
+    # looks like, 0.8 degrees of parallax, which H's floor (0.5 degrees, where the plane is
+    # the whole scene) lets through: there, only the rotation test stands in its way.
+    sel.reset()
+    sel.process(img, ns(1.0))
+    result = sel.process(shifted(img, 8.0, 3.0), ns(1.1))
+    assert result.decision.reason is Reason.VERIFYING, result.decision.detail
+    guarded = Selector(constant_models(E=0.9, H=0.8), CAMERA)
+    guarded.process(img, ns(0.0))
+    assert guarded.process(shifted(img, 8.0, 3.0), ns(0.1)).decision.reason is Reason.ROTATION
 
 
 def test_losing_the_tracks_starts_a_new_reference():

@@ -279,8 +279,8 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         'min_homography_parallax_deg',
         _POLICY.min_homography_parallax_deg,
-        "H's median parallax floor, degrees (its pose comes from a plane's perspective "
-        'change; 0.5 initializes planes seen from sideways arcs sooner)',
+        "H's median parallax floor, degrees, where H's plane is the scene "
+        "(min_homography_plane_share; its pose comes from the plane's perspective change)",
         Number(0.0, 90.0),
     ),
     ParameterSpec(
