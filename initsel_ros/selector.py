@@ -22,7 +22,7 @@ from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize
 from initsel_ros.model_selection import Selection
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
-from initsel_ros.plane import snap_to_plane
+from initsel_ros.plane import depth_sigma, snap_to_plane
 from initsel_ros.policy import (
     Decision,
     PolicyConfig,
@@ -68,8 +68,9 @@ class SelectorConfig:
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
         refine: bundle-adjust the chosen pose and points before publishing (refine.py).
         snap_to_plane: publish the points of an H initialization that agree with one plane
-            to within the noise on that plane (plane.py); the verification uses the map as
-            triangulated.
+            to within their own depth uncertainty (the refinement's reprojection RMS over
+            their parallax) on that plane (plane.py; needs ``refine``); the verification uses
+            the map as triangulated.
         verify: hold the candidate back and confirm it on the next frames (verify.py).
         rotation_recheck_frames: while model R's yes is what holds every other model back
             (the reason is ``rotation`` from the models), the fire path runs with E and H
@@ -485,10 +486,15 @@ class Selector:
 
     def _published(self, init: Initialization) -> Initialization:
         """The initialization as published: an H map's points on their plane
-        (``config.snap_to_plane``)."""
-        if not self.config.snap_to_plane or init.method is not Method.H:
-            return init
-        points = snap_to_plane(init.points).points
+        (``config.snap_to_plane``), at a median depth of 1."""
+        refinement = init.refinement
+        if not self.config.snap_to_plane or init.method is not Method.H or refinement is None:
+            return init  # (without the bundle adjustment there is no noise to judge by)
+        K = self.intrinsics.K
+        sigma = depth_sigma(
+            init.points, init.R, init.t, refinement.rms_after_px, 0.5 * (K[0, 0] + K[1, 1])
+        )
+        points = snap_to_plane(init.points, sigma).points
         depth = float(np.median(points[:, 2])) if len(points) else 0.0
         scale = 1.0 / depth if depth > 0 else 1.0  # the median depth stays 1
         return replace(init, points=points * scale, t=init.t * scale)

@@ -332,8 +332,8 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         'snap_to_plane',
         _SELECTOR.snap_to_plane,
-        'publish the points of an H initialization that agree with its plane to within the '
-        'noise on that plane (false: each point as triangulated)',
+        'publish the points of an H initialization that agree with its plane to within their own '
+        'depth uncertainty on that plane (false: each point as triangulated)',
         Flag(),
     ),
     ParameterSpec(
