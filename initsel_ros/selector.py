@@ -128,6 +128,8 @@ class Initialization:
         selection: the candidates tried at fire time, their scores and why this one won.
         refinement: the bundle adjustment's result (None when refinement is off).
         verification: the checks of the frames after it (empty when verification is off).
+        points_on_plane: of ``points``, those placed on the plane of an H map
+            (``SelectorConfig.snap_to_plane``; 0 otherwise).
     """
 
     method: Method
@@ -144,6 +146,7 @@ class Initialization:
     selection: Selection | None = None
     refinement: Refinement | None = None
     verification: tuple[VerifyStep, ...] = ()
+    points_on_plane: int = 0
 
 
 @dataclass(frozen=True)
@@ -494,10 +497,15 @@ class Selector:
         sigma = depth_sigma(
             init.points, init.R, init.t, refinement.rms_after_px, 0.5 * (K[0, 0] + K[1, 1])
         )
-        points = snap_to_plane(init.points, sigma).points
-        depth = float(np.median(points[:, 2])) if len(points) else 0.0
+        fit = snap_to_plane(init.points, sigma)
+        depth = float(np.median(fit.points[:, 2])) if len(fit.points) else 0.0
         scale = 1.0 / depth if depth > 0 else 1.0  # the median depth stays 1
-        return replace(init, points=points * scale, t=init.t * scale)
+        return replace(
+            init,
+            points=fit.points * scale,
+            t=init.t * scale,
+            points_on_plane=int(fit.on_plane.sum()),
+        )
 
     def _fire_config(self) -> FireConfig:
         return FireConfig(

@@ -664,6 +664,11 @@ class SelectorNode(Node):
                 else ''
             )
             + (
+                f'; {init.points_on_plane} of {len(init.points)} points placed on the plane'
+                if init.points_on_plane
+                else ''
+            )
+            + (
                 f'; verified on {len(init.verification)} frames (last RMS '
                 f'{init.verification[-1].rms_px:.2f} px)'
                 if init.verification
