@@ -210,20 +210,26 @@ def _board_in_front_of(p0: np.ndarray, background: np.ndarray, share: float, see
     return p1, board
 
 
+def _board_scene(camera: str, n: int, share: float, seed: int):
+    """``n`` tracks of a still or panning camera (noise 0.2 px), ``share`` of them on a board
+    moving on its own (:func:`_board_in_front_of`, seeded ``seed + 1``): p0, p1, board."""
+    rng = np.random.default_rng(seed)
+    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
+    if camera == 'still':
+        background = p0 + rng.normal(0, 0.2, (n, 2))
+    else:
+        p0, background = _pan(n=n, seed=seed)
+    p1, board = _board_in_front_of(p0, background, share, seed=seed + 1)
+    return p0, p1, board
+
+
 @pytest.mark.parametrize('camera', ['still', 'panning'])
 def test_a_board_moving_on_its_own_with_most_of_the_tracks_is_no_baseline(camera):
     # A person holds a textured board in front of a still or panning camera, and its corners
     # are 70 % of the tracks: the first rotation test's least-quantile fit follows the board,
     # a winner fits the board's motion, and only the tracks it leaves out tell the camera
     # did not move.
-    rng = np.random.default_rng(21)
-    n = 300
-    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
-    if camera == 'still':
-        background = p0 + rng.normal(0, 0.2, (n, 2))
-    else:
-        p0, background = _pan(n=n, seed=21)
-    p1, _ = _board_in_front_of(p0, background, 0.7, seed=22)
+    p0, p1, _ = _board_scene(camera, 300, 0.7, seed=21)
     without = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(refine=False))
     assert without.rotation is not None and without.rotation.statistic > 3.0
     assert without.selection is not None and without.selection.winner is not None
@@ -236,14 +242,7 @@ def test_a_board_moving_on_its_own_with_most_of_the_tracks_is_no_baseline(camera
 def test_a_board_with_most_of_few_tracks_is_no_baseline_either(camera):
     # Late in a pan the background has lost most of its tracks: 75 are left, 57 on the board
     # and 18 on the background, which a rotation explains to within the noise.
-    rng = np.random.default_rng(31)
-    n = 75
-    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
-    if camera == 'still':
-        background = p0 + rng.normal(0, 0.2, (n, 2))
-    else:
-        p0, background = _pan(n=n, seed=31)
-    p1, board = _board_in_front_of(p0, background, 0.76, seed=32)
+    p0, p1, board = _board_scene(camera, 75, 0.76, seed=31)
     assert (~board).sum() == 18
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(refine=False))
     assert fire.reason is Reason.ROTATION, fire.detail
