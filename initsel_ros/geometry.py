@@ -121,6 +121,18 @@ class Triangulation:
     reprojection_px: np.ndarray
 
 
+def ray_parallax_rad(points: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(N,) angle between the rays from the two camera centres to each point, radians: the
+    reference's at the origin, the current's at ``-R^T t`` (``x_cur = R x_ref + t``); NaN
+    for a point at either centre."""
+    centre = -np.asarray(R, dtype=np.float64).T @ np.asarray(t, dtype=np.float64).reshape(3)
+    a = np.asarray(points, dtype=np.float64)
+    b = a - centre
+    with np.errstate(divide='ignore', invalid='ignore'):
+        cos = np.einsum('ij,ij->i', a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
 def triangulate_pair(
     R: np.ndarray, t: np.ndarray, K: np.ndarray, p0: np.ndarray, p1: np.ndarray
 ) -> Triangulation:

@@ -45,7 +45,14 @@ from initsel_ros.geometry import (
     skew,
 )
 from initsel_ros.model_selection import Selection, select_method
-from initsel_ros.policy import Decision, PolicyConfig, Reason, check_pose, min_parallax_of
+from initsel_ros.policy import (
+    Decision,
+    PolicyConfig,
+    Reason,
+    check_pose,
+    min_parallax_of,
+    plane_share,
+)
 from initsel_ros.refine import Refinement, refine_two_view
 
 #: After the bundle adjustment a map point must reproject within this many pixels in both
@@ -222,7 +229,7 @@ def _problem_text(estimate: PoseEstimate, problem: Reason | None, policy: Policy
         return estimate.reason
     text = f'{problem.value}: {estimate.n_points} points, parallax {estimate.parallax_deg:.2f} deg'
     if problem is Reason.LOW_PARALLAX:
-        share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
+        share = plane_share(estimate)
         floor = min_parallax_of(estimate.method.value, policy, share)
         text += f' < {floor:g}'
         if estimate.method is Method.H and share < policy.min_homography_plane_share:
@@ -238,8 +245,7 @@ def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEsti
     variation seen at a small baseline such a winner was the mirrored one as often as not.
     """
     rival = estimate.alternative
-    share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
-    if rival is None or check_pose(rival, policy, share) is None:
+    if rival is None or check_pose(rival, policy, plane_share(estimate)) is None:
         return estimate
     return replace(
         estimate,

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from initsel_ros.geometry import ray_parallax_rad
+
 #: A point whose depth differs from the plane's by more than this many of its own standard
 #: deviations is off the plane and keeps its own depth.
 PLANE_MAX_SIGMA = 3.0
@@ -44,13 +46,7 @@ def depth_sigma(
     """(M,) first-order relative standard deviation of each point's two-view depth:
     ``sqrt(2) noise / (focal x parallax)``, the tracking noise of both images over the angle
     between the two rays (radians). ``R, t``: reference to current camera."""
-    points = np.asarray(points, dtype=np.float64)
-    centre = -np.asarray(R).T @ np.asarray(t).reshape(3)
-    ray0, ray1 = points, points - centre
-    cos = np.einsum('ij,ij->i', ray0, ray1) / (
-        np.linalg.norm(ray0, axis=1) * np.linalg.norm(ray1, axis=1) + 1e-300
-    )
-    parallax = np.arccos(np.clip(cos, -1.0, 1.0))
+    parallax = ray_parallax_rad(points, R, t)
     with np.errstate(divide='ignore'):
         return np.sqrt(2.0) * noise_px / (focal_px * parallax)
 

@@ -262,6 +262,12 @@ def decide(
 _METHODS = {m: Method(m) for m in PREFERENCE}
 
 
+def plane_share(estimate: PoseEstimate) -> float:
+    """The share of its tracks an estimate triangulated (for H: how much of the scene its
+    plane holds, :func:`min_parallax_of`)."""
+    return estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
+
+
 def min_parallax_of(method: str, config: PolicyConfig, plane_share: float = 1.0) -> float:
     """The median parallax floor of ``method`` ('F', 'E' or 'H'), degrees.
 
@@ -308,12 +314,12 @@ def check_pose_batch(
 
 
 def check_pose(
-    estimate: PoseEstimate, config: PolicyConfig, plane_share: float | None = None
+    estimate: PoseEstimate, config: PolicyConfig, share: float | None = None
 ) -> Reason | None:
     """None when the recovered pose is good enough to initialize, else the reason.
 
-    ``plane_share``: the share of the tracks H's plane holds, for H's parallax floor
-    (:func:`min_parallax_of`); by default the estimate's triangulated points over its tracks.
+    ``share``: the share of the tracks H's plane holds, for H's parallax floor
+    (:func:`min_parallax_of`); by default :func:`plane_share` of the estimate.
     The runner-up decomposition of an ambiguous H is judged with the winner's share: the
     plane is the same, only fewer of its points lie in front of the mirrored cameras.
     The scalar twin of :func:`check_pose_batch` (a test holds them equal).
@@ -322,9 +328,9 @@ def check_pose(
         return Reason.POSE_FAILED
     if estimate.n_points < config.min_points:
         return Reason.TOO_FEW_POINTS
-    if plane_share is None:
-        plane_share = estimate.n_points / max(int(estimate.inliers.shape[0]), 1)
-    floor = min_parallax_of(estimate.method.value, config, plane_share)
+    if share is None:
+        share = plane_share(estimate)
+    floor = min_parallax_of(estimate.method.value, config, share)
     if not estimate.parallax_deg >= floor:  # NaN parallax fails too
         return Reason.LOW_PARALLAX
     return None

@@ -170,6 +170,13 @@ class _Candidate:
         return float(np.mean([s.rms_px for s in self.steps])) if self.steps else np.inf
 
 
+def _unit_depth_scale(points: np.ndarray) -> float:
+    """The factor that brings the points' median depth to 1 (the published scale; 1 when
+    there is no positive depth)."""
+    depth = float(np.median(points[:, 2])) if len(points) else 0.0
+    return 1.0 / depth if depth > 0 else 1.0
+
+
 def _verified_choice(chosen: _Candidate, rivals: Sequence[_Candidate]) -> _Candidate:
     """Of poses that all held on every verification frame, ``chosen`` (the fire path's),
     unless the rival with the lowest mean RMS is under :data:`RIVAL_MAX_RMS_RATIO` of its."""
@@ -498,8 +505,7 @@ class Selector:
             init.points, init.R, init.t, refinement.rms_after_px, 0.5 * (K[0, 0] + K[1, 1])
         )
         fit = snap_to_plane(init.points, sigma)
-        depth = float(np.median(fit.points[:, 2])) if len(fit.points) else 0.0
-        scale = 1.0 / depth if depth > 0 else 1.0  # the median depth stays 1
+        scale = _unit_depth_scale(fit.points)  # the median depth stays 1
         return replace(
             init,
             points=fit.points * scale,
@@ -646,8 +652,7 @@ class Selector:
         selection: Selection | None,
     ) -> Initialization:
         """The published record of a seed map, scaled to a median point depth of 1."""
-        depth = float(np.median(seed.points[:, 2])) if seed.n_points else 0.0
-        scale = 1.0 / depth if depth > 0 else 1.0
+        scale = _unit_depth_scale(seed.points)
         return Initialization(
             method=seed.method,
             R=seed.R,

@@ -389,10 +389,7 @@ def ground_truth_parallax_deg(
     X = X[np.isfinite(X).all(axis=1)]
     if len(X) == 0:
         return math.nan
-    centre = -np.asarray(R, dtype=float).T @ np.asarray(t, dtype=float).reshape(3)
-    a, b = X, X - centre
-    cos = np.einsum('ij,ij->i', a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-    return float(np.degrees(np.median(np.arccos(np.clip(cos, -1.0, 1.0)))))
+    return float(np.degrees(np.median(geometry.ray_parallax_rad(X, R, t))))
 
 
 def label_pair(
