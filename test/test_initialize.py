@@ -417,3 +417,41 @@ def test_the_runner_up_of_an_ambiguous_h_is_judged_with_the_winners_plane_share(
     part = replace(decomposition(120), alternative=decomposition(100))
     refused = _resolve_ambiguity(part, policy)
     assert not refused.ok and 'runner-up fails the pose check' in refused.reason
+
+
+def test_f_is_judged_by_the_parallax_e_measures_with_the_camera_matrix(monkeypatch):
+    """An F may reconstruct a projectively distorted scene whose points show more parallax
+    than the motion gives; where the calibrated E says the parallax is too low, F waits too."""
+    import initsel_ros.initialize as fire_path
+    from initsel_ros.geometry import PoseEstimate
+
+    n = 120
+    parallax = {Method.E: 0.9, Method.F: 1.3}
+
+    def estimate(method, ref, cur, K, config):
+        method = Method(method)
+        return PoseEstimate(
+            method, True, '', np.eye(3), np.array([1.0, 0, 0]), np.ones((n, 3)), np.arange(n),
+            np.ones(n, bool), parallax[method],
+        )  # fmt: skip
+
+    monkeypatch.setattr(fire_path, '_estimate', estimate)
+    ref = cur = np.zeros((n, 2))
+    policy = PolicyConfig(min_parallax_deg=1.0)
+    config = FireConfig(policy=policy, rotation_test=False, select=False, refine=False)
+    both = fire_path.initialize_pair(ref, cur, K, (Method.E, Method.F), config)
+    assert both.checks == (Reason.LOW_PARALLAX, Reason.LOW_PARALLAX)
+    assert both.reason is Reason.LOW_PARALLAX
+    selected = fire_path.initialize_pair(
+        ref, cur, K, (Method.E, Method.F), replace(config, select=True)
+    )
+    assert selected.reason is Reason.LOW_PARALLAX and selected.seed is None
+    assert "E, with the camera matrix, measures parallax 0.90 deg < 1 (F's own 1.30" in (
+        selected.detail
+    )
+    # without E's measurement, or with E above the floor, F stands on its own
+    alone = fire_path.initialize_pair(ref, cur, K, (Method.F,), config)
+    assert alone.checks == (None,) and alone.reason is Reason.INITIALIZED
+    parallax[Method.E] = 1.1
+    passed = fire_path.initialize_pair(ref, cur, K, (Method.E, Method.F), config)
+    assert passed.checks == (None, None)
