@@ -26,6 +26,15 @@ features, so version-1 files (23-feature logistic models) load unchanged.
 * ``trees``: a gradient-boosted tree ensemble, ``sigmoid(bias + sum of leaf values)``
   (:mod:`initsel_ros.trees`, evaluated in numpy).
 
+A file may also hold a ``referee``: models of another file (a distilled file's teacher) that
+decide where the file's own model of the same name is unsure, its logit within ``band_logit``
+of the threshold the two share::
+
+      "referee": {"band_logit": {"R": 2.0}, "models": {"R": {... as above ...}},
+                  "metadata": {...}}
+
+The referee's inputs are computed only for those pairs (:meth:`ModelSet.predict_points`).
+
 A model says yes when its probability is at or above ``threshold``. The set reads one input
 vector (:attr:`ModelSet.input_names`): the 23 paper features, then the extra features that some
 model needs; :meth:`ModelSet.input_vector` computes it, the extra features only when needed
@@ -199,14 +208,58 @@ def model_from_dict(name: str, data: Any) -> Model:
     return LogisticModel.from_dict(name, data, features)
 
 
+def _logit(p: float) -> float:
+    """The logit of a probability (+-inf at 1 and 0, NaN stays NaN)."""
+    if 0.0 < p < 1.0:
+        return math.log(p / (1.0 - p))
+    return math.inf if p >= 1.0 else -math.inf if p <= 0.0 else p
+
+
+@dataclass(frozen=True)
+class Referee:
+    """Models that decide where a set's own model of the same name is unsure.
+
+    Attributes:
+        models: the referee's models (a subset of F, E, H, R; usually the teacher a file was
+            distilled from), with the set's thresholds.
+        band_logit: per model name, the half-width of the band around the threshold's logit
+            in which the set's own model defers to the referee's.
+    """
+
+    models: ModelSet
+    band_logit: dict[str, float]
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.band_logit).difference(self.models.models))
+        if unknown:
+            raise ModelFileError(f'referee: band_logit names models it does not hold: {unknown}')
+        for name, band in self.band_logit.items():
+            if not (math.isfinite(band) and band > 0.0):
+                raise ModelFileError(f'referee: band_logit[{name!r}] must be > 0, got {band!r}')
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (the file's ``referee`` section)."""
+        return {
+            'band_logit': dict(self.band_logit),
+            'metadata': self.models.metadata,
+            'models': {name: model.to_dict() for name, model in self.models.models.items()},
+        }
+
+
 @dataclass(frozen=True)
 class ModelSet:
-    """The F, E, H and R models that score one input vector together."""
+    """The F, E, H and R models that score one input vector together.
+
+    ``referee`` (optional) decides for a model where that model is unsure (:class:`Referee`);
+    ``partial`` marks a referee's own set, which may hold a subset of the four models.
+    """
 
     models: dict[str, Model]
     scaling: Scaling = Scaling.RESOLUTION_FREE
     feature_names: tuple[str, ...] = FEATURE_NAMES
     metadata: dict[str, Any] = field(default_factory=dict)
+    referee: Referee | None = None
+    partial: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'scaling', Scaling(self.scaling))
@@ -223,6 +276,8 @@ class ModelSet:
                 '(a model file holds exactly F, E, H and R)'
             )
         missing = [m for m in METHODS if m not in self.models]
+        if self.partial and self.models:
+            missing = []
         if missing:
             raise ModelFileError(f'missing models: {", ".join(missing)} (need F, E, H and R)')
         used = {f for model in self.models.values() for f in model.features}
@@ -278,6 +333,25 @@ class ModelSet:
         object.__setattr__(self, '_plans', {})  # InputPlan by image size
         # The direction histogram has a pass of its own: made only when a model reads it.
         object.__setattr__(self, '_directions', bool(used & set(FEATURE_NAMES[15:])))
+        if self.referee is not None:
+            self._check_referee(self.referee)
+
+    def _check_referee(self, referee: Referee) -> None:
+        """A referee must read the same scaling and share the thresholds it decides on."""
+        if self.partial:
+            raise ModelFileError('a referee cannot have a referee of its own')
+        if referee.models.scaling is not self.scaling:
+            raise ModelFileError(
+                f"referee: scaling {referee.models.scaling.value!r} differs from the file's "
+                f'{self.scaling.value!r}'
+            )
+        for name in referee.band_logit:
+            own, theirs = self.models[name].threshold, referee.models.models[name].threshold
+            if not math.isclose(own, theirs, rel_tol=1e-9, abs_tol=1e-12):
+                raise ModelFileError(
+                    f"referee: model {name} has threshold {theirs!r}, the file's {own!r}: a "
+                    'referee decides at the threshold of the model it stands in for'
+                )
 
     @property
     def thresholds(self) -> dict[str, float]:
@@ -334,6 +408,75 @@ class ModelSet:
     def input_vector(self, p0: np.ndarray, p1: np.ndarray, width: int, height: int) -> np.ndarray:
         """:meth:`input_values` as a (len(input_names),) float64 array."""
         return np.array(self.input_values(p0, p1, width, height)[0], dtype=np.float64)
+
+    def predict_points(
+        self,
+        p0: np.ndarray,
+        p1: np.ndarray,
+        width: int,
+        height: int,
+        thresholds: dict[str, float] | None = None,
+    ) -> tuple[dict[str, float], float, tuple[str, ...]]:
+        """Probabilities of one correspondence set, the referee deciding where it should.
+
+        The set's own inputs and models first; then, for each model the referee covers whose
+        logit lies within its band of the threshold's (``thresholds``, default the file's),
+        the referee's probability replaces the model's (its inputs computed once, for those
+        pairs only).
+
+        Returns:
+            (probabilities by model name, mean disparity in pixels, the names of the models
+            the referee decided).
+        """
+        values, mean_disparity = self.input_values(p0, p1, width, height)
+        probs = self.predict_values(values)
+        referee = self.referee
+        if referee is None:
+            return probs, mean_disparity, ()
+        thresholds = thresholds or self.thresholds
+        unsure = [
+            name
+            for name, band in referee.band_logit.items()
+            if abs(_logit(probs[name]) - _logit(thresholds[name])) < band
+        ]
+        if not unsure:
+            return probs, mean_disparity, ()
+        judge = referee.models
+        verdict = judge.predict_values(judge.input_values(p0, p1, width, height)[0])
+        probs = {**probs, **{name: verdict[name] for name in unsure}}
+        return probs, mean_disparity, tuple(unsure)
+
+    @property
+    def referee_input_names(self) -> tuple[str, ...]:
+        """Names of the referee's input vector; () without a referee."""
+        return self.referee.models.input_names if self.referee is not None else ()
+
+    def review_logits(
+        self,
+        logits: dict[str, np.ndarray],
+        X_referee: np.ndarray | None,
+        thresholds: dict[str, float] | None = None,
+    ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """:meth:`predict_points` on rows: the referee's logits (of ``X_referee``, rows in
+        :attr:`referee_input_names` order) replace ``logits`` where they are in its band.
+
+        Returns:
+            (the logits by model, an (N,) bool array: the referee decided a model of the row).
+        """
+        n = len(next(iter(logits.values())))
+        referred = np.zeros(n, dtype=bool)
+        if self.referee is None:
+            return logits, referred
+        if X_referee is None:
+            raise GeometryError('this model file has a referee: its inputs are needed too')
+        thresholds = thresholds or self.thresholds
+        verdict = self.referee.models.logits_batch(X_referee)
+        out = dict(logits)
+        for name, band in self.referee.band_logit.items():
+            unsure = np.abs(logits[name] - _logit(thresholds[name])) < band
+            out[name] = np.where(unsure, verdict[name], logits[name])
+            referred |= unsure
+        return out, referred
 
     def _logits(self, X: np.ndarray) -> np.ndarray:
         """(N, models) logits of prepared rows, in ``self.models`` order."""
@@ -411,7 +554,7 @@ class ModelSet:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form of the whole file."""
-        return {
+        data = {
             'format': FILE_FORMAT,
             'version': FILE_VERSION,
             'scaling': self.scaling.value,
@@ -419,6 +562,9 @@ class ModelSet:
             'metadata': self.metadata,
             'models': {name: model.to_dict() for name, model in self.models.items()},
         }
+        if self.referee is not None:
+            data['referee'] = self.referee.to_dict()
+        return data
 
     @classmethod
     def from_dict(cls, data: Any) -> ModelSet:
@@ -452,6 +598,7 @@ class ModelSet:
             scaling=scaling,
             feature_names=tuple(names),
             metadata=dict(data.get('metadata', {}) or {}),
+            referee=_referee_from_dict(data.get('referee'), scaling, tuple(names)),
         )
 
     def save(self, path: Path | str) -> None:
@@ -474,6 +621,39 @@ class ModelSet:
             return cls.from_dict(data)
         except ModelFileError as exc:
             raise ModelFileError(f'{path}: {exc}') from exc
+
+
+def _referee_from_dict(
+    data: Any, scaling: Scaling, feature_names: tuple[str, ...]
+) -> Referee | None:
+    """The file's ``referee`` section (None when absent); raises ModelFileError."""
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise ModelFileError('"referee" must be a mapping')
+    models, bands = data.get('models'), data.get('band_logit')
+    if not isinstance(models, dict) or not models:
+        raise ModelFileError('referee: "models" must map model names to their coefficients')
+    unknown = [m for m in models if m not in METHODS]
+    if unknown:
+        raise ModelFileError(f'referee: unknown models {unknown[:5]!r}')
+    if not isinstance(bands, dict) or not bands:
+        raise ModelFileError('referee: "band_logit" must map model names to numbers')
+    metadata = data.get('metadata', {}) or {}
+    if not isinstance(metadata, dict):
+        raise ModelFileError('referee: "metadata" must be a mapping')
+    try:
+        judge = ModelSet(
+            models={name: model_from_dict(name, m) for name, m in models.items()},
+            scaling=scaling,
+            feature_names=feature_names,
+            metadata=dict(metadata),
+            partial=True,
+        )
+    except ModelFileError as exc:
+        raise ModelFileError(f'referee: {exc}') from exc
+    band = {str(k): finite_number(v, f'referee: band_logit[{k!r}]') for k, v in bands.items()}
+    return Referee(judge, band)
 
 
 def dumps(data: Any) -> str:
@@ -522,6 +702,7 @@ __all__ = [
     'LogisticModel',
     'Model',
     'ModelSet',
+    'Referee',
     'TreeEnsembleModel',
     'config_dirs',
     'default_model_path',

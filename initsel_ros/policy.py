@@ -93,6 +93,8 @@ class Decision:
         n_tracks: tracked correspondences.
         mean_disparity: mean correspondence disparity, pixels.
         detail: free text, e.g. the pose estimator's complaint.
+        referred: models whose probability the model file's referee gave (the file's own
+            model was within its band of the threshold; see ``models.Referee``).
     """
 
     reason: Reason
@@ -103,6 +105,7 @@ class Decision:
     n_tracks: int = 0
     mean_disparity: float = 0.0
     detail: str = ''
+    referred: tuple[str, ...] = ()
 
     @property
     def positive(self) -> bool:
@@ -202,6 +205,7 @@ def decide(
     n_tracks: int,
     mean_disparity: float,
     config: PolicyConfig,
+    referred: tuple[str, ...] = (),
 ) -> Decision:
     """Apply thresholds and the R veto, and order the methods worth trying (one pair).
 
@@ -215,6 +219,7 @@ def decide(
         n_tracks: number of correspondences.
         mean_disparity: mean disparity, pixels.
         config: the policy settings.
+        referred: the models whose probability a referee gave (recorded, not used).
 
     Returns:
         A :class:`Decision`; ``positive`` when candidates remain. Its reason is
@@ -231,6 +236,7 @@ def decide(
             n_tracks=n_tracks,
             mean_disparity=mean_disparity,
             detail=f'{n_tracks} < {config.min_tracks}',
+            referred=referred,
         )
     p, t = probabilities.get, thresholds.get
     fired = [m for m in PREFERENCE if p(m, 0.0) >= t(m, 0.5)]
@@ -256,6 +262,8 @@ def decide(
         tuple(map(_METHODS.__getitem__, remaining)),
         n_tracks,
         mean_disparity,
+        '',
+        referred,
     )
 
 

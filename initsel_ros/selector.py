@@ -238,7 +238,8 @@ def decide_pair(
     """The per-frame decision: model inputs, four model probabilities, policy.
 
     The inputs are the 23 paper features, plus the extra features (homography residual,
-    grid occupancy, ...) only when a model of ``models`` reads them.
+    grid occupancy, ...) only when a model of ``models`` reads them; a model file's referee
+    decides for a model near its threshold (:meth:`ModelSet.predict_points`).
 
     Args:
         models: the four models.
@@ -249,8 +250,8 @@ def decide_pair(
         width: image width, pixels.
         height: image height, pixels.
     """
-    values, mean_disparity = models.input_values(ref, cur, width, height)
-    return decide(models.predict_values(values), thresholds, len(ref), mean_disparity, policy)
+    probs, mean_disparity, referred = models.predict_points(ref, cur, width, height, thresholds)
+    return decide(probs, thresholds, len(ref), mean_disparity, policy, referred)
 
 
 class Selector:

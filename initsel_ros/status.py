@@ -132,6 +132,7 @@ class FrameStatus:
     probabilities: Mapping[str, float | None]
     fired: tuple[str, ...]
     vetoed: tuple[str, ...]
+    referred: tuple[str, ...]
     tracks: int
     mean_disparity_px: float
     frames_since_reference: int
@@ -215,6 +216,7 @@ class FrameStatus:
             probabilities={m: _float_or_none(probabilities.get(m)) for m in MODEL_NAMES},
             fired=tuple(decision.fired) if decision is not None else (),
             vetoed=tuple(decision.vetoed) if decision is not None else (),
+            referred=tuple(decision.referred) if decision is not None else (),
             tracks=int(decision.n_tracks) if decision is not None else 0,
             mean_disparity_px=float(decision.mean_disparity) if decision is not None else 0.0,
             frames_since_reference=result.frames_since_reference if result is not None else 0,
@@ -294,6 +296,7 @@ class FrameStatus:
         out['reason'] = self.reason.value
         out['probabilities'] = dict(self.probabilities)
         out['fired'], out['vetoed'] = list(self.fired), list(self.vetoed)
+        out['referred'] = list(self.referred)
         out['stamp_issues'] = dict(self.stamp_issues)
         out['intrinsics'] = None if self.intrinsics is None else dict(self.intrinsics)
         out['selection'] = None if self.selection is None else dict(self.selection)
@@ -331,6 +334,7 @@ class FrameStatus:
             raise StatusError(f'not a FrameStatus: unknown reason {data["reason"]!r}') from exc
         values['fired'] = tuple(values['fired'])
         values['vetoed'] = tuple(values['vetoed'])
+        values['referred'] = tuple(values.get('referred', ()))
         verification = values['verification']
         if verification is not None:
             try:

@@ -7,8 +7,11 @@ import numpy as np
 from initsel_ros.learn.table import PairTable, schema
 
 
-def synthetic_table(n: int = 120, seed: int = 0, **constant_labels: int) -> PairTable:
-    """A schema-complete table with learnable labels (features drive them), 6 batches.
+def synthetic_table(
+    n: int = 120, seed: int = 0, sequences: int = 2, **constant_labels: int
+) -> PairTable:
+    """A schema-complete table with learnable labels (features drive them), 6 batches of
+    ``sequences`` sequences.
 
     ``constant_labels`` (e.g. ``R_label=1``) fixes whole label columns.
     """
@@ -22,7 +25,7 @@ def synthetic_table(n: int = 120, seed: int = 0, **constant_labels: int) -> Pair
                 if kind is float
                 else (int(rng.integers(0, 2)) if kind is int else 'median')
             )
-        row['sequence'] = f'seq{i % 2}'
+        row['sequence'] = f'seq{i % sequences}'
         row['batch'] = i % 6
         signal = row['free__disparity_mean']
         for m in ('F', 'E', 'H'):

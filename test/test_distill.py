@@ -93,3 +93,68 @@ def test_sequence_grouped_validation_keeps_each_sequence_in_one_fold(monkeypatch
         np.testing.assert_array_equal(groups, by_sequence)
     with pytest.raises(ValueError, match='batch'):
         table.groups(by='frame')
+
+
+def test_referee_band_is_the_narrowest_holding_nine_tenths_of_the_disagreements():
+    from initsel_ros.learn.distill import BAND_STEP, referee_band
+
+    threshold = 0.5  # logit 0
+    rng = np.random.default_rng(0)
+    student = rng.uniform(-5.0, 5.0, 1000)
+    teacher = student.copy()
+    # 10 disagreements: 9 within 0.6 logits of the threshold, one at 3.1
+    differ = np.r_[np.flatnonzero(np.abs(student) < 0.6)[:9], np.argmax(np.abs(student) > 3.1)]
+    teacher[differ] = -student[differ]
+    band = referee_band(student, teacher, threshold)
+    assert band.band_logit == pytest.approx(np.ceil(0.6 / BAND_STEP) * BAND_STEP)
+    assert band.captured == pytest.approx(0.9)
+    assert band.out_of_fold_agreement == pytest.approx(0.99)
+    assert band.referred == pytest.approx(np.mean(np.abs(student) < band.band_logit))
+    with pytest.raises(DatasetError, match='threshold'):
+        referee_band(student, teacher, 1.0)
+
+
+def test_a_referee_decides_where_the_student_is_unsure(tmp_path):
+    from initsel_ros.learn.table import table_logits
+
+    table = synthetic_table(300, seed=3, sequences=5)
+    teacher = _teacher(table)
+    weak = ('x_point_spread', 'x_flow_coherence')  # noise: the students are unsure
+    plain = distill_models(table, teacher, weak, TreeConfig(20, 3, 0.2))
+    report = distill_models(table, teacher, weak, TreeConfig(20, 3, 0.2), referee=('R',))
+    models = report.models
+    assert models.referee is not None and set(models.referee.band_logit) == {'R'}
+    band = report.referee['R']
+    assert band.band_logit == models.referee.band_logit['R'] > 0
+    assert band.captured >= 0.9 and 0 < band.referred <= 1
+    assert models.referee.models.models['R'] is teacher.models['R']
+    assert models.models['R'].metrics['referee']['band_logit'] == band.band_logit
+    # the file keeps it: saved and loaded, the same decisions
+    path = tmp_path / 'm.json'
+    models.save(path)
+    loaded = ModelSet.load(path)
+    assert loaded.referee.band_logit == models.referee.band_logit
+    z, referred = table_logits(loaded, table)
+    z_plain, none = table_logits(plain.models, table)
+    target = teacher_logits(teacher, table)
+    cut = np.log(teacher.thresholds['R'] / (1 - teacher.thresholds['R']))
+    inside = np.abs(z_plain['R'] - cut) < band.band_logit
+    assert not none.any() and np.array_equal(referred, inside) and inside.any()
+    np.testing.assert_allclose(z['R'][inside], target['R'][inside])
+    np.testing.assert_allclose(z['R'][~inside], z_plain['R'][~inside])
+    for name in 'FEH':  # only R is refereed
+        np.testing.assert_allclose(z[name], z_plain[name])
+    agree = lambda zr: np.mean((zr >= cut) == (target['R'] >= cut))  # noqa: E731
+    assert agree(z['R']) > agree(z_plain['R'])
+
+
+def test_referee_needs_distillation_and_sequences(tmp_path, capsys):
+    path = tmp_path / 'pairs.csv'
+    write_table(synthetic_table(60), path)
+    assert main(['train', str(path), '--out', str(tmp_path / 'm.json'), '--referee', 'R']) != 0
+    assert 'it needs --distill TEACHER' in capsys.readouterr().err
+    table = synthetic_table(60, sequences=2)
+    with pytest.raises(DatasetError, match='at least 3 sequences'):
+        distill_models(table, _teacher(table), STUDENT_INPUTS, referee=('R',))
+    with pytest.raises(DatasetError, match='referee models'):
+        distill_models(table, _teacher(table), STUDENT_INPUTS, referee=('X',))

@@ -227,3 +227,69 @@ def test_the_schema_accepts_only_flat_lists_of_numbers(tmp_path, change, message
 def test_logistic_model_refuses_a_two_dimensional_weight_array():
     with pytest.raises(ModelFileError, match='flat'):
         LogisticModel('E', np.ones((23, 1)), 0.0)
+
+
+def _referee_section(data, band=1.0, seed=7):
+    """A referee for R: another set's R model, at the file's R threshold."""
+    judge = make_set(seed).to_dict()['models']['R']
+    judge['threshold'] = data['models']['R']['threshold']
+    return {'band_logit': {'R': band}, 'models': {'R': judge}, 'metadata': {'from': 'test'}}
+
+
+@pytest.mark.parametrize(
+    ('change', 'message'),
+    [
+        (lambda r: r['band_logit'].update(R=0.0), r"band_logit\['R'\] must be > 0"),
+        (lambda r: r['band_logit'].update(E=1.0), 'names models it does not hold'),
+        (lambda r: r['models']['R'].update(threshold=0.9), 'decides at the threshold'),
+        (lambda r: r.update(models={}), 'referee: "models"'),
+        (lambda r: r['models'].update(X=r['models']['R']), 'referee: unknown models'),
+        (lambda r: r['models']['R'].update(weights=[1.0] * 5), 'referee: .*weights'),
+        (lambda r: r.update(band_logit=[1.0]), 'band_logit. must map'),
+    ],
+)
+def test_malformed_referees_are_rejected(tmp_path, change, message):
+    def edit(d):
+        d['referee'] = _referee_section(d)
+        change(d['referee'])
+
+    with pytest.raises(ModelFileError, match=message):
+        ModelSet.load(_edit(tmp_path, edit))
+
+
+def test_the_referee_decides_only_within_its_band(tmp_path):
+    rng = np.random.default_rng(5)
+    p0 = rng.uniform(0, 640, (120, 2))
+    p1 = p0 + rng.normal(0, 4, (120, 2)) + (6.0, 2.0)
+    plain = make_set()
+    data = plain.to_dict()
+
+    def load(band):
+        data['referee'] = _referee_section(data, band)
+        path = tmp_path / f'ref{band}.json'
+        path.write_text(json.dumps(data))
+        return ModelSet.load(path)
+
+    wide, narrow = load(1e6), load(1e-9)
+    judge = wide.referee.models
+    theirs = judge.predict_values(judge.input_values(p0, p1, 640, 480)[0])['R']
+    ours = plain.predict_values(plain.input_values(p0, p1, 640, 480)[0])
+    assert theirs != pytest.approx(ours['R'])
+    probs, disparity, referred = wide.predict_points(p0, p1, 640, 480)
+    assert referred == ('R',) and probs['R'] == pytest.approx(theirs)
+    assert {m: probs[m] for m in 'FEH'} == pytest.approx({m: ours[m] for m in 'FEH'})
+    assert disparity == pytest.approx(float(np.mean(np.hypot(*(p1 - p0).T))))
+    probs, _, referred = narrow.predict_points(p0, p1, 640, 480)
+    assert referred == () and probs == pytest.approx(ours)
+    # the batch form decides the same rows
+    X = wide.input_vector(p0, p1, 640, 480)[None]
+    logits, rows = wide.review_logits(
+        wide.logits_batch(X), judge.input_vector(p0, p1, 640, 480)[None]
+    )
+    assert rows.tolist() == [True]
+    assert 1 / (1 + np.exp(-logits['R'][0])) == pytest.approx(theirs)
+    with pytest.raises(Exception, match='referee'):
+        wide.review_logits(wide.logits_batch(X), None)
+    # saved again, the referee stays
+    wide.save(tmp_path / 'again.json')
+    assert ModelSet.load(tmp_path / 'again.json').referee.band_logit == {'R': 1e6}

@@ -60,6 +60,7 @@ def _initializing_result() -> FrameResult:
         n_tracks=240,
         mean_disparity=14.5,
         detail='E verified on 3 frames',
+        referred=('R',),
     )
     init = Initialization(
         method=Method.E,
@@ -95,7 +96,12 @@ def test_status_of_an_initializing_frame_carries_the_result_and_the_counters():
     assert s.initializing_stamp_ns == STAMP_NS - 3 * 33_333_333
     assert s.reason is Reason.INITIALIZED and s.level == 'OK' and s.method == 'E'
     assert s.probabilities == {'F': 0.2, 'E': 0.8, 'H': 0.4, 'R': 0.1}
-    assert s.fired == ('E',) and s.tracks == 240 and s.frames_since_reference == 12
+    assert (
+        s.fired == ('E',)
+        and s.referred == ('R',)
+        and s.tracks == 240
+        and s.frames_since_reference == 12
+    )
     assert s.selection['winner'] == 'E' and s.selection['orb_ratio'] is None
     assert s.verification == VerificationStatus(True, 58, 55, 0.917, 0.412, '55/60 inliers')
     assert s.initialized and s.received_frames == 40 and s.dropped_frames == 2
@@ -109,7 +115,7 @@ def test_status_json_round_trips_and_keeps_the_published_key_order():
         assert FrameStatus.from_json(text) == status
         assert list(json.loads(text)) == list(STATUS_FIELDS)
     data = json.loads(_status().to_json())
-    assert data['reason'] == 'initialized' and data['fired'] == ['E']
+    assert data['reason'] == 'initialized' and data['fired'] == ['E'] and data['referred'] == ['R']
     assert data['verification']['rms_px'] == 0.412
     assert data['selection']['candidates'][1]['gric'] is None  # infinite GRIC: null
 

@@ -130,6 +130,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'the inputs --paper-features and --extra-features name (labels are not read)',
     )
     parser.add_argument(
+        '--referee',
+        nargs='+',
+        default=(),
+        choices=('F', 'E', 'H', 'R'),
+        metavar='MODEL',
+        help="with --distill: keep the teacher's MODEL in the file as a referee that decides "
+        'the pairs on which the student is unsure, within a band of the threshold holding 90 %% '
+        'of the out-of-fold disagreements with the teacher (docs/learning.md)',
+    )
+    parser.add_argument(
         '--trees', type=int, default=100, help='boosting stages of the tree families (default 100)'
     )
     parser.add_argument(
@@ -271,6 +281,8 @@ def run(args: argparse.Namespace) -> int:
     )
     if (args.final_test or args.family_cap is not None) and args.leave_family_out is None:
         raise ConfigError('--final-test and --family-cap need --leave-family-out FAMILIES')
+    if args.referee and args.distill is None:
+        raise ConfigError('--referee keeps a teacher model: it needs --distill TEACHER')
     if args.leave_family_out is not None and args.distill is not None:
         raise ConfigError('--leave-family-out retrains from the labels: not with --distill')
     table = read_tables(args.tables)
@@ -343,6 +355,7 @@ def _distill(args: argparse.Namespace, table: Any, config: Any) -> int:
         config.trees,
         seed=args.seed,
         description=describe_inputs([p.name for p in args.tables]),
+        referee=tuple(args.referee),
     )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     report.models.save(args.out)
@@ -357,4 +370,11 @@ def _distill(args: argparse.Namespace, table: Any, config: Any) -> int:
         for m in report.models.models
     ]
     print(markdown_table(('model', 'threshold', 'agreement', 'logit RMSE'), rows))
+    for m, band in report.referee.items():
+        print(
+            f'referee {m}: band +-{band.band_logit:g} logits around the threshold; out of fold '
+            f'the student agrees with the teacher on {band.out_of_fold_agreement:.3f} of the '
+            f'pairs, the band holds {band.captured:.3f} of the disagreements and '
+            f'{band.referred:.3f} of the pairs'
+        )
     return 0

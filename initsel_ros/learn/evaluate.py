@@ -21,7 +21,7 @@ import numpy as np
 from initsel_ros.learn import baselines
 from initsel_ros.learn.baselines import ORB_MIN_PARALLAX_DEG, ORB_MIN_POINTS
 from initsel_ros.learn.candidates import Candidate, FittedCandidate, fit_candidate
-from initsel_ros.learn.table import PairTable, input_columns
+from initsel_ros.learn.table import PairTable, input_columns, table_probabilities
 from initsel_ros.learn.train import TrainConfig, feature_columns, label_column
 from initsel_ros.markdown import markdown_table
 from initsel_ros.models import METHODS, ModelSet
@@ -132,6 +132,7 @@ class EvalReport:
     inference_ms_all_pairs: float
     decision_us: float
     model_description: str = ''
+    referred_pairs: int = 0
 
 
 # ----------------------------------------------------------------------------- decisions
@@ -330,7 +331,7 @@ def evaluate(
         test = test.select(finite)
     X = test.matrix(input_columns(models.input_names, models.scaling))
     start = time.perf_counter()
-    probs = models.predict_proba_batch(X)
+    probs, referred = table_probabilities(models, test)
     inference_ms = (time.perf_counter() - start) * 1e3
     x0 = X[0] if len(X) else np.zeros(X.shape[1])
     decision_us = time_call(lambda: models.predict_proba(x0))
@@ -430,7 +431,16 @@ def evaluate(
         )
     }
     return EvalReport(
-        rows, systems, cand_reports, probs, len(test), seqs, inference_ms, decision_us, description
+        rows,
+        systems,
+        cand_reports,
+        probs,
+        len(test),
+        seqs,
+        inference_ms,
+        decision_us,
+        description,
+        int(np.count_nonzero(referred)),
     )
 
 
@@ -604,7 +614,13 @@ def report_markdown(report: EvalReport) -> str:
         '',
         f'Model file: {report.model_description}. Inference over all {report.n_pairs} pairs: '
         f'{report.inference_ms_all_pairs:.2f} ms; one decision (4 models, one input vector, '
-        f'extra features not included): {report.decision_us:.1f} us.',
+        f'extra features not included): {report.decision_us:.1f} us.'
+        + (
+            f" The file's referee decided a model on {report.referred_pairs} of the "
+            f'{report.n_pairs} pairs.'
+            if report.referred_pairs
+            else ''
+        ),
         '',
         '## Sequence level (per batch; frames counted from the reference)',
         '',

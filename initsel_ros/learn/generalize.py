@@ -25,7 +25,7 @@ import numpy as np
 
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.evaluate import binary_scores
-from initsel_ros.learn.table import PairTable, input_columns
+from initsel_ros.learn.table import PairTable, table_probabilities
 from initsel_ros.learn.train import TrainConfig, label_column, prepare, train_models
 from initsel_ros.markdown import markdown_table
 from initsel_ros.models import METHODS, ModelSet
@@ -130,8 +130,7 @@ def score_family(
     models: ModelSet, test: PairTable, family: str, min_positives: int = MIN_POSITIVES
 ) -> list[FamilyScore]:
     """Score ``models`` (thresholds as they are) on the pairs of one family."""
-    X = test.matrix(input_columns(models.input_names, models.scaling))
-    probs = models.predict_proba_batch(X)
+    probs, _ = table_probabilities(models, test)
     fired = {m: probs[m] >= models.thresholds[m] for m in METHODS}
     out = []
     for m in SCORED:

@@ -35,7 +35,9 @@ import numpy as np
 
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
+from initsel_ros.models import ModelSet
 from initsel_ros.names import POSE_METHODS as METHODS_FEH  # the pose methods, in table order
+from initsel_ros.trees import sigmoid
 
 LOG = logging.getLogger(__name__)
 
@@ -284,6 +286,24 @@ def read_tables(paths: Sequence[Path]) -> PairTable:
     return PairTable.concat([read_table(p) for p in paths])
 
 
+def table_logits(models: ModelSet, table: PairTable) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The logits of ``models`` on every pair of ``table``, by model, its referee deciding
+    where it should (:meth:`ModelSet.review_logits`); and the (N,) rows it decided."""
+    logits = models.logits_batch(table.matrix(input_columns(models.input_names, models.scaling)))
+    if models.referee is None:
+        return logits, np.zeros(len(table), dtype=bool)
+    judged = table.matrix(input_columns(models.referee_input_names, models.scaling))
+    return models.review_logits(logits, judged)
+
+
+def table_probabilities(
+    models: ModelSet, table: PairTable
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """:func:`table_logits` as probabilities."""
+    logits, referred = table_logits(models, table)
+    return {m: sigmoid(z) for m, z in logits.items()}, referred
+
+
 __all__ = [
     'EXTRA_NAMES',
     'FREE_PREFIX',
@@ -297,5 +317,7 @@ __all__ = [
     'read_table',
     'read_tables',
     'schema',
+    'table_logits',
+    'table_probabilities',
     'write_table',
 ]
