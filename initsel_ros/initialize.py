@@ -5,7 +5,9 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
 
 1. the rotation test: a flow that one rotation explains to within the tracking noise has no
    baseline, whatever the estimators make of it (``geometry.rotation_test``: the residual of
-   the best rotation against the noise of a fundamental matrix on the same tracks);
+   the best rotation against the noise of a fundamental matrix on the same tracks); between
+   ``min_plane_residual_sigma`` and ``min_rotation_residual_sigma`` only H goes on (a
+   plane's perspective change is parallax enough for H before it is for E and F);
 2. the estimates of the candidate methods (``geometry.estimate_pose``);
 3. the pose check of each (``policy.check_pose``);
 4. the choice among those that pass, by GRIC (``model_selection.select_method``);
@@ -339,15 +341,51 @@ def initialize_pair(
     residual = None
     if config.rotation_test:
         threshold = policy.min_rotation_residual_sigma
-        residual = rotation_test(ref, cur, K, enough_below=threshold)
-        if not residual.statistic >= threshold:
+        wants_h = any(Method(m) is Method.H for m in methods)
+        plane_floor = min(policy.min_plane_residual_sigma, threshold) if wants_h else threshold
+        residual = rotation_test(ref, cur, K, enough_below=plane_floor)
+        if not residual.statistic >= plane_floor:
             return FireResult(
                 Reason.ROTATION,
                 f'a rotation alone explains the flow (median residual {residual.residual_px:.2f}'
                 f' px, {residual.statistic:.1f} x the noise {residual.noise_px:.2f} px < '
-                f'{threshold:g} x)',
+                f'{plane_floor:g} x)',
                 residual,
             )
+        if not residual.statistic >= threshold:
+            fire = _estimate_and_choose(ref, cur, K, (Method.H,), config, residual)
+            measured = f'the rotation test measured {residual.statistic:.1f} x the noise'
+            share = plane_share(fire.estimates[0]) if fire.estimates else 0.0
+            if (
+                fire.estimates
+                and fire.estimates[0].ok
+                and share < policy.min_homography_plane_share
+            ):
+                return FireResult(
+                    Reason.ROTATION,
+                    f'{measured}: parallax for a plane, but H holds {share:.0%} of the tracks '
+                    f'(< {policy.min_homography_plane_share:.0%}): the rest has depth, and E '
+                    f'and F need {threshold:g} x',
+                    residual,
+                    fire.estimates,
+                    fire.checks,
+                )
+            note = f'({measured}: parallax for H, not yet for E and F, which need {threshold:g} x)'
+            return replace(fire, detail=f'{fire.detail} {note}'.strip())
+    return _estimate_and_choose(ref, cur, K, methods, config, residual)
+
+
+def _estimate_and_choose(
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    methods: Sequence[Method | str],
+    config: FireConfig,
+    residual: RotationTest | None,
+) -> FireResult:
+    """The fire path after the rotation test: estimates, pose check, GRIC, background test,
+    the plane and decomposition tests, and the seed map (see :func:`initialize_pair`)."""
+    policy = config.policy
     estimates = tuple(_estimate(m, ref, cur, K, config) for m in methods)
     checks = tuple(check_pose(e, policy) for e in estimates)
     low_essential = _low_essential_parallax(estimates, checks)

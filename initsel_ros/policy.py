@@ -59,6 +59,14 @@ class PolicyConfig:
             objects on under half of the tracks do not sway, under focal lengths up to 20 %
             off, against the noise of a fundamental matrix on the same tracks): a rotation
             alone explains any flow with less, whatever the pose estimators make of it.
+        min_plane_residual_sigma: where the rotation test's statistic is at least this but
+            under ``min_rotation_residual_sigma``, H alone is tried: a plane's perspective
+            change is parallax enough for H's decomposition (as ``min_homography_parallax_deg``
+            says) before it is for E and F, whose translation is then ill-determined; the
+            pose check, the direction's standard deviation and the verification still judge
+            H, which must triangulate ``min_homography_plane_share`` of the tracks there (on
+            less the rest has depth, E's domain). At or above
+            ``min_rotation_residual_sigma`` it is off.
         max_translation_sigma_deg: a refined seed map is published only when the direction
             of its translation is known to within this standard deviation, degrees (first
             order, from the bundle adjustment: ``refine.translation_sigma_deg``); a larger one
@@ -73,6 +81,7 @@ class PolicyConfig:
     min_homography_parallax_deg: float = 0.5
     min_homography_plane_share: float = 0.8
     min_rotation_residual_sigma: float = 3.0
+    min_plane_residual_sigma: float = 2.0
     max_translation_sigma_deg: float = 2.0
 
 

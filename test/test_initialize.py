@@ -455,3 +455,50 @@ def test_f_is_judged_by_the_parallax_e_measures_with_the_camera_matrix(monkeypat
     parallax[Method.E] = 1.1
     passed = fire_path.initialize_pair(ref, cur, K, (Method.E, Method.F), config)
     assert passed.checks == (None, None)
+
+
+def test_between_the_plane_and_the_rotation_floor_h_alone_goes_on(monkeypatch):
+    import initsel_ros.initialize as fire_path
+    from initsel_ros.geometry import PoseEstimate, RotationTest
+
+    tried = []
+    plane = {'points': 0}  # H's triangulated points of the 60 tracks (0: no pose)
+
+    def estimate(method, ref, cur, K, config):
+        tried.append(Method(method))
+        n = plane['points']
+        return PoseEstimate(
+            Method(method), n > 0, '' if n else 'no pose', np.eye(3), np.array([1.0, 0, 0]),
+            np.ones((n, 3)), np.arange(n), np.ones(60, bool), 0.6,
+        )  # fmt: skip
+
+    monkeypatch.setattr(fire_path, '_estimate', estimate)
+    ref = cur = np.zeros((60, 2))
+
+    def fire(statistic, methods, **policy):
+        tried.clear()
+        monkeypatch.setattr(
+            fire_path,
+            'rotation_test',
+            lambda *a, **k: RotationTest(0.1 * statistic, 0.1, statistic, 1.0),
+        )
+        config = FireConfig(policy=PolicyConfig(**policy), refine=False)
+        return fire_path.initialize_pair(ref, cur, K, methods, config)
+
+    between = fire(2.5, (Method.E, Method.H))
+    assert tried == [Method.H] and between.reason is Reason.POSE_FAILED
+    assert 'measured 2.5 x the noise: parallax for H, not yet for E and F' in between.detail
+    assert fire(3.5, (Method.E, Method.H)).estimates and tried == [Method.E, Method.H]
+    # without H to try, or under the plane's floor, or with the floor at the rotation's
+    for statistic, methods, policy, floor in (
+        (2.5, (Method.E, Method.F), {}, '< 3 x'),
+        (1.5, (Method.E, Method.H), {}, '< 2 x'),
+        (2.5, (Method.E, Method.H), {'min_plane_residual_sigma': 3.0}, '< 3 x'),
+    ):
+        refused = fire(statistic, methods, **policy)
+        assert refused.reason is Reason.ROTATION and tried == [] and floor in refused.detail
+    # an H that holds only part of the tracks is one plane of a scene with depth: E's floor
+    plane['points'] = 30
+    part = fire(2.5, (Method.E, Method.H))
+    assert part.reason is Reason.ROTATION and tried == [Method.H]
+    assert 'H holds 50% of the tracks (< 80%): the rest has depth' in part.detail

@@ -298,6 +298,15 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0.0, 100.0),
     ),
     ParameterSpec(
+        'min_plane_residual_sigma',
+        _POLICY.min_plane_residual_sigma,
+        'between this and min_rotation_residual_sigma times the noise, H alone is tried, kept '
+        "where it triangulates min_homography_plane_share of the tracks (a plane's perspective "
+        'change is parallax for H before it is for E and F); at or above '
+        'min_rotation_residual_sigma: off',
+        Number(0.0, 100.0),
+    ),
+    ParameterSpec(
         'max_translation_sigma_deg',
         _POLICY.max_translation_sigma_deg,
         'a refined seed map is published only when it fixes the direction of motion to '
@@ -457,6 +466,7 @@ class NodeSettings:
     min_homography_parallax_deg: float
     min_homography_plane_share: float
     min_rotation_residual_sigma: float
+    min_plane_residual_sigma: float
     max_translation_sigma_deg: float
     max_frames_since_reference: int
     rotation_recheck_frames: int
@@ -554,6 +564,7 @@ class NodeSettings:
                 min_homography_parallax_deg=self.min_homography_parallax_deg,
                 min_homography_plane_share=self.min_homography_plane_share,
                 min_rotation_residual_sigma=self.min_rotation_residual_sigma,
+                min_plane_residual_sigma=self.min_plane_residual_sigma,
                 max_translation_sigma_deg=self.max_translation_sigma_deg,
             ),
             mode=self.mode,
