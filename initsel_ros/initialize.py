@@ -353,26 +353,34 @@ def initialize_pair(
                 residual,
             )
         if not residual.statistic >= threshold:
-            fire = _estimate_and_choose(ref, cur, K, (Method.H,), config, residual)
-            measured = f'the rotation test measured {residual.statistic:.1f} x the noise'
-            share = plane_share(fire.estimates[0]) if fire.estimates else 0.0
-            if (
-                fire.estimates
-                and fire.estimates[0].ok
-                and share < policy.min_homography_plane_share
-            ):
-                return FireResult(
-                    Reason.ROTATION,
-                    f'{measured}: parallax for a plane, but H holds {share:.0%} of the tracks '
-                    f'(< {policy.min_homography_plane_share:.0%}): the rest has depth, and E '
-                    f'and F need {threshold:g} x',
-                    residual,
-                    fire.estimates,
-                    fire.checks,
-                )
-            note = f'({measured}: parallax for H, not yet for E and F, which need {threshold:g} x)'
-            return replace(fire, detail=f'{fire.detail} {note}'.strip())
+            return _plane_alone(ref, cur, K, config, residual)
     return _estimate_and_choose(ref, cur, K, methods, config, residual)
+
+
+def _plane_alone(
+    ref: np.ndarray, cur: np.ndarray, K: np.ndarray, config: FireConfig, residual: RotationTest
+) -> FireResult:
+    """The fire path with H alone, for a rotation test between ``min_plane_residual_sigma``
+    and ``min_rotation_residual_sigma``: parallax for a plane's perspective change, not yet
+    for E and F. An H that triangulates less than ``min_homography_plane_share`` of the
+    tracks fits one part of a scene with depth, E's domain: refused as a rotation."""
+    policy = config.policy
+    threshold = policy.min_rotation_residual_sigma
+    fire = _estimate_and_choose(ref, cur, K, (Method.H,), config, residual)
+    measured = f'the rotation test measured {residual.statistic:.1f} x the noise'
+    plane = fire.estimates[0] if fire.estimates else None
+    if plane is not None and plane.ok and plane_share(plane) < policy.min_homography_plane_share:
+        return FireResult(
+            Reason.ROTATION,
+            f'{measured}: parallax for a plane, but H holds {plane_share(plane):.0%} of the '
+            f'tracks (< {policy.min_homography_plane_share:.0%}): the rest has depth, and E and '
+            f'F need {threshold:g} x',
+            residual,
+            fire.estimates,
+            fire.checks,
+        )
+    note = f'({measured}: parallax for H, not yet for E and F, which need {threshold:g} x)'
+    return replace(fire, detail=f'{fire.detail} {note}'.strip())
 
 
 def _estimate_and_choose(
