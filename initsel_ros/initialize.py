@@ -366,19 +366,19 @@ def _plane_alone(
     tracks fits one part of a scene with depth, E's domain: refused as a rotation."""
     policy = config.policy
     threshold = policy.min_rotation_residual_sigma
-    fire = _estimate_and_choose(ref, cur, K, (Method.H,), config, residual)
     measured = f'the rotation test measured {residual.statistic:.1f} x the noise'
-    plane = fire.estimates[0] if fire.estimates else None
-    if plane is not None and plane.ok and plane_share(plane) < policy.min_homography_plane_share:
+    plane = _estimate(Method.H, ref, cur, K, config)
+    if plane.ok and plane_share(plane) < policy.min_homography_plane_share:
         return FireResult(
             Reason.ROTATION,
             f'{measured}: parallax for a plane, but H holds {plane_share(plane):.0%} of the '
             f'tracks (< {policy.min_homography_plane_share:.0%}): the rest has depth, and E and '
             f'F need {threshold:g} x',
             residual,
-            fire.estimates,
-            fire.checks,
+            (plane,),
+            (check_pose(plane, policy),),
         )
+    fire = _estimate_and_choose(ref, cur, K, (Method.H,), config, residual, (plane,))
     note = f'({measured}: parallax for H, not yet for E and F, which need {threshold:g} x)'
     return replace(fire, detail=f'{fire.detail} {note}'.strip())
 
@@ -390,11 +390,14 @@ def _estimate_and_choose(
     methods: Sequence[Method | str],
     config: FireConfig,
     residual: RotationTest | None,
+    estimates: tuple[PoseEstimate, ...] | None = None,
 ) -> FireResult:
-    """The fire path after the rotation test: estimates, pose check, GRIC, background test,
-    the plane and decomposition tests, and the seed map (see :func:`initialize_pair`)."""
+    """The fire path after the rotation test: estimates (``estimates`` when already made,
+    one per method), pose check, GRIC, background test, the plane and decomposition tests,
+    and the seed map (see :func:`initialize_pair`)."""
     policy = config.policy
-    estimates = tuple(_estimate(m, ref, cur, K, config) for m in methods)
+    if estimates is None:
+        estimates = tuple(_estimate(m, ref, cur, K, config) for m in methods)
     checks = tuple(check_pose(e, policy) for e in estimates)
     low_essential = _low_essential_parallax(estimates, checks)
     if low_essential is not None:

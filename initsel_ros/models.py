@@ -49,7 +49,7 @@ import json
 import math
 import os
 import uuid
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -208,7 +208,7 @@ def model_from_dict(name: str, data: Any) -> Model:
     return LogisticModel.from_dict(name, data, features)
 
 
-def _logit(p: float) -> float:
+def logit(p: float) -> float:
     """The logit of a probability (+-inf at 1 and 0, NaN stays NaN)."""
     if 0.0 < p < 1.0:
         return math.log(p / (1.0 - p))
@@ -415,14 +415,15 @@ class ModelSet:
         p1: np.ndarray,
         width: int,
         height: int,
-        thresholds: dict[str, float] | None = None,
+        thresholds: Mapping[str, float] | None = None,
     ) -> tuple[dict[str, float], float, tuple[str, ...]]:
         """Probabilities of one correspondence set, the referee deciding where it should.
 
         The set's own inputs and models first; then, for each model the referee covers whose
         logit lies within its band of the threshold's (``thresholds``, default the file's),
         the referee's probability replaces the model's (its inputs computed once, for those
-        pairs only).
+        pairs only). ``thresholds`` may name some models only (the policy's overrides): the
+        others keep the file's.
 
         Returns:
             (probabilities by model name, mean disparity in pixels, the names of the models
@@ -433,11 +434,11 @@ class ModelSet:
         referee = self.referee
         if referee is None:
             return probs, mean_disparity, ()
-        thresholds = thresholds or self.thresholds
+        thresholds = {**self.thresholds, **(thresholds or {})}
         unsure = [
             name
             for name, band in referee.band_logit.items()
-            if abs(_logit(probs[name]) - _logit(thresholds[name])) < band
+            if abs(logit(probs[name]) - logit(thresholds[name])) < band
         ]
         if not unsure:
             return probs, mean_disparity, ()
@@ -455,7 +456,7 @@ class ModelSet:
         self,
         logits: dict[str, np.ndarray],
         X_referee: np.ndarray | None,
-        thresholds: dict[str, float] | None = None,
+        thresholds: Mapping[str, float] | None = None,
     ) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """:meth:`predict_points` on rows: the referee's logits (of ``X_referee``, rows in
         :attr:`referee_input_names` order) replace ``logits`` where they are in its band.
@@ -463,17 +464,17 @@ class ModelSet:
         Returns:
             (the logits by model, an (N,) bool array: the referee decided a model of the row).
         """
-        n = len(next(iter(logits.values())))
+        n = len(logits[METHODS[0]]) if logits else 0
         referred = np.zeros(n, dtype=bool)
         if self.referee is None:
             return logits, referred
         if X_referee is None:
             raise GeometryError('this model file has a referee: its inputs are needed too')
-        thresholds = thresholds or self.thresholds
+        thresholds = {**self.thresholds, **(thresholds or {})}
         verdict = self.referee.models.logits_batch(X_referee)
         out = dict(logits)
         for name, band in self.referee.band_logit.items():
-            unsure = np.abs(logits[name] - _logit(thresholds[name])) < band
+            unsure = np.abs(logits[name] - logit(thresholds[name])) < band
             out[name] = np.where(unsure, verdict[name], logits[name])
             referred |= unsure
         return out, referred
@@ -708,5 +709,6 @@ __all__ = [
     'default_model_path',
     'dumps',
     'find_config_file',
+    'logit',
     'model_from_dict',
 ]

@@ -271,8 +271,7 @@ def decide(
         tuple(map(_METHODS.__getitem__, remaining)),
         n_tracks,
         mean_disparity,
-        '',
-        referred,
+        referred=referred,
     )
 
 

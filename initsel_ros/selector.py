@@ -456,8 +456,9 @@ class Selector:
             context = (
                 f'R fired, but the flow a rotation leaves is {statistic:.1f} x the noise '
                 f'(re-checked every {self.config.rotation_recheck_frames} frames), so '
-                + '/'.join(m.value for m in methods)
-                + ' were tried; '
+                + '/'.join(e.method.value for e in fire.estimates)
+                + (' was' if len(fire.estimates) == 1 else ' were')
+                + ' tried; '
             )
         result = replace(result, selection=fire.selection)
         if fire.reason is not Reason.INITIALIZED or fire.seed is None:

@@ -320,6 +320,7 @@ class FrameStatus:
                 verification.
         """
         names = [f.name for f in fields(cls)]
+        data = {'referred': [], **data}  # (records of earlier versions have no 'referred')
         missing = [n for n in names if n not in data]
         unknown = sorted(set(data) - set(names))
         problems = ([f'missing {", ".join(missing)}'] if missing else []) + (
@@ -334,7 +335,7 @@ class FrameStatus:
             raise StatusError(f'not a FrameStatus: unknown reason {data["reason"]!r}') from exc
         values['fired'] = tuple(values['fired'])
         values['vetoed'] = tuple(values['vetoed'])
-        values['referred'] = tuple(values.get('referred', ()))
+        values['referred'] = tuple(values['referred'])
         verification = values['verification']
         if verification is not None:
             try:

@@ -112,6 +112,9 @@ def test_referee_band_is_the_narrowest_holding_nine_tenths_of_the_disagreements(
     assert band.referred == pytest.approx(np.mean(np.abs(student) < band.band_logit))
     with pytest.raises(DatasetError, match='threshold'):
         referee_band(student, teacher, 1.0)
+    # a student that never disagrees needs no referee: band 0, no pair referred
+    alike = referee_band(student, student.copy(), threshold)
+    assert alike.band_logit == 0.0 and alike.referred == 0.0 and alike.captured == 1.0
 
 
 def test_a_referee_decides_where_the_student_is_unsure(tmp_path):
@@ -158,3 +161,5 @@ def test_referee_needs_distillation_and_sequences(tmp_path, capsys):
         distill_models(table, _teacher(table), STUDENT_INPUTS, referee=('R',))
     with pytest.raises(DatasetError, match='referee models'):
         distill_models(table, _teacher(table), STUDENT_INPUTS, referee=('X',))
+    with pytest.raises(DatasetError, match='sequence of model names'):
+        distill_models(table, _teacher(table), STUDENT_INPUTS, referee='RE')

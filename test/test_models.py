@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from initsel_ros.errors import ModelFileError
+from initsel_ros.errors import GeometryError, ModelFileError
 from initsel_ros.features import N_FEATURES, Scaling
 from initsel_ros.models import METHODS, LogisticModel, ModelSet, find_config_file
 
@@ -288,8 +288,25 @@ def test_the_referee_decides_only_within_its_band(tmp_path):
     )
     assert rows.tolist() == [True]
     assert 1 / (1 + np.exp(-logits['R'][0])) == pytest.approx(theirs)
-    with pytest.raises(Exception, match='referee'):
+    with pytest.raises(GeometryError, match='referee'):
         wide.review_logits(wide.logits_batch(X), None)
+    # a band between the two: the student's logit decides whether the referee is asked,
+    # around the threshold in force (a policy override of R, other models the file's)
+    z_ours = np.log(ours['R'] / (1 - ours['R']))
+    threshold = plain.thresholds['R']
+    distance = abs(z_ours - np.log(threshold / (1 - threshold)))
+    for band, asked in ((distance * 1.01, True), (distance * 0.99, False)):
+        model = load(band)
+        _, _, referred = model.predict_points(p0, p1, 640, 480)
+        assert referred == (('R',) if asked else ())
+        _, rows = model.review_logits(
+            model.logits_batch(X), judge.input_vector(p0, p1, 640, 480)[None]
+        )
+        assert rows.tolist() == [asked]
+    at_student = {'R': 1 / (1 + np.exp(-z_ours))}  # a threshold right at the student's logit
+    assert narrow.predict_points(p0, p1, 640, 480, at_student)[2] == ('R',)
+    far = {'R': 1 / (1 + np.exp(-(z_ours + 2 * distance + 1)))}
+    assert load(distance * 1.01).predict_points(p0, p1, 640, 480, far)[2] == ()
     # saved again, the referee stays
     wide.save(tmp_path / 'again.json')
     assert ModelSet.load(tmp_path / 'again.json').referee.band_logit == {'R': 1e6}

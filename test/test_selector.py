@@ -453,3 +453,25 @@ def test_the_re_check_confirms_r_on_a_pan(rotation_sequence):
 def test_rotation_recheck_frames_must_not_be_negative():
     with pytest.raises(ConfigError, match='rotation_recheck_frames'):
         SelectorConfig(rotation_recheck_frames=-1)
+
+
+def test_a_referee_in_the_model_file_decides_the_unsure_model_live():
+    from dataclasses import replace
+
+    from initsel_ros.models import ModelSet, Referee
+
+    judge = ModelSet({'R': constant_models(R=0.95).models['R']}, partial=True)
+    unsure = constant_models(E=0.9, H=0.8, R=0.45)  # R within a logit of its threshold 0.5
+    models = replace(unsure, referee=Referee(judge, {'R': 1.0}))
+    sel = Selector(models, CAMERA)
+    img = texture(6)
+    sel.process(img, ns(0.0))
+    result = sel.process(shifted(img, 4.0, 1.5), ns(0.1))
+    assert result.decision.referred == ('R',)
+    assert result.decision.probabilities['R'] == pytest.approx(0.95)
+    sure = Selector(replace(models, referee=Referee(judge, {'R': 0.1})), CAMERA)
+    sure.process(img, ns(0.0))
+    result = sure.process(shifted(img, 4.0, 1.5), ns(0.1))
+    assert result.decision.referred == () and result.decision.probabilities['R'] == pytest.approx(
+        0.45
+    )

@@ -221,3 +221,10 @@ def test_docs_list_every_reason():
         if line.startswith('| `reason`')
     )
     assert set(re.findall(r'`([^`]+)`', row.split('|', 3)[3])) == {r.value for r in Reason}
+
+
+def test_a_status_record_of_an_earlier_version_without_referred_still_loads():
+    data = _status().to_dict()
+    assert data['referred'] == ['R']
+    del data['referred']
+    assert FrameStatus.from_dict(data).referred == ()

@@ -100,7 +100,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=None,
         metavar='RATIO',
-        help="override the policy's min_rotation_residual_sigma",
+        help="override the policy's min_rotation_residual_sigma (H alone is still tried from "
+        'min_plane_residual_sigma, 2 by default; set that in a --params-file)',
     )
     options.add_jobs_option(parser, 2)
     options.add_out_dir_option(

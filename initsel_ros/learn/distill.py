@@ -16,6 +16,7 @@ a referee, deciding the pairs whose student logit lies within a band of the thre
 from __future__ import annotations
 
 import datetime as _dt
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -26,11 +27,12 @@ from initsel_ros.errors import DatasetError
 from initsel_ros.features import ALL_FEATURE_NAMES, FEATURE_NAMES
 from initsel_ros.learn.table import PairTable, input_columns, table_logits
 from initsel_ros.learn.train import TreeConfig, export_trees, impute
-from initsel_ros.models import METHODS, ModelSet, Referee
+from initsel_ros.models import METHODS, ModelSet, Referee, logit
 from initsel_ros.trees import TreeEnsembleModel
 
 #: Teacher logits beyond this are clipped before fitting (probabilities 6e-6 and 1 - 6e-6).
 LOGIT_CLIP = 12.0
+LOG = logging.getLogger(__name__)
 #: A referee's band holds this share of the out-of-fold disagreements with the teacher ...
 REFEREE_CAPTURE = 0.9
 #: ... measured with students fitted on this many folds of sequences ...
@@ -107,24 +109,23 @@ def _fit_student(
     return TreeEnsembleModel(name, features, tuple(fitted), bias, threshold)
 
 
-def _logit_of(threshold: float) -> float:
-    return float(np.log(threshold / (1.0 - threshold))) if 0.0 < threshold < 1.0 else np.nan
-
-
 def referee_band(
     student_logits: np.ndarray, teacher_logits: np.ndarray, threshold: float
 ) -> RefereeBand:
     """The narrowest band (a multiple of :data:`BAND_STEP`, at most :data:`BAND_MAX`) around
     ``threshold``'s logit holding :data:`REFEREE_CAPTURE` of the pairs on which the
-    (out-of-fold) student and the teacher disagree."""
-    cut = _logit_of(threshold)
+    (out-of-fold) student and the teacher disagree; a band of 0 when they never disagree
+    (no referee is needed). At :data:`BAND_MAX` ``captured`` may stay under the target."""
+    cut = logit(threshold)
     if not np.isfinite(cut):
         raise DatasetError(f'a referee needs a threshold in (0, 1), got {threshold}')
     distance = np.abs(student_logits - cut)
     differ = (student_logits >= cut) != (teacher_logits >= cut)
     n_differ = int(np.count_nonzero(differ))
+    if n_differ == 0:
+        return RefereeBand(0.0, 1.0, 1.0, 0.0)
     band = BAND_STEP
-    while n_differ and band < BAND_MAX:
+    while band < BAND_MAX:
         if np.count_nonzero(differ & (distance < band)) >= REFEREE_CAPTURE * n_differ:
             break
         band += BAND_STEP
@@ -132,7 +133,7 @@ def referee_band(
     return RefereeBand(
         band_logit=band,
         out_of_fold_agreement=float(1.0 - np.mean(differ)),
-        captured=float(np.count_nonzero(differ & inside) / n_differ) if n_differ else 1.0,
+        captured=float(np.count_nonzero(differ & inside) / n_differ),
         referred=float(np.mean(inside)),
     )
 
@@ -199,6 +200,10 @@ def distill_models(
         raise DatasetError(f'student features must be among {ALL_FEATURE_NAMES}, got {unknown}')
     if len(table) == 0:
         raise DatasetError('no pairs to distill on')
+    if isinstance(referee, str):
+        raise DatasetError(
+            f'referee must be a sequence of model names, got the string {referee!r}'
+        )
     bad = sorted(set(referee).difference(METHODS))
     if bad:
         raise DatasetError(f'referee models must be among {METHODS}, got {bad}')
@@ -213,7 +218,7 @@ def distill_models(
         threshold = teacher.models[name].threshold
         student = _fit_student(name, features, X, z, threshold, trees, seed)
         z_student = student.decision_function(X)
-        cut = _logit_of(threshold)
+        cut = logit(threshold)
         same = (z_student >= cut) == (target[name] >= cut) if np.isfinite(cut) else np.ones(len(z))
         agreement[name] = float(np.mean(same))
         rmse[name] = float(np.sqrt(np.mean((z_student - z) ** 2)))
@@ -225,8 +230,20 @@ def distill_models(
         }
         if name in referee:
             oof = _out_of_fold_logits(table, X, z, name, features, threshold, trees, seed)
-            bands[name] = referee_band(oof, target[name], threshold)
-            metrics['referee'] = {k: round(v, 4) for k, v in vars(bands[name]).items()}
+            band = referee_band(oof, target[name], threshold)
+            metrics['referee'] = {k: round(v, 4) for k, v in vars(band).items()}
+            if band.band_logit > 0.0:
+                bands[name] = band
+            else:
+                LOG.info('referee %s: the students never disagree out of fold; none kept', name)
+            if band.captured < REFEREE_CAPTURE:
+                LOG.warning(
+                    'referee %s: the widest band (%g logits) holds only %.0f %% of the '
+                    'out-of-fold disagreements',
+                    name,
+                    band.band_logit,
+                    100 * band.captured,
+                )
         students[name] = replace(student, metrics=metrics)
     metadata = {
         'description': 'models F, E, H, R distilled from a teacher model file: each a '

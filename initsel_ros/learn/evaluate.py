@@ -25,7 +25,7 @@ from initsel_ros.learn.table import PairTable, input_columns, table_probabilitie
 from initsel_ros.learn.train import TrainConfig, feature_columns, label_column
 from initsel_ros.markdown import markdown_table
 from initsel_ros.models import METHODS, ModelSet
-from initsel_ros.policy import PolicyConfig, check_pose_batch, decide_batch
+from initsel_ros.policy import PolicyConfig, Reason, check_pose_batch, decide_batch
 
 #: Families compared by default when training pairs are given.
 DEFAULT_CANDIDATES: tuple[Candidate, ...] = tuple(Candidate)
@@ -160,14 +160,15 @@ def _orb_accepts(test: PairTable, method: np.ndarray) -> np.ndarray:
 def _pose_ok(
     test: PairTable, method: np.ndarray, config: PolicyConfig | None = None
 ) -> np.ndarray:
-    """The selector's pose check (``policy.check_pose_batch``) on the chosen method's estimate."""
+    """The selector's pose check (``policy.check_pose_batch``) on the chosen method's estimate;
+    as in the fire path, an F fails where E's estimate is refused for low parallax
+    (``initialize._low_essential_parallax``; the table holds E's estimate on every pair, the
+    fire path only where E was tried)."""
     config = config or PolicyConfig()
     out = np.zeros(len(test), dtype=bool)
-    for m in ('F', 'E', 'H'):
-        sel = np.asarray(method) == m
-        if not sel.any():
-            continue
-        reasons = check_pose_batch(
+
+    def reasons_of(m: str) -> np.ndarray:
+        return check_pose_batch(
             np.asarray(test[f'{m}_ok']) == 1,
             np.asarray(test[f'{m}_n_points']),
             np.asarray(test[f'{m}_parallax_deg'], dtype=float),
@@ -175,7 +176,15 @@ def _pose_ok(
             m,
             np.asarray(test['n_tracks']),
         )
-        out |= sel & np.array([r is None for r in reasons])
+
+    for m in ('F', 'E', 'H'):
+        sel = np.asarray(method) == m
+        if not sel.any():
+            continue
+        good = np.array([r is None for r in reasons_of(m)])
+        if m == 'F':
+            good &= np.array([r is not Reason.LOW_PARALLAX for r in reasons_of('E')])
+        out |= sel & good
     return out
 
 
