@@ -26,7 +26,7 @@ import numpy as np
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import ALL_FEATURE_NAMES, FEATURE_NAMES
 from initsel_ros.learn.table import PairTable, input_columns, table_logits
-from initsel_ros.learn.train import TreeConfig, export_trees, impute
+from initsel_ros.learn.train import TreeConfig, export_trees, grouped_folds, impute
 from initsel_ros.models import METHODS, ModelSet, Referee, logit
 from initsel_ros.trees import TreeEnsembleModel
 
@@ -148,20 +148,19 @@ def _out_of_fold_logits(
     trees: TreeConfig,
     seed: int,
 ) -> np.ndarray:
-    """Student logits of every pair from students fitted without its sequence's fold."""
-    sequences = np.asarray(table['sequence']).astype(str)
-    names = np.unique(sequences)
-    if len(names) < REFEREE_FOLDS:
+    """Student logits of every pair from students fitted without its sequence's fold
+    (``train.grouped_folds`` over whole sequences)."""
+    groups = table.groups(by='sequence')
+    n_sequences = len(np.unique(groups))
+    if n_sequences < REFEREE_FOLDS:
         raise DatasetError(
-            f'a referee band needs pairs of at least {REFEREE_FOLDS} sequences, got {len(names)}'
+            f'a referee band needs pairs of at least {REFEREE_FOLDS} sequences, got {n_sequences}'
         )
-    order = np.random.default_rng(seed).permutation(len(names))
-    fold_of = dict(zip(names[order].tolist(), np.arange(len(names)) % REFEREE_FOLDS, strict=True))
-    fold = np.array([fold_of[q] for q in sequences.tolist()])
     out = np.empty(len(z))
-    for k in range(REFEREE_FOLDS):
-        held = fold == k
-        student = _fit_student(name, features, X[~held], z[~held], threshold, trees, seed)
+    for held in grouped_folds(groups, REFEREE_FOLDS, seed):
+        rest = np.ones(len(z), dtype=bool)
+        rest[held] = False
+        student = _fit_student(name, features, X[rest], z[rest], threshold, trees, seed)
         out[held] = student.decision_function(X[held])
     return out
 

@@ -338,11 +338,13 @@ def evaluate(
     if not finite.all():
         LOG.warning('ignoring %d test pairs with non-finite features', int((~finite).sum()))
         test = test.select(finite)
-    X = test.matrix(input_columns(models.input_names, models.scaling))
     start = time.perf_counter()
     probs, referred = table_probabilities(models, test)
     inference_ms = (time.perf_counter() - start) * 1e3
-    x0 = X[0] if len(X) else np.zeros(X.shape[1])
+    first = test.select(np.arange(len(test)) < 1).matrix(
+        input_columns(models.input_names, models.scaling)
+    )
+    x0 = first[0] if len(first) else np.zeros(len(models.input_names))
     decision_us = time_call(lambda: models.predict_proba(x0))
     thr = models.thresholds
     y = {m: np.asarray(test[label_column(m)]).astype(bool) for m in METHODS}
