@@ -121,7 +121,7 @@ def raw_features(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         (23,) float64 in pixels (count as a number, direction bins as counts).
         An empty set gives all zeros.
     """
-    return np.array(_measure(p0, p1, _RAW_PLAN)[0])
+    return np.array(MeasuredPair(p0, p1, _RAW_PLAN).features(_RAW_PLAN)[0])
 
 
 def feature_divisors(
@@ -213,7 +213,7 @@ def mean_disparity(p0: np.ndarray, p1: np.ndarray) -> float:
 
 
 # ----------------------------------------------------------------------------- one pass
-# Every feature comes out of one pass over the points (:func:`_measure`), shaped for the
+# Every feature comes out of one pass over the points (:class:`MeasuredPair`), shaped for the
 # per-frame budget: a few whole-array numpy calls on one (5, N) buffer, scalar arithmetic on
 # their small results, and the constants of an image size and a feature list computed once
 # (:func:`input_plan`).
@@ -453,16 +453,7 @@ def model_inputs(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[
         is undefined, e.g. a homography of fewer than 4 points), as floats; and the mean
         disparity, pixels.
     """
-    raw, extra = _measure(p0, p1, plan)
-    values = list(map(operator.truediv, raw[:15], plan._divisors))
-    if plan.directions:
-        bins = raw[15:]
-        norm = max(math.sqrt(sum(map(operator.mul, bins, bins))), 1.0)  # non-zero: >= 1
-        values += [c / norm for c in bins]
-    else:
-        values += _NO_DIRECTIONS
-    values += extra
-    return values, raw[1]
+    return MeasuredPair(p0, p1, plan).inputs(plan)
 
 
 def extra_features(
@@ -515,85 +506,142 @@ def extra_features(
         GeometryError: an unknown name, or mismatched point arrays.
     """
     plan = input_plan(width, height, Scaling.RESOLUTION_FREE, tuple(names))
-    return np.array(_measure(p0, p1, plan)[1], dtype=np.float64)
+    return np.array(MeasuredPair(p0, p1, plan).features(plan)[1], dtype=np.float64)
 
 
-def _measure(p0: np.ndarray, p1: np.ndarray, plan: InputPlan) -> tuple[list[float], list[float]]:
-    """The 23 raw features and the plan's extra features, as floats, in one pass.
+class MeasuredPair:
+    """One correspondence set measured in one pass, for the input vectors of one or more
+    plans of one image size (:meth:`inputs`).
 
     The points go into one (5, N) float64 buffer, rows x0, y0, 1, x1, y1. A plan with fit
     features maps it once into the fit rows (:func:`_fit_buffer`), whose Gram matrix also
-    gives the disparity's mean and spread. Every value equals the straightforward numpy
+    gives the disparity's mean and spread. A later plan with the same fit rows reuses the
+    buffer, the Gram matrix and the linear homography (a model file's referee reads other
+    features of the same pass); one with other fit rows measures afresh, so every plan's
+    values are the ones it would get alone. Every value equals the straightforward numpy
     computation (``raw_features`` of earlier releases, ``np.percentile``) to the last bit,
     except the disparity's mean and standard deviation where a fit is made, the grid entropy
     and the fit features (to about 1e-15, 1e-15, 1e-6 and 1e-3 relative at worst).
     """
-    p0 = _as_points(p0, 'p0')
-    p1 = _as_points(p1, 'p1')
-    if p0.shape != p1.shape:
-        raise GeometryError(f'p0 and p1 differ in shape: {p0.shape} vs {p1.shape}')
-    n = p0.shape[0]
-    if n == 0:
-        return [0.0] * N_FEATURES, [math.nan] * len(plan._pick)
-    rows = np.empty((5, n))
-    rows[0:2] = p0.T
-    rows[2] = 1.0
-    rows[3:5] = p1.T
-    fit = None
-    if plan._fit_rows and n >= 3:
-        extents, d, fit = _fit_buffer(rows, plan)
-        m = extents.min(axis=1).tolist()  # x0, y0, x1, y1, then minus their maxima
-        lo, hi = [m[0], m[1], 1.0, m[2], m[3]], [-m[4], -m[5], 1.0, -m[6], -m[7]]
-        if not math.isfinite(sum(m)):  # a NaN taints every fit row: measure them one by one
-            fit = None
-    if fit is not None:
-        finite = True
-        gram = fit @ fit.T
-        sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
-        disparity, unit = fit[5], plan._unit  # fit units: pixels / plan._unit
-        mean = sums[5][2] * unit / n
-        std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
-    else:
-        lo = rows.min(axis=1).tolist()  # x0, y0, 1, x1, y1
-        hi = rows.max(axis=1).tolist()
-        finite = math.isfinite(sum(lo) + sum(hi))  # else every extra feature is NaN
-        d = rows[3:5] - rows[0:2]
-        disparity, unit = np.hypot(d[0], d[1]), 1.0
-        mean = float(disparity.sum()) / n
-        std = math.sqrt(max(float(disparity @ disparity) / n - mean * mean, 0.0))
-    raw = [float(n), mean, std, lo[0], hi[0], lo[1], hi[1], lo[3], hi[3], lo[4], hi[4]]
-    raw += [hi[0] - lo[0], hi[1] - lo[1], hi[3] - lo[3], hi[4] - lo[4]]
-    if plan.directions:  # (angles of the fit's d: the same, scaled by a power of two)
-        sector = np.bincount(
-            _DIRECTION_EDGES.searchsorted(np.arctan2(d[1], d[0]), 'right'), minlength=9
-        ).tolist()
-        raw += [sector[4], sector[3], sector[2], sector[1], sector[0] + sector[8]]
-        raw += sector[7:4:-1]
-    else:
-        raw += _NO_DIRECTIONS
-    if not plan._pick:
-        return raw, []
-    values = [math.nan] * len(EXTRA_FEATURE_NAMES)
-    if finite:
-        diag = plan._diag
-        if plan._percentiles:
-            values[0:3] = [
-                q * unit / diag  # (q * unit: exact, a power of two)
-                for q in _linear_quantiles(np.sort(disparity), _DISPARITY_PERCENTILES)
-            ]
-        if plan._grid:
-            cells = np.bincount(
-                plan._grid_x.searchsorted(rows[0], 'right')
-                + plan._grid_y4.searchsorted(rows[1], 'right'),
-                minlength=_GRID_CELLS * _GRID_CELLS,
-            ).tolist()
-            # entropy = -sum (c / n) log(c / n) = log n - sum c log c / n
-            c_log_c = sum(map(_c_log_c, cells)) if n < len(_C_LOG_C) else _sum_c_log_c(cells)
-            values[3] = (len(cells) - cells.count(0)) / float(len(cells))
-            values[4] = (math.log(n) - c_log_c / n) / _LOG_GRID
+
+    __slots__ = (
+        '_dlt',
+        '_extents',
+        'd',
+        'disparity',
+        'finite',
+        'fit',
+        'fit_rows',
+        'gram',
+        'n',
+        'p0',
+        'p1',
+        'rows',
+        'size',
+        'sums',
+        'unit',
+    )
+
+    def __init__(self, p0: np.ndarray, p1: np.ndarray, plan: InputPlan):
+        p0 = _as_points(p0, 'p0')
+        p1 = _as_points(p1, 'p1')
+        if p0.shape != p1.shape:
+            raise GeometryError(f'p0 and p1 differ in shape: {p0.shape} vs {p1.shape}')
+        self.p0, self.p1, self.size = p0, p1, (plan.width, plan.height)
+        self.fit_rows, self._dlt = plan._fit_rows, None
+        n = self.n = p0.shape[0]
+        if n == 0:
+            return
+        rows = self.rows = np.empty((5, n))
+        rows[0:2] = p0.T
+        rows[2] = 1.0
+        rows[3:5] = p1.T
+        fit = None
+        if plan._fit_rows and n >= 3:
+            extents, d, fit = _fit_buffer(rows, plan)
+            m = extents.min(axis=1).tolist()  # x0, y0, x1, y1, then minus their maxima
+            lo, hi = [m[0], m[1], 1.0, m[2], m[3]], [-m[4], -m[5], 1.0, -m[6], -m[7]]
+            if not math.isfinite(sum(m)):  # a NaN taints every fit row: measure one by one
+                fit = None
         if fit is not None:
-            _fit_features(p0, p1, fit, gram, sums, plan, values)
-    return raw, plan._take(values)
+            self.finite = True
+            gram = self.gram = fit @ fit.T
+            sums = self.sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
+            disparity, unit = fit[5], plan._unit  # fit units: pixels / plan._unit
+            mean = sums[5][2] * unit / n
+            std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
+        else:
+            lo = rows.min(axis=1).tolist()  # x0, y0, 1, x1, y1
+            hi = rows.max(axis=1).tolist()
+            self.finite = math.isfinite(sum(lo) + sum(hi))  # else every extra feature is NaN
+            d = rows[3:5] - rows[0:2]
+            disparity, unit = np.hypot(d[0], d[1]), 1.0
+            mean = float(disparity.sum()) / n
+            std = math.sqrt(max(float(disparity @ disparity) / n - mean * mean, 0.0))
+        self.fit, self.d, self.disparity, self.unit = fit, d, disparity, unit
+        extents = [float(n), mean, std, lo[0], hi[0], lo[1], hi[1], lo[3], hi[3], lo[4], hi[4]]
+        extents += [hi[0] - lo[0], hi[1] - lo[1], hi[3] - lo[3], hi[4] - lo[4]]
+        self._extents = extents
+
+    def _same_pass(self, plan: InputPlan) -> bool:
+        return plan._fit_rows == self.fit_rows and (plan.width, plan.height) == self.size
+
+    def inputs(self, plan: InputPlan) -> tuple[list[float], float]:
+        """:func:`model_inputs` of this set under ``plan`` (from this pass when its fit rows
+        and image size are the plan's, else from a pass of its own)."""
+        if not self._same_pass(plan):
+            return MeasuredPair(self.p0, self.p1, plan).inputs(plan)
+        raw, extra = self.features(plan)
+        values = list(map(operator.truediv, raw[:15], plan._divisors))
+        if plan.directions:
+            bins = raw[15:]
+            norm = max(math.sqrt(sum(map(operator.mul, bins, bins))), 1.0)  # non-zero: >= 1
+            values += [c / norm for c in bins]
+        else:
+            values += _NO_DIRECTIONS
+        values += extra
+        return values, raw[1]
+
+    def features(self, plan: InputPlan) -> tuple[list[float], list[float]]:
+        """The 23 raw features and the plan's extra features, as floats (the plan's fit rows
+        and image size must be this pass's: see :meth:`inputs`)."""
+        n = self.n
+        if n == 0:
+            return [0.0] * N_FEATURES, [math.nan] * len(plan._pick)
+        raw = list(self._extents)
+        if plan.directions:  # (angles of the fit's d: the same, scaled by a power of two)
+            d = self.d
+            sector = np.bincount(
+                _DIRECTION_EDGES.searchsorted(np.arctan2(d[1], d[0]), 'right'), minlength=9
+            ).tolist()
+            raw += [sector[4], sector[3], sector[2], sector[1], sector[0] + sector[8]]
+            raw += sector[7:4:-1]
+        else:
+            raw += _NO_DIRECTIONS
+        if not plan._pick:
+            return raw, []
+        values = [math.nan] * len(EXTRA_FEATURE_NAMES)
+        if self.finite:
+            diag, unit = plan._diag, self.unit
+            if plan._percentiles:
+                values[0:3] = [
+                    q * unit / diag  # (q * unit: exact, a power of two)
+                    for q in _linear_quantiles(np.sort(self.disparity), _DISPARITY_PERCENTILES)
+                ]
+            if plan._grid:
+                rows = self.rows
+                cells = np.bincount(
+                    plan._grid_x.searchsorted(rows[0], 'right')
+                    + plan._grid_y4.searchsorted(rows[1], 'right'),
+                    minlength=_GRID_CELLS * _GRID_CELLS,
+                ).tolist()
+                # entropy = -sum (c / n) log(c / n) = log n - sum c log c / n
+                c_log_c = sum(map(_c_log_c, cells)) if n < len(_C_LOG_C) else _sum_c_log_c(cells)
+                values[3] = (len(cells) - cells.count(0)) / float(len(cells))
+                values[4] = (math.log(n) - c_log_c / n) / _LOG_GRID
+            if self.fit is not None:
+                _fit_features(self, plan, values)
+        return raw, plan._take(values)
 
 
 _NO_DIRECTIONS = [0.0] * 8
@@ -666,20 +714,12 @@ def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> tuple[np.ndarray, np.ndarr
     return buffer[0:8], buffer[12:14], buffer[20 : 20 + plan._fit_rows]
 
 
-def _fit_features(
-    p0: np.ndarray,
-    p1: np.ndarray,
-    fit: np.ndarray,
-    gram: np.ndarray,
-    sums: list[list[float]],
-    plan: InputPlan,
-    values: list[float],
-) -> None:
+def _fit_features(pair: MeasuredPair, plan: InputPlan, values: list[float]) -> None:
     """The extra features of the Gram matrix of the fit rows, in pixels (or unitless), into
     ``values`` (indexed as ``EXTRA_FEATURE_NAMES``; at least 3 points).
 
-    ``gram`` is that of the fit rows (:func:`_fit_buffer`), ``sums`` its first six
-    rows as lists. One matrix product gives every sum the features need:
+    The pair's Gram matrix of the fit rows (:func:`_fit_buffer`) gives every sum the
+    features need:
 
     * affine: closed form from the covariances (``np.linalg.lstsq`` when the reference points
       are collinear), its residual and the divergence, curl and deformation of its linear part;
@@ -689,8 +729,9 @@ def _fit_features(
       least-squares transfer residual (``x_homography_residual``, only when the plan has it)
       one Gauss-Newton step (:func:`_homography_residual`).
     """
-    n = fit.shape[1]
+    fit, n = pair.fit, pair.n
     unit = plan._unit / plan._diag  # fit units -> pixels / image diagonal
+    sums = pair.sums
     (xx, xy, x1, xu, xv, _), (_, yy, y1, yu, yv, _), (*_, u1, v1, d1) = sums[0:3]
     uu, vv = sums[3][3], sums[4][4]
     # Covariances times n^2 (a common factor that cancels in the ratios below).
@@ -708,7 +749,7 @@ def _fit_features(
         values[13] = 0.5 * (a21 - a12)
         values[14] = math.hypot(0.5 * (a11 - a22), 0.5 * (a12 + a21))
     else:
-        values[5] = _affine_residual_lstsq(p0, p1) / plan._diag
+        values[5] = _affine_residual_lstsq(pair.p0, pair.p1) / plan._diag
     mdx, mdy = (u1 - x1) / n, (v1 - y1) / n
     values[7], values[8] = mdx * unit, mdy * unit
     values[9] = math.hypot(mdx, mdy) * n / d1 if d1 > 0 else 0.0
@@ -716,8 +757,10 @@ def _fit_features(
     values[10] = math.sqrt(max(var_d, 0.0)) * unit
     values[11] = math.sqrt(max(sxx + syy, 0.0)) * unit / n
     if plan._fit_rows > 6 and n >= 4:
-        solution = _linear_homography(gram)
-        if solution is not None:
+        if pair._dlt is None:  # (False: no solution)
+            pair._dlt = _linear_homography(pair.gram) or False
+        solution = pair._dlt
+        if solution:
             ss, vector, factor = solution
             values[15] = math.sqrt(ss / n) * unit if math.isfinite(ss) else math.nan
             if plan._homography:

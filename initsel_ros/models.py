@@ -64,6 +64,7 @@ from initsel_ros.features import (
     FEATURE_NAMES,
     N_FEATURES,
     InputPlan,
+    MeasuredPair,
     Scaling,
     input_plan,
     model_inputs,
@@ -421,15 +422,18 @@ class ModelSet:
 
         The set's own inputs and models first; then, for each model the referee covers whose
         logit lies within its band of the threshold's (``thresholds``, default the file's),
-        the referee's probability replaces the model's (its inputs computed once, for those
-        pairs only). ``thresholds`` may name some models only (the policy's overrides): the
-        others keep the file's.
+        the referee's probability replaces the model's (its inputs computed for those pairs
+        only, from the same pass over the points where the fit rows allow:
+        :class:`features.MeasuredPair`). ``thresholds`` may name some models only (the
+        policy's overrides): the others keep the file's.
 
         Returns:
             (probabilities by model name, mean disparity in pixels, the names of the models
             the referee decided).
         """
-        values, mean_disparity = self.input_values(p0, p1, width, height)
+        plan = self.input_plan(width, height)
+        pair = MeasuredPair(p0, p1, plan)
+        values, mean_disparity = pair.inputs(plan)
         probs = self.predict_values(values)
         referee = self.referee
         if referee is None:
@@ -442,8 +446,8 @@ class ModelSet:
         ]
         if not unsure:
             return probs, mean_disparity, ()
-        judge = referee.models
-        verdict = judge.predict_values(judge.input_values(p0, p1, width, height)[0])
+        judge = referee.models  # its inputs from the same pass where the fit rows allow
+        verdict = judge.predict_values(pair.inputs(judge.input_plan(width, height))[0])
         probs = {**probs, **{name: verdict[name] for name in unsure}}
         return probs, mean_disparity, tuple(unsure)
 

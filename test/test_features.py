@@ -383,3 +383,25 @@ def test_homography_and_affine_residuals_vanish_on_their_own_motions():
         ('x_grid_occupancy', 'x_grid_entropy'),
     )
     assert occupancy == 1 / 16 and entropy == 0.0  # every point in one cell
+
+
+def test_a_second_plan_from_the_same_pass_gets_what_its_own_pass_gives():
+    """A referee's inputs come from the pass the file's own models made (same fit rows and
+    image size); other fit rows or another size measure afresh. Either way the values are the
+    ones the plan gets alone, to the bit."""
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, MeasuredPair, input_plan, model_inputs
+
+    p0, p1 = _perspective_tracks(np.random.default_rng(4), 150)
+    student = input_plan(640, 480, extra=('x_flow_mean_x', 'x_homography_dlt_residual'))
+    teacher = input_plan(640, 480, extra=EXTRA_FEATURE_NAMES[:7], directions=True)
+    moments = input_plan(640, 480, extra=('x_affine_curl',), directions=False)  # 6 fit rows
+    other_size = input_plan(800, 600, extra=EXTRA_FEATURE_NAMES[:7])
+    pair = MeasuredPair(p0, p1, student)
+    assert pair.inputs(student) == model_inputs(p0, p1, student)
+    for plan in (teacher, moments, other_size):
+        alone = model_inputs(p0, p1, plan)
+        assert pair.inputs(plan) == alone
+        assert np.all(np.isfinite(alone[0]))
+    # the pass is shared where it can be (the linear homography solved once), not elsewhere
+    assert pair._dlt and pair._same_pass(teacher)
+    assert not pair._same_pass(moments) and not pair._same_pass(other_size)
