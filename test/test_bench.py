@@ -148,3 +148,37 @@ def test_the_yardstick_solvers_reach_the_pose_the_schur_solver_finds(solver):
         assert theirs.iterations == 30 or theirs.converged
         assert translation_chordal_error(ours.t, theirs.t) < 0.02
         assert ours.rms_after_px <= theirs.rms_after_px < 0.1 * theirs.rms_before_px
+
+
+@pytest.mark.parametrize(('band', 'decides'), [(1e3, 4), (1e-9, 0)])
+def test_bench_times_the_sets_a_referee_decides_apart(band, decides):
+    """With a referee, the decision is also timed on the sets it decides and on the others,
+    each row naming how many: a band that holds every logit refers all four sets, a vanishing
+    one none."""
+    import dataclasses
+    from pathlib import Path
+
+    from initsel_ros.benchmarks.micro import time_decision_parts
+    from initsel_ros.models import ModelSet, Referee
+
+    config = Path(__file__).resolve().parents[1] / 'config'
+    own = ModelSet.load(config / 'models.json')
+    full = ModelSet.load(config / 'models_full.json')
+    teacher_r = dataclasses.replace(full.models['R'], threshold=own.models['R'].threshold)
+    judge = dataclasses.replace(full, models={'R': teacher_r}, partial=True)
+    models = dataclasses.replace(own, referee=Referee(judge, {'R': band}))
+    rng = np.random.default_rng(0)
+    pairs = []
+    for _ in range(4):
+        p0 = rng.uniform([0, 0], [640, 480], (200, 2))
+        pairs.append((p0, p0 + rng.normal(5.0, 2.0, (1, 2)) + rng.normal(0, 0.5, p0.shape)))
+    names = [t.name for t in time_decision_parts(models, pairs, 6, 640, 480)]
+    expected = []
+    if decides:
+        expected.append(f'  decision where the referee decides ({decides} of 4 sets)')
+    if decides < 4:
+        expected.append(f'  decision where the referee does not decide ({4 - decides} of 4 sets)')
+    assert names[: len(expected)] == expected
+    assert not any('referee' in name for name in names[len(expected) :])
+    # without a referee there are no such rows
+    assert not any('referee' in t.name for t in time_decision_parts(own, pairs, 6, 640, 480))

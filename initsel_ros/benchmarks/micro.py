@@ -59,6 +59,7 @@ def time_decision_parts(
         else ('15 features (no direction bins)')
     )
     return [
+        *_referee_parts(models, pairs, repeat, width, height, thresholds),
         Timing(
             f'  model inputs: {paper}{extra}',
             time_calls(
@@ -87,6 +88,34 @@ def time_decision_parts(
             ),
         ),
     ]
+
+
+def _referee_parts(
+    models: Any,
+    pairs: Pairs,
+    repeat: int,
+    width: int,
+    height: int,
+    thresholds: dict[str, float],
+) -> list[Timing]:
+    """Where a model file has a referee: the decision timed apart on the sets the referee
+    decides and on the others (the median of all sets hides the referee when it decides on
+    fewer than half of them)."""
+    if models.referee is None:
+        return []
+    decide = decision_fn(models, width, height)
+    asked = [bool(models.predict_points(p0, p1, width, height, thresholds)[2]) for p0, p1 in pairs]
+    out = []
+    for label, chosen in (('decides', True), ('does not decide', False)):
+        sets = [pair for pair, a in zip(pairs, asked, strict=True) if a == chosen]
+        if sets:
+            out.append(
+                Timing(
+                    f'  decision where the referee {label} ({len(sets)} of {len(pairs)} sets)',
+                    time_calls(lambda i, s=sets: decide(*s[i % len(s)]), max(repeat // 2, 1)),
+                )
+            )
+    return out
 
 
 @dataclass(frozen=True)
