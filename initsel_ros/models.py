@@ -332,6 +332,7 @@ class ModelSet:
         object.__setattr__(self, '_logistic_slots', logistic)
         object.__setattr__(self, '_sanitize', bool(extra) or bool(trees))
         object.__setattr__(self, '_plans', {})  # InputPlan by image size
+        object.__setattr__(self, '_bounds', {})  # the referee's band by threshold values
         # The direction histogram has a pass of its own: made only when a model reads it.
         object.__setattr__(self, '_directions', bool(used & set(FEATURE_NAMES[15:])))
         if self.referee is not None:
@@ -438,11 +439,10 @@ class ModelSet:
         referee = self.referee
         if referee is None:
             return probs, mean_disparity, ()
-        thresholds = {**self.thresholds, **(thresholds or {})}
         unsure = [
             name
-            for name, band in referee.band_logit.items()
-            if abs(logit(probs[name]) - logit(thresholds[name])) < band
+            for name, low, high in self._referee_bounds(thresholds)
+            if low < probs[name] < high
         ]
         if not unsure:
             return probs, mean_disparity, ()
@@ -450,6 +450,27 @@ class ModelSet:
         verdict = judge.predict_values(pair.inputs(judge.input_plan(width, height))[0])
         probs = {**probs, **{name: verdict[name] for name in unsure}}
         return probs, mean_disparity, tuple(unsure)
+
+    def _referee_bounds(
+        self, thresholds: Mapping[str, float] | None
+    ) -> list[tuple[str, float, float]]:
+        """Per refereed model, the probabilities between which its logit lies within the
+        band of the threshold's (``thresholds`` over the file's): the band as probabilities,
+        made once per threshold value, so the per-frame check is two comparisons."""
+        referee = self.referee
+        assert referee is not None
+        bands = referee.band_logit
+        models = self.models
+        thresholds = thresholds or {}
+        cuts = tuple([thresholds[n] if n in thresholds else models[n].threshold for n in bands])
+        cache: dict[tuple[float, ...], list[tuple[str, float, float]]] = self._bounds  # type: ignore[attr-defined]
+        bounds = cache.get(cuts)
+        if bounds is None:
+            bounds = cache[cuts] = [
+                (name, _probability(logit(cut) - band), _probability(logit(cut) + band))
+                for (name, band), cut in zip(bands.items(), cuts, strict=True)
+            ]
+        return bounds
 
     @property
     def referee_input_names(self) -> tuple[str, ...]:
