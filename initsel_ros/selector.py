@@ -41,6 +41,13 @@ log = logging.getLogger(__name__)
 #: of the translation directions, as E_t).
 LAST_FRAME_MAX_ROTATION_DEG = 1.0
 LAST_FRAME_MAX_E_T = 0.1
+#: ...or within this, where its direction of motion is the more certain of the two (the
+#: bundle adjustment's ``translation_sigma_deg``): the PnP pose against the verified map
+#: inherits that map's direction, so where the verified map is the less certain one, a
+#: better direction from the longer baseline disagrees with it (a poster seen from an arc:
+#: refit E_t 0.005, verified map 0.124, 0.127 apart). Far enough to keep out the other
+#: decomposition of a plane, which lies near the plane's normal.
+LAST_FRAME_MORE_CERTAIN_MAX_E_T = 0.3
 #: When an H's two decompositions both held on every verification frame, the rival replaces
 #: the fire path's choice (the one with more points in front of both cameras and reprojecting
 #: well) only when its mean reprojection RMS is under this share of the choice's. Two poses of
@@ -252,6 +259,13 @@ def decide_pair(
     """
     probs, mean_disparity, referred = models.predict_points(ref, cur, width, height, thresholds)
     return decide(probs, thresholds, len(ref), mean_disparity, policy, referred)
+
+
+def _direction_sigma_deg(refinement: Refinement | None) -> float:
+    """How uncertain a seed map's direction of motion is, degrees (inf when unknown)."""
+    if refinement is None or not math.isfinite(refinement.translation_sigma_deg):
+        return math.inf
+    return refinement.translation_sigma_deg
 
 
 class Selector:
@@ -621,11 +635,14 @@ class Selector:
         if fire.reason is not Reason.INITIALIZED or fire.seed is None:
             return None
         t_pnp = step.t / max(float(np.linalg.norm(step.t)), 1e-12)
+        verified_sigma = _direction_sigma_deg(init.refinement)
         for seed in (fire.seed, *fire.alternatives):
+            more_certain = _direction_sigma_deg(seed.refinement) < verified_sigma
             agrees = (
                 seed.method is init.method
                 and rotation_angle_deg(seed.R.T @ step.R) <= LAST_FRAME_MAX_ROTATION_DEG
-                and float(np.linalg.norm(seed.t - t_pnp)) <= LAST_FRAME_MAX_E_T
+                and float(np.linalg.norm(seed.t - t_pnp))
+                <= (LAST_FRAME_MORE_CERTAIN_MAX_E_T if more_certain else LAST_FRAME_MAX_E_T)
             )
             if agrees:
                 return self._initialization(

@@ -475,3 +475,59 @@ def test_a_referee_in_the_model_file_decides_the_unsure_model_live():
     assert result.decision.referred == () and result.decision.probabilities['R'] == pytest.approx(
         0.45
     )
+
+
+def _refined(sigma_deg: float):
+    from initsel_ros.refine import Refinement
+
+    empty = np.zeros((0, 3))
+    return Refinement(
+        np.eye(3), np.zeros(3), empty, np.zeros(0, bool), 0.2, 0.2, 3, True, sigma_deg
+    )
+
+
+@pytest.mark.parametrize(
+    ('apart', 'refit_sigma', 'replaced'),
+    [
+        (0.05, 3.0, True),  # agrees with the PnP pose: replaces, whichever is more certain
+        (0.127, 1.1, True),  # disagrees, but is the more certain: replaces (a poster's case)
+        (0.127, 2.5, False),  # disagrees and is the less certain: the verified map stays
+        (0.35, 1.1, False),  # too far for the same geometry (the other decomposition?)
+    ],
+)
+def test_the_last_frames_refit_replaces_the_verified_map_where_it_agrees_or_is_more_certain(
+    monkeypatch, apart, refit_sigma, replaced
+):
+    """The PnP pose of the last verification frame, against the verified map, inherits that
+    map's direction of motion; a refit from the longer baseline that disagrees with it is taken
+    only when its own direction is the more certain (bundle adjustment sigma 1.85 degrees for
+    the verified map here), and never beyond 0.3 (chordal, as E_t)."""
+    import initsel_ros.selector as selector_module
+    from initsel_ros.initialize import FireResult, SeedMap
+
+    sel = Selector(constant_models(), CAMERA)
+    sel._reference_stamp_ns = 0
+    verified = Initialization(
+        Method.H, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, 9, 9, {}, 0.6, refinement=_refined(1.85),
+    )  # fmt: skip
+    candidate = _Candidate(verified, np.arange(3), methods=(Method.H,))
+    t_pnp = np.array([1.0, 0.0, 0.0])
+    step = VerifyStep(True, 100, 100, 1.0, 0.2, np.eye(3), 0.02 * t_pnp, '')
+    angle = 2 * np.arcsin(apart / 2)  # chordal distance -> angle between unit vectors
+    t_refit = np.array([np.cos(angle), np.sin(angle), 0.0])
+    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
+    refit = SeedMap(Method.H, np.eye(3), t_refit, points, np.arange(3), 0.8, _refined(refit_sigma))
+    monkeypatch.setattr(
+        selector_module,
+        'initialize_pair',
+        lambda *args, **kwargs: FireResult(Reason.INITIALIZED, seed=refit),
+    )
+    decision = sel.process(texture(1), ns(0.0)).decision
+    cur = np.zeros((3, 2))
+    out = sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 14, step)
+    assert (out is not None) == replaced
+    if replaced:
+        assert out.frames_since_reference == 14 and np.allclose(
+            out.t / np.linalg.norm(out.t), t_refit
+        )
