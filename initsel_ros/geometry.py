@@ -42,6 +42,9 @@ class PoseEstimate:
         alternative: for H whose two best decompositions are close (the planar two-fold
             ambiguity, ``keep_ambiguous``), the runner-up as an estimate of its own (same
             matrix and inliers); the frames after it decide (``verify.py``). None otherwise.
+        ambiguous: an H refused because its decompositions are too close to call and the
+            runner-up fails the pose check (``initialize._resolve_ambiguity``); its pose is
+            the winner's, for a caller that can tell them apart otherwise.
     """
 
     method: Method
@@ -55,6 +58,7 @@ class PoseEstimate:
     parallax_deg: float
     matrix: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
     alternative: PoseEstimate | None = None
+    ambiguous: bool = False
 
     @property
     def n_points(self) -> int:

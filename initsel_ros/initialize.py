@@ -295,6 +295,7 @@ def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEsti
             'points, and the runner-up fails the pose check'
         ),
         alternative=None,
+        ambiguous=True,
     )
 
 
@@ -454,18 +455,8 @@ def _estimate_and_choose(
         max_reprojection_px=config.map_max_reprojection_px,
     )
     rival = winner.alternative  # (it passed the pose check, or it would be None)
-    alternatives: tuple[SeedMap, ...] = ()
-    if rival is not None:
-        other = seed_map(
-            rival,
-            ref,
-            cur,
-            K,
-            refine=config.refine,
-            max_reprojection_px=config.map_max_reprojection_px,
-        )
-        if other.n_points >= policy.min_points and _direction_known(other, config):
-            alternatives = (other,)
+    other = usable_seed(rival, ref, cur, K, config) if rival is not None else None
+    alternatives: tuple[SeedMap, ...] = (other,) if other is not None else ()
     refusal = None
     if seed.n_points < policy.min_points:
         refusal = (
@@ -574,6 +565,25 @@ def _better_model_not_ready(
     )
 
 
+def usable_seed(
+    estimate: PoseEstimate, ref: np.ndarray, cur: np.ndarray, K: np.ndarray, config: FireConfig
+) -> SeedMap | None:
+    """The seed map of ``estimate`` (its pose and points, as ``estimate.ok`` would have them)
+    when it keeps the policy's ``min_points`` and fixes its direction of motion within
+    ``max_translation_sigma_deg``; None otherwise."""
+    seed = seed_map(
+        replace(estimate, ok=True, reason=''),
+        ref,
+        cur,
+        K,
+        refine=config.refine,
+        max_reprojection_px=config.map_max_reprojection_px,
+    )
+    if seed.n_points >= config.policy.min_points and _direction_known(seed, config):
+        return seed
+    return None
+
+
 def _direction_known(seed: SeedMap, config: FireConfig) -> bool:
     """The refined seed map fixes its direction of motion to within the policy's bound
     (always true without refinement, which is where the bound is measured, or without a
@@ -625,4 +635,5 @@ __all__ = [
     'fire_methods',
     'initialize_pair',
     'seed_map',
+    'usable_seed',
 ]

@@ -18,7 +18,13 @@ from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
-from initsel_ros.initialize import FireConfig, SeedMap, fire_methods, initialize_pair
+from initsel_ros.initialize import (
+    FireConfig,
+    SeedMap,
+    fire_methods,
+    initialize_pair,
+    usable_seed,
+)
 from initsel_ros.model_selection import Selection
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
@@ -628,21 +634,34 @@ class Selector:
         PnP pose against the verified map (rotation within
         :data:`LAST_FRAME_MAX_ROTATION_DEG`, translation direction within
         :data:`LAST_FRAME_MAX_E_T`) replaces the candidate: the same geometry, confirmed,
-        seen with a few frames more baseline. None when there is none.
+        seen with a few frames more baseline. Within :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T`
+        where its direction of motion is the more certain. An H the fire path refused only as
+        ambiguous (its two decompositions too close to call) is judged the same way, at the
+        strict bounds: agreeing with the verified map's PnP pose tells which decomposition it
+        is. None when there is none.
         """
         init = candidate.initialization
-        fire = initialize_pair(ref, cur, self.intrinsics.K, candidate.methods, self._fire_config())
-        if fire.reason is not Reason.INITIALIZED or fire.seed is None:
-            return None
+        config = self._fire_config()
+        fire = initialize_pair(ref, cur, self.intrinsics.K, candidate.methods, config)
+        if fire.reason is Reason.INITIALIZED and fire.seed is not None:
+            seeds = [(seed, False) for seed in (fire.seed, *fire.alternatives)]
+        else:  # an H refused only as ambiguous: the verified map tells its decomposition
+            seeds = [
+                (seed, True)
+                for estimate in fire.estimates
+                if estimate.ambiguous and estimate.method is init.method
+                for seed in [usable_seed(estimate, ref, cur, self.intrinsics.K, config)]
+                if seed is not None
+            ]
         t_pnp = step.t / max(float(np.linalg.norm(step.t)), 1e-12)
         verified_sigma = _direction_sigma_deg(init.refinement)
-        for seed in (fire.seed, *fire.alternatives):
-            more_certain = _direction_sigma_deg(seed.refinement) < verified_sigma
+        for seed, ambiguous in seeds:
+            looser = not ambiguous and _direction_sigma_deg(seed.refinement) < verified_sigma
             agrees = (
                 seed.method is init.method
                 and rotation_angle_deg(seed.R.T @ step.R) <= LAST_FRAME_MAX_ROTATION_DEG
                 and float(np.linalg.norm(seed.t - t_pnp))
-                <= (LAST_FRAME_MORE_CERTAIN_MAX_E_T if more_certain else LAST_FRAME_MAX_E_T)
+                <= (LAST_FRAME_MORE_CERTAIN_MAX_E_T if looser else LAST_FRAME_MAX_E_T)
             )
             if agrees:
                 return self._initialization(

@@ -412,11 +412,12 @@ def test_the_runner_up_of_an_ambiguous_h_is_judged_with_the_winners_plane_share(
     )
     winner = replace(decomposition(190), alternative=decomposition(100))
     kept = _resolve_ambiguity(winner, policy)
-    assert kept.ok and kept.alternative is not None
+    assert kept.ok and kept.alternative is not None and not kept.ambiguous
     # a winner that is only part of the scene holds its runner-up to E's floor as well
     part = replace(decomposition(120), alternative=decomposition(100))
     refused = _resolve_ambiguity(part, policy)
     assert not refused.ok and 'runner-up fails the pose check' in refused.reason
+    assert refused.ambiguous and refused.alternative is None  # (a later frame may tell)
 
 
 def test_f_is_judged_by_the_parallax_e_measures_with_the_camera_matrix(monkeypatch):

@@ -486,6 +486,34 @@ def _refined(sigma_deg: float):
     )
 
 
+def _last_frame(monkeypatch, apart, refit_sigma, fire=None):
+    """Selector._on_last_frame on a verified H map (direction sigma 1.85 degrees, PnP pose
+    along x) whose refit lies ``apart`` (chordal, as E_t) from the PnP direction: the refit
+    comes from ``fire(refit)`` (default: the fire path initialized it). Returns (the
+    initialization published instead, or None; the refit's direction)."""
+    import initsel_ros.selector as selector_module
+    from initsel_ros.initialize import FireResult, SeedMap
+
+    sel = Selector(constant_models(), CAMERA)
+    verified = Initialization(
+        Method.H, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, 9, 9, {}, 0.6, refinement=_refined(1.85),
+    )  # fmt: skip
+    candidate = _Candidate(verified, np.arange(3), methods=(Method.H,))
+    t_pnp = np.array([1.0, 0.0, 0.0])
+    step = VerifyStep(True, 100, 100, 1.0, 0.2, np.eye(3), 0.02 * t_pnp, '')
+    angle = 2 * np.arcsin(apart / 2)  # chordal distance -> angle between unit vectors
+    t_refit = np.array([np.cos(angle), np.sin(angle), 0.0])
+    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
+    refit = SeedMap(Method.H, np.eye(3), t_refit, points, np.arange(3), 0.8, _refined(refit_sigma))
+    result = fire(refit) if fire else FireResult(Reason.INITIALIZED, seed=refit)
+    monkeypatch.setattr(selector_module, 'initialize_pair', lambda *a, **k: result)
+    monkeypatch.setattr(selector_module, 'usable_seed', lambda *a, **k: refit)
+    decision = sel.process(texture(1), ns(0.0)).decision
+    cur = np.zeros((3, 2))
+    return sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 14, step), t_refit
+
+
 @pytest.mark.parametrize(
     ('apart', 'refit_sigma', 'replaced'),
     [
@@ -500,34 +528,39 @@ def test_the_last_frames_refit_replaces_the_verified_map_where_it_agrees_or_is_m
 ):
     """The PnP pose of the last verification frame, against the verified map, inherits that
     map's direction of motion; a refit from the longer baseline that disagrees with it is taken
-    only when its own direction is the more certain (bundle adjustment sigma 1.85 degrees for
-    the verified map here), and never beyond 0.3 (chordal, as E_t)."""
-    import initsel_ros.selector as selector_module
-    from initsel_ros.initialize import FireResult, SeedMap
-
-    sel = Selector(constant_models(), CAMERA)
-    sel._reference_stamp_ns = 0
-    verified = Initialization(
-        Method.H, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
-        np.zeros((0, 2)), 0, 9, 9, {}, 0.6, refinement=_refined(1.85),
-    )  # fmt: skip
-    candidate = _Candidate(verified, np.arange(3), methods=(Method.H,))
-    t_pnp = np.array([1.0, 0.0, 0.0])
-    step = VerifyStep(True, 100, 100, 1.0, 0.2, np.eye(3), 0.02 * t_pnp, '')
-    angle = 2 * np.arcsin(apart / 2)  # chordal distance -> angle between unit vectors
-    t_refit = np.array([np.cos(angle), np.sin(angle), 0.0])
-    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
-    refit = SeedMap(Method.H, np.eye(3), t_refit, points, np.arange(3), 0.8, _refined(refit_sigma))
-    monkeypatch.setattr(
-        selector_module,
-        'initialize_pair',
-        lambda *args, **kwargs: FireResult(Reason.INITIALIZED, seed=refit),
-    )
-    decision = sel.process(texture(1), ns(0.0)).decision
-    cur = np.zeros((3, 2))
-    out = sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 14, step)
+    only when its own direction is the more certain, and never beyond 0.3."""
+    out, t_refit = _last_frame(monkeypatch, apart, refit_sigma)
     assert (out is not None) == replaced
     if replaced:
-        assert out.frames_since_reference == 14 and np.allclose(
-            out.t / np.linalg.norm(out.t), t_refit
-        )
+        assert out.frames_since_reference == 14
+        assert np.allclose(out.t / np.linalg.norm(out.t), t_refit)
+
+
+@pytest.mark.parametrize(
+    ('ambiguous', 'apart', 'replaced'),
+    [
+        (True, 0.05, True),  # agrees with the verified map: its decomposition is that one
+        (True, 0.127, False),  # an ambiguous H gets the strict bound only, however certain
+        (False, 0.05, False),  # refused for another reason: not taken
+    ],
+)
+def test_an_h_refused_as_ambiguous_at_the_last_frame_is_taken_where_the_verified_map_agrees(
+    monkeypatch, ambiguous, apart, replaced
+):
+    """At the last verification frame the fire path may refuse the H it initialized with as
+    ambiguous (its runner-up decomposition close, and failing the pose check); the verified
+    map's PnP pose tells which decomposition it is, at the strict bounds (1 degree, 0.1)."""
+    from initsel_ros.geometry import PoseEstimate
+    from initsel_ros.initialize import FireResult
+
+    def refused(refit):
+        estimate = PoseEstimate(
+            Method.H, False, 'homography decomposition ambiguous', refit.R, refit.t,
+            refit.points, refit.indices, np.ones(3, bool), 0.8, ambiguous=ambiguous,
+        )  # fmt: skip
+        return FireResult(Reason.POSE_FAILED, estimates=(estimate,))
+
+    out, t_refit = _last_frame(monkeypatch, apart, 1.1, fire=refused)
+    assert (out is not None) == replaced
+    if replaced:
+        assert np.allclose(out.t / np.linalg.norm(out.t), t_refit)
