@@ -7,7 +7,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall', 'repeated')
+SCENES = ('structure_texture', 'floor', 'zigzag', 'low_texture', 'wall', 'repeated', 'storeroom')
 #: Keys of ``initsel_ros.synth.realism.EFFECT_LEVELS`` (not imported: ``--help`` stays light;
 #: a test holds the two equal).
 EFFECT_NAMES = (
@@ -143,6 +143,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument('--width', type=int, default=None, help='image width, pixels')
     parser.add_argument('--height', type=int, default=None, help='image height, pixels')
+    parser.add_argument(
+        '--hfov',
+        type=float,
+        default=None,
+        metavar='DEG',
+        help='horizontal field of view, degrees (default: the TUM fr3 camera, 62 deg)',
+    )
     effects = parser.add_argument_group(
         'camera effects (off unless given; with --realism they replace the drawn values)'
     )
@@ -235,6 +242,7 @@ def run(args: argparse.Namespace) -> int:
         realism=args.realism,
         arc=arc,
         focal_error=args.focal_error,
+        hfov_deg=args.hfov,
     )
     changed = {k: v for k, v in result.effects.to_dict().items() if v != Effects().to_dict()[k]}
     print(

@@ -27,6 +27,7 @@ class SceneName(str, Enum):
     LOW_TEXTURE = 'low_texture'
     WALL = 'wall'
     REPEATED = 'repeated'
+    STOREROOM = 'storeroom'
 
 
 @dataclass(frozen=True, eq=False)
@@ -250,7 +251,9 @@ def build_scene(
             'low_texture' (same geometry, nearly textureless surfaces), 'wall' (one upright
             textured wall through the target, facing the cameras: a single plane),
             'repeated' (the structure_texture geometry printed with repeated motifs: sheets
-            of 3-6 cm tiles, 8 cm wallpaper on the poster, a floor of 0.3 m tiles).
+            of 3-6 cm tiles, 8 cm wallpaper on the poster, a floor of 0.3 m tiles),
+            'storeroom' (the second rendering style: shaded boxes, shelf, brick and wooden
+            walls at 0.5-10 m; :mod:`initsel_ros.synth.storeroom`).
         seed: texture seed.
         ppm: texture resolution of sheets and poster, pixels per metre.
     """
@@ -281,6 +284,10 @@ def _build_scene(name: SceneName, seed: int, ppm: float) -> Scene:
         target = np.array([target[0], target[1], POSTER_HEIGHT / 2])
     elif name is SceneName.WALL:
         planes = _wall_planes(rng, ppm)
+    elif name is SceneName.STOREROOM:
+        from initsel_ros.synth.storeroom import storeroom_planes
+
+        planes = storeroom_planes(rng, target, min(ppm, 400.0))
     elif name is SceneName.REPEATED:
         planes = (
             _room_planes(rng, tiles=True)

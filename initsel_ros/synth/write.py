@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 import shutil
 import time
 from collections import deque
@@ -61,12 +62,20 @@ def _camera(
     height: int | None,
     intrinsics: Intrinsics | None,
     distortion: tuple[float, ...],
+    hfov_deg: float | None = None,
 ) -> Intrinsics:
     cam = intrinsics or Intrinsics.tum_fr3()
     if width or height:
         w = width or round((height or cam.height) * cam.width / cam.height)
         h = height or round(w * cam.height / cam.width)
         cam = cam.scaled(int(w), int(h))
+    if hfov_deg is not None:
+        if not 10.0 <= hfov_deg <= 150.0:
+            raise ConfigError(f'hfov_deg must be in [10, 150] degrees, got {hfov_deg}')
+        f = cam.width / 2 / math.tan(math.radians(hfov_deg) / 2)
+        cam = Intrinsics(
+            f, f * cam.fy / cam.fx, cam.cx, cam.cy, cam.width, cam.height, cam.distortion
+        )
     if distortion:
         cam = Intrinsics(
             cam.fx,
@@ -100,12 +109,13 @@ def render(
     realism: bool = False,
     arc: ArcPath | None = None,
     focal_error: float = 0.0,
+    hfov_deg: float | None = None,
 ) -> SynthResult:
     """Render a sequence as a TUM folder with exact ground truth.
 
     Args:
         out_dir: output folder (created; existing files of the same names are replaced).
-        scene: structure_texture, floor, zigzag, low_texture, wall or repeated.
+        scene: structure_texture, floor, zigzag, low_texture, wall, repeated or storeroom.
         trajectory: near, far, rotation, forward, static, random or arc.
         frames: number of frames (the first N of the trajectory; default all, 1099).
         seed: seeds textures, noise, exposure and the random trajectory.
@@ -127,6 +137,8 @@ def render(
         focal_error: relative error written into ``intrinsics.yaml``'s focal lengths (0.1:
             10 % too long); the images are rendered with the true camera, so a reader gets a
             miscalibrated one.
+        hfov_deg: horizontal field of view, degrees (the focal lengths follow, their ratio
+            and the principal point kept); None keeps the camera's.
 
     Returns:
         A :class:`SynthResult`.
@@ -144,7 +156,7 @@ def render(
             raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {b!r}")
     if not -0.5 < focal_error < 1.0:
         raise ConfigError(f'focal_error must be in (-0.5, 1), got {focal_error}')
-    cam = _camera(width, height, intrinsics, distortion)
+    cam = _camera(width, height, intrinsics, distortion, hfov_deg)
     world = build_scene(scene, seed)
     stamps, poses = make_trajectory(
         trajectory,
