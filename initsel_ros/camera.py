@@ -92,6 +92,11 @@ class Intrinsics:
         )
 
     @property
+    def pinhole(self) -> tuple[float, float, float, float]:
+        """(fx, fy, cx, cy), pixels."""
+        return (self.fx, self.fy, self.cx, self.cy)
+
+    @property
     def K(self) -> np.ndarray:  # noqa: N802 - the conventional name
         """(3, 3) float64 camera matrix."""
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])

@@ -75,9 +75,15 @@ EXTRA_FEATURE_NAMES: tuple[str, ...] = (
     'x_affine_curl',  # affine fit: rotation about the optical axis (radians, small angles)
     'x_affine_deformation',  # affine fit: shear and anisotropic scaling
     'x_homography_dlt_residual',  # RMS algebraic residual of the linear (DLT) homography / diag
+    # Needs the camera (input_plan's ``camera``; NaN without it):
+    'x_rotation_departure',  # how far the linear homography departs from a rotation K R K^-1
 )
 #: The extra features computed from the Gram matrix of the fit rows, in this order.
 MOMENT_FEATURE_NAMES: tuple[str, ...] = EXTRA_FEATURE_NAMES[7:]
+#: A pinhole camera as the features need it: (fx, fy, cx, cy), pixels.
+Camera = tuple[float, float, float, float]
+#: The extra features that need the camera's intrinsics (``input_plan(camera=...)``).
+CAMERA_FEATURE_NAMES: tuple[str, ...] = ('x_rotation_departure',)
 #: Every feature name a model may read: the paper's 23, then the extra ones.
 ALL_FEATURE_NAMES: tuple[str, ...] = FEATURE_NAMES + EXTRA_FEATURE_NAMES
 
@@ -226,6 +232,7 @@ _LOG_GRID = math.log(_GRID_CELLS * _GRID_CELLS)
 #: (4 - j) mod 8: :data:`_SECTOR_BIN` (both ends, j = 0 and 8, are bin 4).
 _DIRECTION_EDGES = (np.arange(8) - 3.5) * (math.pi / 4)
 _EXTRA_INDEX = {name: i for i, name in enumerate(EXTRA_FEATURE_NAMES)}
+_ROTATION_DEPARTURE = _EXTRA_INDEX['x_rotation_departure']
 _ONE = np.ones(1)
 _EYE3 = np.eye(3).ravel()
 
@@ -323,9 +330,12 @@ class InputPlan:
         extra: the extra features computed, in this order, after the 23.
         directions: whether the 8 direction bins are computed (else they read 0.0: a model
             set none of whose models reads them skips their pass).
+        camera: (fx, fy, cx, cy) pixels, for the features of ``CAMERA_FEATURE_NAMES`` (None:
+            they read NaN).
     """
 
     __slots__ = (
+        '_camera_fit',
         '_diag',
         '_divisors',
         '_fit_rows',
@@ -338,6 +348,7 @@ class InputPlan:
         '_take',
         '_to_fit',
         '_unit',
+        'camera',
         'directions',
         'extra',
         'height',
@@ -352,12 +363,13 @@ class InputPlan:
         scaling: Scaling,
         extra: tuple[str, ...],
         directions: bool = True,
+        camera: Camera | None = None,
     ):
         unknown = [n for n in extra if n not in _EXTRA_INDEX]
         if unknown:
             raise GeometryError(f'unknown extra features {unknown}; known: {EXTRA_FEATURE_NAMES}')
         self.width, self.height, self.scaling, self.extra = width, height, scaling, extra
-        self.directions = directions
+        self.directions, self.camera = directions, camera
         self._divisors = _divisors(width, height, scaling).tolist()[:15] if width > 0 else []
         self._pick = [_EXTRA_INDEX[n] for n in extra]
         self._take = _taker(self._pick)
@@ -368,13 +380,30 @@ class InputPlan:
         # Rows of the Gram matrix: none; X, Y, 1, u, v and |d| (the affine fit, the moments);
         # with the products uX ... vY (the homographies).
         moments = bool(wanted & set(range(7, len(EXTRA_FEATURE_NAMES))))
-        products = self._homography or _EXTRA_INDEX['x_homography_dlt_residual'] in wanted
+        linear = {_EXTRA_INDEX['x_homography_dlt_residual'], _ROTATION_DEPARTURE}
+        products = self._homography or bool(wanted & linear)
         self._fit_rows = _FIT_ROWS if products else 6 if moments or 5 in wanted else 0
         # The fit's coordinates: pixels minus the image centre, times a power of two (scale);
         # _unit takes fit units back to pixels.
         scale = 2.0 ** -math.frexp(max(width, height, 1))[1]
         self._unit = 1.0 / scale
         self._to_fit = _to_fit_matrix(0.5 * width, 0.5 * height, scale)
+        # The camera in fit coordinates, K_f and its inverse, when a model reads its features.
+        self._camera_fit = None
+        if camera is not None and _ROTATION_DEPARTURE in wanted:
+            fx, fy, cx, cy = map(float, camera)
+            if not (fx > 0 and fy > 0 and math.isfinite(cx + cy)):
+                raise GeometryError(
+                    f'camera (fx, fy, cx, cy) must have positive focal lengths, got {camera}'
+                )
+            k = np.array(
+                [
+                    [scale * fx, 0.0, scale * (cx - 0.5 * width)],
+                    [0.0, scale * fy, scale * (cy - 0.5 * height)],
+                    [0.0, 0.0, 1.0],
+                ]
+            )
+            self._camera_fit = (k, np.linalg.inv(k))
         if extra and (width <= 0 or height <= 0):
             raise GeometryError(f'image size must be positive, got {width}x{height}')
         self._diag = math.hypot(width, height)
@@ -412,14 +441,20 @@ def input_plan(
     scaling: Scaling | str = Scaling.RESOLUTION_FREE,
     extra: tuple[str, ...] = (),
     directions: bool = True,
+    camera: Camera | None = None,
 ) -> InputPlan:
     """The (cached) :class:`InputPlan` of an image size, a scaling and extra feature names;
-    ``directions=False`` skips the direction bins (they read 0.0).
+    ``directions=False`` skips the direction bins (they read 0.0); ``camera`` (fx, fy, cx,
+    cy) in pixels lets ``CAMERA_FEATURE_NAMES`` be computed (else they read NaN).
 
     Raises:
         GeometryError: an unknown extra feature name, or a non-positive image size.
     """
-    return InputPlan(int(width), int(height), Scaling(scaling), tuple(extra), bool(directions))
+    if camera is not None:
+        camera = tuple(float(c) for c in camera)  # type: ignore[assignment]
+    return InputPlan(
+        int(width), int(height), Scaling(scaling), tuple(extra), bool(directions), camera
+    )
 
 
 _RAW_PLAN = InputPlan(0, 0, Scaling.PAPER, ())
@@ -462,6 +497,7 @@ def extra_features(
     width: int,
     height: int,
     names: tuple[str, ...] = EXTRA_FEATURE_NAMES,
+    camera: Camera | None = None,
 ) -> np.ndarray:
     """The extra features ``names`` of one correspondence set (only those are computed).
 
@@ -487,7 +523,13 @@ def extra_features(
     * ``x_point_spread``: RMS distance of the reference points from their centroid / diag;
     * ``x_affine_divergence``, ``x_affine_curl``, ``x_affine_deformation``: of the linear part
       A of the least-squares affine map (unitless): tr(A) / 2 - 1 (zoom, forward motion),
-      (a21 - a12) / 2 (roll) and the magnitude of its shear (NaN for collinear points).
+      (a21 - a12) / 2 (roll) and the magnitude of its shear (NaN for collinear points);
+    * ``x_rotation_departure`` (needs ``camera``): the linear homography in the camera's
+      normalized coordinates, G = K^-1 H K scaled to det G = 1, against a rotation:
+      ||G^T G - I||_F. Zero for any pure rotation (whatever the scene), about 2 |t| / d for a
+      plane at distance d seen after a translation t (a plane slid along keeps a flow close
+      to a rotation's, but not this); unitless, and the same at any image size and field of
+      view. NaN without a camera, below 4 points or when the fit fails.
 
     All but the percentiles and the grid come from one Gram matrix of a few rows over the
     points. The pair table stores exactly these values.
@@ -498,6 +540,7 @@ def extra_features(
         width: image width, pixels.
         height: image height, pixels.
         names: which features, any subset of ``EXTRA_FEATURE_NAMES`` in any order.
+        camera: (fx, fy, cx, cy), pixels, for ``x_rotation_departure``.
 
     Returns:
         (len(names),) float64 in the order of ``names``; all NaN for an empty set.
@@ -505,7 +548,7 @@ def extra_features(
     Raises:
         GeometryError: an unknown name, or mismatched point arrays.
     """
-    plan = input_plan(width, height, Scaling.RESOLUTION_FREE, tuple(names))
+    plan = input_plan(width, height, Scaling.RESOLUTION_FREE, tuple(names), camera=camera)
     return np.array(MeasuredPair(p0, p1, plan).features(plan)[1], dtype=np.float64)
 
 
@@ -765,6 +808,10 @@ def _fit_features(pair: MeasuredPair, plan: InputPlan, values: list[float]) -> N
             values[15] = math.sqrt(ss / n) * unit if math.isfinite(ss) else math.nan
             if plan._homography:
                 values[6] = _homography_residual(fit[0:5], vector * factor) * unit
+            if plan._camera_fit is not None:
+                values[_ROTATION_DEPARTURE] = _rotation_departure(
+                    vector * factor, plan._camera_fit
+                )
 
 
 def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | None:
@@ -787,6 +834,23 @@ def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | No
     if not ok:
         return None
     return max(float(system[8, 8] - system[8, 0:8] @ h[:, 0]), 0.0), h, 1.0
+
+
+def _rotation_departure(h: np.ndarray, camera_fit: tuple[np.ndarray, np.ndarray]) -> float:
+    """||G^T G - I||_F of G = K^-1 H K / cbrt(det): how far the homography ``h`` (8, 1) of the
+    fit coordinates (h33 = 1) is from a rotation, with ``camera_fit`` = (K, K^-1) in those
+    coordinates; NaN for a singular G."""
+    k, k_inv = camera_fit
+    g = k_inv @ np.append(h[:, 0], 1.0).reshape(3, 3) @ k
+    det = float(np.linalg.det(g))
+    if not (math.isfinite(det) and det != 0.0):
+        return math.nan
+    g /= math.copysign(abs(det) ** (1.0 / 3.0), det)
+    m = g.T @ g
+    m[0, 0] -= 1.0
+    m[1, 1] -= 1.0
+    m[2, 2] -= 1.0
+    return math.sqrt(float(np.vdot(m, m)))
 
 
 def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:

@@ -46,6 +46,7 @@ training.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import uuid
@@ -60,9 +61,11 @@ from initsel_ros.config_files import config_dirs, find_config_file
 from initsel_ros.errors import GeometryError, ModelFileError
 from initsel_ros.features import (
     ALL_FEATURE_NAMES,
+    CAMERA_FEATURE_NAMES,
     EXTRA_FEATURE_NAMES,
     FEATURE_NAMES,
     N_FEATURES,
+    Camera,
     InputPlan,
     MeasuredPair,
     Scaling,
@@ -98,6 +101,8 @@ READABLE_VERSIONS = (1, 2)
 PACKAGE = 'initsel_ros'
 DEFAULT_MODEL_NAME = 'models.json'
 KINDS = ('logistic', 'trees')
+
+LOG = logging.getLogger(__name__)
 
 
 def _probability(z: float) -> float:
@@ -375,22 +380,29 @@ class ModelSet:
         """Kind of each model: 'logistic' or 'trees'."""
         return {m: model.kind for m, model in self.models.items()}
 
-    def input_plan(self, width: int, height: int) -> InputPlan:
-        """The constants of this set's input vector at an image size (cached)."""
-        plans: dict[tuple[int, int], InputPlan] = self._plans  # type: ignore[attr-defined]
-        plan = plans.get((width, height))
+    def input_plan(self, width: int, height: int, camera: Camera | None = None) -> InputPlan:
+        """The constants of this set's input vector at an image size and camera (fx, fy, cx,
+        cy, pixels: for the features of ``CAMERA_FEATURE_NAMES``), cached."""
+        plans: dict[tuple[int, int, Camera | None], InputPlan] = self._plans  # type: ignore[attr-defined]
+        plan = plans.get((width, height, camera))
         if plan is None:
-            plan = plans[width, height] = input_plan(
+            if camera is None and set(self._extra) & set(CAMERA_FEATURE_NAMES):  # type: ignore[attr-defined]
+                LOG.warning(
+                    'a model reads %s but no camera was given: it reads NaN (as 0)',
+                    ', '.join(set(self._extra) & set(CAMERA_FEATURE_NAMES)),  # type: ignore[attr-defined]
+                )
+            plan = plans[width, height, camera] = input_plan(
                 width,
                 height,
                 self.scaling,
                 self._extra,  # type: ignore[attr-defined]
                 self._directions,  # type: ignore[attr-defined]
+                camera,
             )
         return plan
 
     def input_values(
-        self, p0: np.ndarray, p1: np.ndarray, width: int, height: int
+        self, p0: np.ndarray, p1: np.ndarray, width: int, height: int, camera: Camera | None = None
     ) -> tuple[list[float], float]:
         """The input vector of one correspondence set as floats, and its mean disparity.
 
@@ -399,17 +411,20 @@ class ModelSet:
             p1: (N, 2) current pixels.
             width: image width, pixels.
             height: image height, pixels.
+            camera: (fx, fy, cx, cy), pixels (see :meth:`input_plan`).
 
         Returns:
             (values in :attr:`input_names` order, NaN where an extra feature is undefined;
             mean disparity, pixels). The extra features are computed only when a model reads
             them (:func:`features.model_inputs`).
         """
-        return model_inputs(p0, p1, self.input_plan(width, height))
+        return model_inputs(p0, p1, self.input_plan(width, height, camera))
 
-    def input_vector(self, p0: np.ndarray, p1: np.ndarray, width: int, height: int) -> np.ndarray:
+    def input_vector(
+        self, p0: np.ndarray, p1: np.ndarray, width: int, height: int, camera: Camera | None = None
+    ) -> np.ndarray:
         """:meth:`input_values` as a (len(input_names),) float64 array."""
-        return np.array(self.input_values(p0, p1, width, height)[0], dtype=np.float64)
+        return np.array(self.input_values(p0, p1, width, height, camera)[0], dtype=np.float64)
 
     def predict_points(
         self,
@@ -418,6 +433,7 @@ class ModelSet:
         width: int,
         height: int,
         thresholds: Mapping[str, float] | None = None,
+        camera: Camera | None = None,
     ) -> tuple[dict[str, float], float, tuple[str, ...]]:
         """Probabilities of one correspondence set, the referee deciding where it should.
 
@@ -426,13 +442,14 @@ class ModelSet:
         the referee's probability replaces the model's (its inputs computed for those pairs
         only, from the same pass over the points where the fit rows allow:
         :class:`features.MeasuredPair`). ``thresholds`` may name some models only (the
-        policy's overrides): the others keep the file's.
+        policy's overrides): the others keep the file's. ``camera``: (fx, fy, cx, cy), pixels
+        (see :meth:`input_plan`).
 
         Returns:
             (probabilities by model name, mean disparity in pixels, the names of the models
             the referee decided).
         """
-        plan = self.input_plan(width, height)
+        plan = self.input_plan(width, height, camera)
         pair = MeasuredPair(p0, p1, plan)
         values, mean_disparity = pair.inputs(plan)
         probs = self.predict_values(values)
@@ -447,7 +464,7 @@ class ModelSet:
         if not unsure:
             return probs, mean_disparity, ()
         judge = referee.models  # its inputs from the same pass where the fit rows allow
-        verdict = judge.predict_values(pair.inputs(judge.input_plan(width, height))[0])
+        verdict = judge.predict_values(pair.inputs(judge.input_plan(width, height, camera))[0])
         probs = {**probs, **{name: verdict[name] for name in unsure}}
         return probs, mean_disparity, tuple(unsure)
 

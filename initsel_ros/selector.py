@@ -16,6 +16,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
+from initsel_ros.features import Camera
 from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import (
@@ -247,6 +248,7 @@ def decide_pair(
     cur: np.ndarray,
     width: int,
     height: int,
+    camera: Camera | None = None,
 ) -> Decision:
     """The per-frame decision: model inputs, four model probabilities, policy.
 
@@ -262,8 +264,12 @@ def decide_pair(
         cur: (N, 2) current pixels.
         width: image width, pixels.
         height: image height, pixels.
+        camera: (fx, fy, cx, cy), pixels, for the features that need it (see
+            :meth:`ModelSet.input_plan`).
     """
-    probs, mean_disparity, referred = models.predict_points(ref, cur, width, height, thresholds)
+    probs, mean_disparity, referred = models.predict_points(
+        ref, cur, width, height, thresholds, camera
+    )
     return decide(probs, thresholds, len(ref), mean_disparity, policy, referred)
 
 
@@ -406,7 +412,10 @@ class Selector:
         since = self.tracker.frames_since_reference
         ref = self.intrinsics.undistort_pixels(tracks.ref)
         cur = self.intrinsics.undistort_pixels(tracks.cur)
-        decision = decide_pair(self.models, self.thresholds, self.config.policy, ref, cur, w, h)
+        camera = self.intrinsics.pinhole
+        decision = decide_pair(
+            self.models, self.thresholds, self.config.policy, ref, cur, w, h, camera
+        )
         if decision.reason is Reason.TOO_FEW_TRACKS:
             if self._candidate is not None:
                 decision = replace(

@@ -108,15 +108,18 @@ def test_the_pair_table_stores_the_live_extra_features():
     row = pair_row(
         's', 0, Pair(0, 1, p0, p1), (0.0, 0.1), (640, 480), K, labels, Source.KLT, config
     )
-    live = extra_features(p0, p1, 640, 480)
+    live = extra_features(p0, p1, 640, 480, camera=(K[0, 0], K[1, 1], K[0, 2], K[1, 2]))
     assert live.shape == (len(EXTRA_FEATURE_NAMES),) and np.all(np.isfinite(live))
     np.testing.assert_array_equal([row[name] for name in EXTRA_FEATURE_NAMES], live)
 
 
-def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height: int):
+def _reference_extra_features(
+    p0: np.ndarray, p1: np.ndarray, width: int, height: int, K: np.ndarray | None = None
+):
     """The extra features by their textbook definitions (np.percentile, a lstsq affine fit,
     cv2.findHomography's least-squares homography refined by Levenberg-Marquardt, the moments
-    of the flow and points, and the lstsq DLT homography)."""
+    of the flow and points, the lstsq DLT homography and, with a camera ``K``, that
+    homography's departure from a rotation)."""
     import math
 
     import cv2
@@ -124,7 +127,7 @@ def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height
     p0 = np.asarray(p0, dtype=np.float64)
     p1 = np.asarray(p1, dtype=np.float64)
     n, diag = len(p0), math.hypot(width, height)
-    out = np.full(16, np.nan)
+    out = np.full(17, np.nan)
     if n == 0:
         return out
     out[0:3] = np.percentile(np.hypot(*(p1 - p0).T), (10, 50, 90)) / diag
@@ -162,6 +165,14 @@ def _reference_extra_features(p0: np.ndarray, p1: np.ndarray, width: int, height
         A, b = _dlt_system(X, Y, u, v)
         h, *_ = np.linalg.lstsq(A, b, rcond=None)
         out[15] = math.sqrt(np.mean((A @ h - b) ** 2) * 2) / scale / diag
+        if K is not None:  # G = K^-1 H K of the pixel homography, det 1, against a rotation
+            S = np.array(
+                [[scale, 0, -scale * width / 2], [0, scale, -scale * height / 2], [0, 0, 1]]
+            )
+            H = np.linalg.inv(S) @ np.append(h, 1.0).reshape(3, 3) @ S
+            G = np.linalg.inv(K) @ H @ K
+            G /= np.cbrt(np.linalg.det(G))
+            out[16] = np.linalg.norm(G.T @ G - np.eye(3))
     return out
 
 
@@ -194,10 +205,13 @@ def _perspective_tracks(rng: np.random.Generator, n: int) -> tuple[np.ndarray, n
 def test_extra_features_equal_their_textbook_definitions(n):
     from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
 
-    for make in (_tracks, _perspective_tracks):
+    from geometry_fixtures import K
+
+    camera = (K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    for make, K_given in ((_tracks, None), (_perspective_tracks, K)):
         p0, p1 = make(np.random.default_rng(n), n)
-        live = extra_features(p0, p1, 640, 480)
-        ref = _reference_extra_features(p0, p1, 640, 480)
+        live = extra_features(p0, p1, 640, 480, camera=None if K_given is None else camera)
+        ref = _reference_extra_features(p0, p1, 640, 480, K_given)
         assert live.shape == (len(EXTRA_FEATURE_NAMES),)
         np.testing.assert_array_equal(np.isnan(live), np.isnan(ref))
         np.testing.assert_array_equal(live[:4], ref[:4])  # percentiles, occupancy: bit-equal
@@ -209,6 +223,7 @@ def test_extra_features_equal_their_textbook_definitions(n):
         # residual, a difference of sums, is exact to the precision of those sums).
         np.testing.assert_allclose(live[7:15], ref[7:15], rtol=1e-8, atol=1e-12, equal_nan=True)
         np.testing.assert_allclose(live[15], ref[15], rtol=1e-5, atol=1e-8, equal_nan=True)
+        np.testing.assert_allclose(live[16], ref[16], rtol=1e-6, atol=1e-9, equal_nan=True)
 
 
 def test_flow_moments_tell_a_shift_a_zoom_and_a_roll_apart():
@@ -405,3 +420,63 @@ def test_a_second_plan_from_the_same_pass_gets_what_its_own_pass_gives():
     # the pass is shared where it can be (the linear homography solved once), not elsewhere
     assert pair._dlt and pair._same_pass(teacher)
     assert not pair._same_pass(moments) and not pair._same_pass(other_size)
+
+
+def _views(R: np.ndarray, t: np.ndarray, depth: np.ndarray, K: np.ndarray, rng):
+    """Pixels of points at ``depth`` (N,) in a reference view and after the motion (R, t)."""
+    n = len(depth)
+    rays = np.c_[rng.uniform(-0.5, 0.5, (n, 2)), np.ones(n)]
+    X = rays * depth[:, None]
+    p0 = (X / X[:, 2:]) @ K.T
+    Y = X @ R.T + t
+    p1 = (Y / Y[:, 2:]) @ K.T
+    return p0[:, :2], p1[:, :2]
+
+
+def test_rotation_departure_is_zero_for_any_rotation_and_grows_with_a_plane_slid_along():
+    """The homography of a pan is K R K^-1 whatever the depths: no departure. A wall slid
+    along (the planar arc's case, a flow close to a pan's) departs by about 2 |t| / d, at any
+    image size and focal length; without a camera the feature is NaN."""
+    from initsel_ros.features import extra_features
+
+    rng = np.random.default_rng(4)
+    angle = np.radians(3.0)
+    R = np.array(
+        [[np.cos(angle), 0, np.sin(angle)], [0, 1, 0], [-np.sin(angle), 0, np.cos(angle)]]
+    )
+    name = ('x_rotation_departure',)
+    for f, size in ((535.0, (640, 480)), (300.0, (1241, 376)), (1070.0, (1280, 960))):
+        K = np.array([[f, 0, size[0] / 2 + 7], [0, f, size[1] / 2 - 5], [0, 0, 1.0]])
+        camera = (f, f, K[0, 2], K[1, 2])
+        scene = rng.uniform(1.0, 8.0, 200)
+        pan = extra_features(*_views(R, np.zeros(3), scene, K, rng), *size, name, camera)[0]
+        assert pan < 1e-9
+        wall = np.full(200, 3.5)
+        slides = [
+            extra_features(*_views(R, [b, 0, 0], wall, K, rng), *size, name, camera)[0]
+            for b in (0.02, 0.1, 0.3)
+        ]
+        assert slides[0] < slides[1] < slides[2]
+        assert slides[1] == pytest.approx(2 * 0.1 / 3.5, rel=0.3)
+        assert np.isnan(extra_features(*_views(R, np.zeros(3), scene, K, rng), *size, name)[0])
+
+
+def test_a_model_set_reading_a_camera_feature_warns_without_a_camera(caplog):
+    from initsel_ros.features import FEATURE_NAMES
+    from initsel_ros.models import METHODS, LogisticModel, ModelSet
+
+    names = (*FEATURE_NAMES, 'x_rotation_departure')
+    k = len(names)
+    models = ModelSet(
+        {
+            m: LogisticModel(m, np.ones(k), 0.0, 0.5, np.zeros(k), np.ones(k), features=names)
+            for m in METHODS
+        }
+    )
+    rng = np.random.default_rng(0)
+    p0, p1 = _perspective_tracks(rng, 50)
+    with caplog.at_level('WARNING'):
+        values = models.input_values(p0, p1, 640, 480)[0]
+    assert np.isnan(values[-1]) and 'no camera' in caplog.text
+    values = models.input_values(p0, p1, 640, 480, (535.4, 539.2, 320.1, 247.6))[0]
+    assert np.isfinite(values[-1]) and values[-1] > 0

@@ -156,7 +156,9 @@ def pair_row(
     free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
     row.update(zip(paper_feature_columns(), map(float, paper), strict=True))
     row.update(zip(free_feature_columns(), map(float, free), strict=True))
-    extra = extra_features(p0, p1, width, height, EXTRA_NAMES)
+    extra = extra_features(
+        p0, p1, width, height, EXTRA_NAMES, camera=(K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    )
     row.update(zip(EXTRA_NAMES, map(float, extra), strict=True))
     disp = np.hypot(*(np.asarray(p1, float) - np.asarray(p0, float)).T)
     row['disp_mean_px'] = float(disp.mean())

@@ -66,7 +66,7 @@ ID_COLUMNS: tuple[tuple[str, type], ...] = (
 )
 
 #: Columns added after tables were first written: an older table without them reads as NaN.
-ADDED_COLUMNS: tuple[str, ...] = ('gt_parallax_deg',)
+ADDED_COLUMNS: tuple[str, ...] = ('gt_parallax_deg', 'x_rotation_departure')
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
     ('disp_mean_px', float),
