@@ -388,22 +388,20 @@ class InputPlan:
         scale = 2.0 ** -math.frexp(max(width, height, 1))[1]
         self._unit = 1.0 / scale
         self._to_fit = _to_fit_matrix(0.5 * width, 0.5 * height, scale)
-        # The camera in fit coordinates, K_f and its inverse, when a model reads its features.
-        self._camera_fit = None
+        # The camera (fx, fy, cx, cy) in fit coordinates, when a model reads its features.
+        self._camera_fit: tuple[float, float, float, float] | None = None
         if camera is not None and _ROTATION_DEPARTURE in wanted:
             fx, fy, cx, cy = map(float, camera)
             if not (fx > 0 and fy > 0 and math.isfinite(cx + cy)):
                 raise GeometryError(
                     f'camera (fx, fy, cx, cy) must have positive focal lengths, got {camera}'
                 )
-            k = np.array(
-                [
-                    [scale * fx, 0.0, scale * (cx - 0.5 * width)],
-                    [0.0, scale * fy, scale * (cy - 0.5 * height)],
-                    [0.0, 0.0, 1.0],
-                ]
+            self._camera_fit = (
+                scale * fx,
+                scale * fy,
+                scale * (cx - 0.5 * width),
+                scale * (cy - 0.5 * height),
             )
-            self._camera_fit = (k, np.linalg.inv(k))
         if extra and (width <= 0 or height <= 0):
             raise GeometryError(f'image size must be positive, got {width}x{height}')
         self._diag = math.hypot(width, height)
@@ -810,7 +808,7 @@ def _fit_features(pair: MeasuredPair, plan: InputPlan, values: list[float]) -> N
                 values[6] = _homography_residual(fit[0:5], vector * factor) * unit
             if plan._camera_fit is not None:
                 values[_ROTATION_DEPARTURE] = _rotation_departure(
-                    vector * factor, plan._camera_fit
+                    (vector * factor).ravel().tolist(), plan._camera_fit
                 )
 
 
@@ -836,21 +834,30 @@ def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | No
     return max(float(system[8, 8] - system[8, 0:8] @ h[:, 0]), 0.0), h, 1.0
 
 
-def _rotation_departure(h: np.ndarray, camera_fit: tuple[np.ndarray, np.ndarray]) -> float:
-    """||G^T G - I||_F of G = K^-1 H K / cbrt(det): how far the homography ``h`` (8, 1) of the
-    fit coordinates (h33 = 1) is from a rotation, with ``camera_fit`` = (K, K^-1) in those
-    coordinates; NaN for a singular G."""
-    k, k_inv = camera_fit
-    g = k_inv @ np.append(h[:, 0], 1.0).reshape(3, 3) @ k
-    det = float(np.linalg.det(g))
+def _rotation_departure(h: list[float], camera_fit: tuple[float, float, float, float]) -> float:
+    """||G^T G - I||_F of G = K^-1 H K / cbrt(det H): how far the homography ``h`` (its 8
+    entries, h33 = 1) of the fit coordinates is from a rotation, with ``camera_fit`` = (fx,
+    fy, cx, cy) of K in those coordinates; NaN for a singular H. Written out on floats: a
+    3 x 3 product in numpy costs more than all of it."""
+    a, b, p, q = camera_fit
+    h0, h1, h2, h3, h4, h5, h6, h7 = h
+    det = h0 * (h4 - h5 * h7) - h1 * (h3 - h5 * h6) + h2 * (h3 * h7 - h4 * h6)
     if not (math.isfinite(det) and det != 0.0):
         return math.nan
-    g /= math.copysign(abs(det) ** (1.0 / 3.0), det)
-    m = g.T @ g
-    m[0, 0] -= 1.0
-    m[1, 1] -= 1.0
-    m[2, 2] -= 1.0
-    return math.sqrt(float(np.vdot(m, m)))
+    # H K, then K^-1 (H K): rows (r0 - p r2) / a, (r1 - q r2) / b, r2
+    c2 = h6 * p + h7 * q + 1.0
+    r2 = (h6 * a, h7 * b, c2)
+    r0 = (h0 * a - p * r2[0], h1 * b - p * r2[1], h0 * p + h1 * q + h2 - p * c2)
+    r1 = (h3 * a - q * r2[0], h4 * b - q * r2[1], h3 * p + h4 * q + h5 - q * c2)
+    g0 = [v / a for v in r0]
+    g1 = [v / b for v in r1]
+    s = abs(det) ** (-2.0 / 3.0)  # G / cbrt(det): G^T G / |det|^(2/3)
+    total = 0.0
+    for i in range(3):
+        for j in range(i, 3):
+            m = (g0[i] * g0[j] + g1[i] * g1[j] + r2[i] * r2[j]) * s - (i == j)
+            total += m * m if i == j else 2.0 * m * m
+    return math.sqrt(total)
 
 
 def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:
