@@ -174,3 +174,13 @@ def test_scale_rule_choices_are_the_label_rules():
     from initsel_ros.learn.labels import ScaleRule
 
     assert set(SCALE_RULES) == {r.value for r in ScaleRule}
+
+
+def test_train_options_name_every_feature_the_models_can_read():
+    """``initsel train``'s choices are spelled out (its --help loads no OpenCV): they must
+    stay the features module's names, or a new feature cannot be asked for."""
+    from initsel_ros.cli.train import EXTRA, PAPER
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES
+
+    assert PAPER == FEATURE_NAMES
+    assert EXTRA == EXTRA_FEATURE_NAMES

@@ -34,6 +34,7 @@ EXTRA = (  # features.EXTRA_FEATURE_NAMES (not imported: --help loads no OpenCV)
     'x_affine_curl',
     'x_affine_deformation',
     'x_homography_dlt_residual',
+    'x_rotation_departure',
 )
 
 
