@@ -181,9 +181,12 @@ def _bench(options: BenchOptions, work: Path) -> dict[str, Any]:
     table = Table('measurement', 'median', 'p99', 'target', 'result')
 
     if 'decision' not in options.skip:
-        paired = micro.time_decision_against_orbslam(models, pairs, options.repeat, WIDTH, HEIGHT)
+        camera = intrinsics.pinhole
+        paired = micro.time_decision_against_orbslam(
+            models, pairs, options.repeat, WIDTH, HEIGHT, camera=camera
+        )
         decision, orb, ratio = paired.decision, paired.orbslam, paired.ratio
-        parts = micro.time_decision_parts(models, pairs, options.repeat, WIDTH, HEIGHT)
+        parts = micro.time_decision_parts(models, pairs, options.repeat, WIDTH, HEIGHT, camera)
         base_repeat = max(20, options.repeat // 10)
         estimators = micro.time_estimators(pairs, intrinsics.K, base_repeat)
         d = decision.median

@@ -182,3 +182,29 @@ def test_bench_times_the_sets_a_referee_decides_apart(band, decides):
     assert not any('referee' in name for name in names[len(expected) :])
     # without a referee there are no such rows
     assert not any('referee' in t.name for t in time_decision_parts(own, pairs, 6, 640, 480))
+
+
+def test_the_bench_decides_with_the_camera_a_model_file_reads(caplog):
+    """A model file that reads a camera feature is timed with the camera the selector passes:
+    no 'no camera' warning and no NaN input (a NaN reads as 0 and would time another path)."""
+    from initsel_ros.benchmarks.micro import decision_fn, time_decision_parts
+    from initsel_ros.features import FEATURE_NAMES
+    from initsel_ros.models import METHODS, LogisticModel, ModelSet
+
+    names = (*FEATURE_NAMES, 'x_rotation_departure')
+    k = len(names)
+    models = ModelSet(
+        {
+            m: LogisticModel(m, np.ones(k), 0.0, 0.5, np.zeros(k), np.ones(k), features=names)
+            for m in METHODS
+        }
+    )
+    camera = (535.4, 539.2, 320.1, 247.6)
+    rng = np.random.default_rng(1)
+    p0 = rng.uniform([0, 0], [640, 480], (200, 2))
+    pairs = [(p0, p0 * 1.01 + rng.normal(0, 0.5, p0.shape))]
+    with caplog.at_level('WARNING'):
+        time_decision_parts(models, pairs, 4, 640, 480, camera)
+        decision_fn(models, 640, 480, camera)(*pairs[0])
+    assert 'no camera' not in caplog.text
+    assert np.isfinite(models.input_values(*pairs[0], 640, 480, camera)[0][-1])

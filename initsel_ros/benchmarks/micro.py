@@ -14,20 +14,26 @@ import tracemalloc
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from initsel_ros.benchmarks.common import Timing, rss_bytes, time_calls
 from initsel_ros.geometry import ROTATION_FOCAL_SCALES
 
+if TYPE_CHECKING:
+    from initsel_ros.features import Camera
+
 log = logging.getLogger(__name__)
 
 Pairs = list[tuple[np.ndarray, np.ndarray]]
 
 
-def decision_fn(models: Any, width: int, height: int) -> Callable[[np.ndarray, np.ndarray], Any]:
-    """The selector's per-pair decision (``selector.decide_pair``, as ``Selector.process``)."""
+def decision_fn(
+    models: Any, width: int, height: int, camera: Camera | None = None
+) -> Callable[[np.ndarray, np.ndarray], Any]:
+    """The selector's per-pair decision (``selector.decide_pair``, as ``Selector.process``;
+    ``camera`` = (fx, fy, cx, cy) for the features that need it)."""
     from initsel_ros.policy import PolicyConfig, effective_thresholds
     from initsel_ros.selector import decide_pair
 
@@ -35,13 +41,13 @@ def decision_fn(models: Any, width: int, height: int) -> Callable[[np.ndarray, n
     thresholds = effective_thresholds(models.thresholds, config)
 
     def run(p0: np.ndarray, p1: np.ndarray) -> Any:
-        return decide_pair(models, thresholds, config, p0, p1, width, height)
+        return decide_pair(models, thresholds, config, p0, p1, width, height, camera)
 
     return run
 
 
 def time_decision_parts(
-    models: Any, pairs: Pairs, repeat: int, width: int, height: int
+    models: Any, pairs: Pairs, repeat: int, width: int, height: int, camera: Camera | None = None
 ) -> list[Timing]:
     """The decision split into model inputs, model scores and policy, each on its own inputs
     (as ``selector.decide_pair`` runs them), and the paper's 23 features alone."""
@@ -50,20 +56,21 @@ def time_decision_parts(
 
     config = PolicyConfig()
     thresholds = effective_thresholds(models.thresholds, config)
-    inputs = [models.input_values(p0, p1, width, height) for p0, p1 in pairs]
+    inputs = [models.input_values(p0, p1, width, height, camera) for p0, p1 in pairs]
     probs = [models.predict_values(values) for values, _ in inputs]
     extra = f' + {len(models.extra_names)} extra features, one pass' if models.extra_names else ''
     paper = (
         '23 features'
-        if models.input_plan(width, height).directions
+        if models.input_plan(width, height, camera).directions
         else ('15 features (no direction bins)')
     )
     return [
-        *_referee_parts(models, pairs, repeat, width, height, thresholds),
+        *_referee_parts(models, pairs, repeat, width, height, thresholds, camera),
         Timing(
             f'  model inputs: {paper}{extra}',
             time_calls(
-                lambda i: models.input_values(*pairs[i % len(pairs)], width, height), repeat
+                lambda i: models.input_values(*pairs[i % len(pairs)], width, height, camera),
+                repeat,
             ),
         ),
         Timing(
@@ -97,14 +104,18 @@ def _referee_parts(
     width: int,
     height: int,
     thresholds: dict[str, float],
+    camera: Camera | None = None,
 ) -> list[Timing]:
     """Where a model file has a referee: the decision timed apart on the sets the referee
     decides and on the others (the median of all sets hides the referee when it decides on
     fewer than half of them)."""
     if models.referee is None:
         return []
-    decide = decision_fn(models, width, height)
-    asked = [bool(models.predict_points(p0, p1, width, height, thresholds)[2]) for p0, p1 in pairs]
+    decide = decision_fn(models, width, height, camera)
+    asked = [
+        bool(models.predict_points(p0, p1, width, height, thresholds, camera)[2])
+        for p0, p1 in pairs
+    ]
     out = []
     for label, chosen in (('decides', True), ('does not decide', False)):
         sets = [pair for pair, a in zip(pairs, asked, strict=True) if a == chosen]
@@ -144,12 +155,13 @@ def time_decision_against_orbslam(
     height: int,
     rounds: int = 10,
     iterations: int = 200,
+    camera: Camera | None = None,
 ) -> PairedTimes:
     """``repeat`` decisions and ``repeat / 10`` ORB-SLAM selections (at least 20), in
     ``rounds`` alternating rounds (see :class:`PairedTimes`)."""
     from initsel_ros.learn.baselines import orbslam_choice, orbslam_scores
 
-    decide = decision_fn(models, width, height)
+    decide = decision_fn(models, width, height, camera)
     rng = np.random.default_rng(0)
 
     def orb(i: int) -> None:
