@@ -2,8 +2,8 @@
 
 Boxes and crates of 0.2-0.9 m on a flagstone floor, a tall shelf, a brick back wall about 6 m
 behind the scene target and a wooden side wall, all lit by one directional light
-(:func:`~initsel_ros.synth.materials.shade`): depths from about 0.5 m (a crate in front of
-a camera moving in) to 10 m, many small planes at every orientation, and textures made by
+(:func:`~initsel_ros.synth.materials.shade`): depths from under 1 m (a crate in front of a
+camera moving in) to 11 m, many small planes at every orientation, and textures made by
 generators the first style's scenes do not use. The synthetic trajectories look at the same
 scene target, so every trajectory kind renders it.
 """
