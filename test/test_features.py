@@ -203,9 +203,9 @@ def _perspective_tracks(rng: np.random.Generator, n: int) -> tuple[np.ndarray, n
 
 @pytest.mark.parametrize('n', [0, 1, 2, 3, 4, 5, 9, 60, 300])
 def test_extra_features_equal_their_textbook_definitions(n):
-    from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
-
     from geometry_fixtures import K
+
+    from initsel_ros.features import EXTRA_FEATURE_NAMES, extra_features
 
     camera = (K[0, 0], K[1, 1], K[0, 2], K[1, 2])
     for make, K_given in ((_tracks, None), (_perspective_tracks, K)):
