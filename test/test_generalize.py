@@ -67,7 +67,9 @@ def test_a_bad_families_file_is_a_clear_error(tmp_path, text, message):
 
 
 def test_each_family_is_scored_by_models_that_never_saw_it_nor_the_reserved_one(monkeypatch):
-    table = _table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x'])
+    # 480 pairs: with 240, trees on the table's ~40 noise columns overfit enough that E, after
+    # R's veto, may never say yes on one held-out family of 60 (seen when a column was added)
+    table = _table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x'], n=480)
     families = Families({'fx': ('fx_*',), 'desk': ('far_*',), 'floor': ('floor_*',),
                          'walls': ('wall_*',)}, reserved='walls')  # fmt: skip
     seen: list[set[str]] = []
@@ -83,7 +85,7 @@ def test_each_family_is_scored_by_models_that_never_saw_it_nor_the_reserved_one(
     assert [s.family for s in scores[::4]] == ['fx', 'desk', 'floor']  # the reserved: no fold
     assert seen == [{'far_s1', 'floor_far'}, {'fx_a', 'floor_far'}, {'fx_a', 'far_s1'}]
     assert {s.model for s in scores} == {'E', 'F', 'H', 'R'}
-    assert all(s.pairs == 60 and s.scored for s in scores)
+    assert all(s.pairs == 120 and s.scored for s in scores)
     # the labels follow one feature in every family: held out, each is still scored better
     # than chance (about 0.5 here), on the labels and at thresholds fitted without it
     assert all(s.precision > 0.6 for s in scores)
