@@ -5,6 +5,7 @@
 #   scripts/tables.sh protocol   [DATA_DIR] [OUT_DIR]
 #   scripts/tables.sh robustness [DATA_DIR] [OUT_DIR]
 #   scripts/tables.sh real       [DATA_DIR] [OUT_DIR]   (sets up the ORB-SLAM3 venv when absent)
+#   scripts/tables.sh generalization [DATA_DIR] [OUT_DIR] [initsel train options...]
 # Renders are kept in DATA_DIR (default /tmp/initsel-tables) and reused; OUT_DIR (default
 # DATA_DIR/out) gets TABLE/*.md (+ CSVs). The script sets up and enters the project's
 # environment through scripts/run.sh when it is not already inside it.
@@ -13,7 +14,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
     exec "$root/scripts/run.sh" bash "$root/scripts/tables.sh" "$@"
 fi
-table=${1:?usage: scripts/tables.sh seedmap|protocol|robustness|real [DATA_DIR] [OUT_DIR]}
+table=${1:?usage: scripts/tables.sh seedmap|protocol|robustness|real|generalization [DATA_DIR] [OUT_DIR]}
 D=${2:-/tmp/initsel-tables}
 OUT=${3:-$D/out}
 shift $(( $# > 3 ? 3 : $# ))
@@ -72,5 +73,19 @@ case "$table" in
         bash "$root/scripts/seedmap_effects.sh" "$D/effects" "$OUT/robustness" "$@"
         echo "wrote $OUT/robustness/*/seedmap.md" >&2
         ;;
-    *) echo "unknown table $table: seedmap, protocol, robustness or real" >&2; exit 2 ;;
+    generalization)  # README "Generalization" (issue 21; about 25 minutes fresh, 6 with the
+        # pair tables kept): every scene family of config/families.yaml left out in turn
+        source "$root/scripts/training_sequences.sh"
+        make_training_tables  # the shipped recipe's tables, in DATA_DIR
+        bash "$root/scripts/storeroom_family.sh" "$D"  # the second rendering style
+        mkdir -p "$OUT/generalization"
+        initsel train "$D/train.csv" "$D/distill_twins.csv" "$D/distill_arcs.csv" \
+            "$D/storeroom.csv" --family trees+extra --trees 40 --folds 3 \
+            --threshold-prior 0.25 --threshold-prior R=0.15 --family-cap 1000 \
+            --leave-family-out "$root/config/families.yaml" \
+            --out "$OUT/generalization/generalization.md" "$@" >/dev/null
+        echo "wrote $OUT/generalization/generalization.md" >&2
+        ;;
+    *) echo "unknown table $table: seedmap, protocol, robustness, real or generalization" >&2
+       exit 2 ;;
 esac

@@ -16,21 +16,13 @@ D=${1:-/tmp/initsel-data}
 OUT=${2:-$D/models.json}
 shift $(( $# > 2 ? 2 : $# ))
 mkdir -p "$D"
-# The training sequences (CLEAN) and their camera-effects twins (TWINS).
+# The training sequences (CLEAN), their camera-effects twins (TWINS) and the planar-arc
+# family's tuning seeds 0-4 (scripts/planar_arc.sh: planes from sideways arcs and slides, pans
+# with sensor noise, moving boards or a focal-length error, a still camera with moving
+# boards): where the node must not initialize, the students must say what the teacher says,
+# and they only learn that from such pairs. make_training_tables labels them.
 source "$root/scripts/training_sequences.sh"
-render_training_sequences
-[ -f "$D/train.csv" ] || initsel dataset "${CLEAN[@]/#/$D/}" --out "$D/train.csv" --batch 90 \
-    --jobs 2 --quiet
-[ -f "$D/distill_twins.csv" ] || initsel dataset "${TWINS[@]/#/$D/}" \
-    --out "$D/distill_twins.csv" --batch 90 --jobs 2 --quiet
-# ...and the planar-arc family's tuning seeds 0-4 (scripts/planar_arc.sh: planes from sideways
-# arcs and slides, pans with sensor noise, moving boards or a focal-length error, a still
-# camera with moving boards): where the node must not initialize, the students must say what
-# the teacher says, and they only learn that from such pairs.
-bash "$root/scripts/planar_arc.sh" render-tune "$D/planar_arc"
-ARCS=("$D"/planar_arc/*_s[0-4])
-[ -f "$D/distill_arcs.csv" ] || initsel dataset "${ARCS[@]}" --out "$D/distill_arcs.csv" \
-    --batch 35 --jobs 2 --quiet
+make_training_tables
 # The students read the 15 extent and disparity features and the 9 moments; 40 trees of depth 3
 # a model, learning rate 0.25: of 30, 40, 60 and 100 trees, the one whose students fitted on
 # one half of the pairs (clean or camera effects) agree best with the teacher on the other

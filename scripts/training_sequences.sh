@@ -36,3 +36,16 @@ render_training_sequences() {
     TWINS=(fx_far_s101 fx_far_s102 fx_zigzag_far fx_floor_far fx_random_s105 fx_random_s106
            fx_rotation_s107 fx_static_s108 fx_forward_s109 fx_rotation_s110 fx_static_s114)
 }
+make_training_tables() {  # the pair tables of the shipped recipe in $D (each kept when there):
+    # train.csv (CLEAN), distill_twins.csv (TWINS) and distill_arcs.csv (the planar-arc
+    # family's tuning seeds 0-4, scripts/planar_arc.sh); needs $root, the project's root
+    render_training_sequences
+    [ -f "$D/train.csv" ] || initsel dataset "${CLEAN[@]/#/$D/}" --out "$D/train.csv" \
+        --batch 90 --jobs 2 --quiet
+    [ -f "$D/distill_twins.csv" ] || initsel dataset "${TWINS[@]/#/$D/}" \
+        --out "$D/distill_twins.csv" --batch 90 --jobs 2 --quiet
+    bash "$root/scripts/planar_arc.sh" render-tune "$D/planar_arc"
+    local arcs=("$D"/planar_arc/*_s[0-4])
+    [ -f "$D/distill_arcs.csv" ] || initsel dataset "${arcs[@]}" --out "$D/distill_arcs.csv" \
+        --batch 35 --jobs 2 --quiet
+}
