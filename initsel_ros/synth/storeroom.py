@@ -5,10 +5,13 @@ behind the scene target and a wooden side wall, all lit by one directional light
 (:func:`~initsel_ros.synth.materials.shade`): depths from under 1 m (a crate in front of a
 camera moving in) to 11 m, many small planes at every orientation, and textures made by
 generators the first style's scenes do not use. The synthetic trajectories look at the same
-scene target, so every trajectory kind renders it.
+scene target, so every trajectory kind renders it; a box drawn where a camera of the near or
+far trajectory, or of the generated ones, would stand in or just above it is drawn again.
 """
 
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -23,6 +26,40 @@ SIDE_WALL = 5.0
 #: the cameras' mean viewing direction; in front of the target they are kept low.
 BOX_DEPTH = (-3.5, 0.35)
 LOW_BOX_HEIGHT = 0.35
+#: Clearance kept between a box and any camera of :func:`camera_positions`, metres.
+CLEARANCE = 0.3
+#: Draws of a box's place before it is left out.
+MAX_DRAWS = 20
+
+
+@lru_cache(maxsize=1)
+def camera_positions() -> np.ndarray:
+    """(N, 3) where cameras stand: every pose of the near and far trajectories (the real
+    hand-held path and its 2x-scaled copy) and the generated trajectories' viewpoints at 0.8-2.4
+    m from the target (static, rotation, forward, arc, the centre of random), world frame."""
+    from initsel_ros.synth.trajectories import make_trajectory, nominal_eye
+
+    near = make_trajectory('near')[1][:, :3, 3]
+    far = make_trajectory('far')[1][:, :3, 3]
+    generated = np.array([nominal_eye(d) for d in np.linspace(0.8, 2.4, 17)])
+    return np.concatenate((near, far, generated))
+
+
+def clear_of_cameras(
+    centre: np.ndarray, size: tuple[float, float, float], yaw: float, eyes: np.ndarray
+) -> bool:
+    """Whether no camera of ``eyes`` (N, 3) stands within :data:`CLEARANCE` of a box on the
+    floor (its footprint grown by it, below its top plus it)."""
+    a, b, h = size
+    d = eyes[:, :2] - centre[:2]
+    c, s = np.cos(yaw), np.sin(yaw)
+    along, across = d @ [c, s], d @ [-s, c]
+    inside = (
+        (np.abs(along) < a / 2 + CLEARANCE)
+        & (np.abs(across) < b / 2 + CLEARANCE)
+        & (eyes[:, 2] < h + CLEARANCE)
+    )
+    return not inside.any()
 
 
 def _axes() -> tuple[np.ndarray, np.ndarray]:
@@ -115,18 +152,29 @@ def storeroom_planes(rng: np.random.Generator, target: np.ndarray, ppm: float) -
     )
     # one box at the target, so every trajectory's view centre has structure; then the rest
     boxes = [(0.0, 0.0)] + [(rng.uniform(*BOX_DEPTH), rng.uniform(-2.5, 2.5)) for _ in range(13)]
+    eyes = camera_positions()
     for i, (s, lateral) in enumerate(boxes):
-        tall = s < 0.0
-        size = (
-            float(rng.uniform(0.25, 0.8)),
-            float(rng.uniform(0.25, 0.8)),
-            float(rng.uniform(0.2, 0.9 if tall else LOW_BOX_HEIGHT)),
-        )
-        centre = base + ahead * s + side * lateral
-        planes += _box(
-            rng, f'box{i}', centre, size, float(rng.uniform(0, np.pi)), ppm, light, ambient
-        )
+        for _ in range(MAX_DRAWS):  # (the draws in the order of the first version of the scene)
+            tall = s < 0.0
+            size = (
+                float(rng.uniform(0.25, 0.8)),
+                float(rng.uniform(0.25, 0.8)),
+                float(rng.uniform(0.2, 0.9 if tall else LOW_BOX_HEIGHT)),
+            )
+            centre = base + ahead * s + side * lateral
+            yaw = float(rng.uniform(0, np.pi))
+            if clear_of_cameras(centre, size, yaw, eyes):
+                planes += _box(rng, f'box{i}', centre, size, yaw, ppm, light, ambient)
+                break
+            s, lateral = rng.uniform(*BOX_DEPTH), rng.uniform(-2.5, 2.5)
     return planes
 
 
-__all__ = ['BACK_WALL', 'SIDE_WALL', 'storeroom_planes']
+__all__ = [
+    'BACK_WALL',
+    'CLEARANCE',
+    'SIDE_WALL',
+    'camera_positions',
+    'clear_of_cameras',
+    'storeroom_planes',
+]
