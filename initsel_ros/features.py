@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from enum import Enum
 from functools import lru_cache
 
@@ -321,7 +321,7 @@ _GAUSS_NEWTON_MAP = _gauss_newton_map()
 class InputPlan:
     """Constants of the model inputs for one image size, scaling and list of extra features.
 
-    Built once per (width, height, scaling, extra, directions) by :func:`input_plan`;
+    Built once per (width, height, scaling, extra, directions, camera) by :func:`input_plan`;
     read-only.
 
     Attributes:
@@ -391,10 +391,11 @@ class InputPlan:
         # The camera (fx, fy, cx, cy) in fit coordinates, when a model reads its features.
         self._camera_fit: tuple[float, float, float, float] | None = None
         if camera is not None and _ROTATION_DEPARTURE in wanted:
-            fx, fy, cx, cy = map(float, camera)
-            if not (fx > 0 and fy > 0 and math.isfinite(cx + cy)):
+            fx, fy, cx, cy = as_camera(camera)
+            if not (math.isfinite(fx + fy + cx + cy) and fx > 0 and fy > 0):
                 raise GeometryError(
-                    f'camera (fx, fy, cx, cy) must have positive focal lengths, got {camera}'
+                    f'a camera (fx, fy, cx, cy) needs finite values and positive focal '
+                    f'lengths, got {camera}'
                 )
             self._camera_fit = (
                 scale * fx,
@@ -432,7 +433,6 @@ def _to_fit_matrix(cx: float, cy: float, s: float) -> np.ndarray:
     return np.array((*extents, u, u, v, v, dX, dY, X, Y, X, Y, dX, dY, X, Y, one, u, v))
 
 
-@lru_cache(maxsize=64)
 def input_plan(
     width: int,
     height: int,
@@ -443,16 +443,44 @@ def input_plan(
 ) -> InputPlan:
     """The (cached) :class:`InputPlan` of an image size, a scaling and extra feature names;
     ``directions=False`` skips the direction bins (they read 0.0); ``camera`` (fx, fy, cx,
-    cy) in pixels lets ``CAMERA_FEATURE_NAMES`` be computed (else they read NaN).
+    cy) in pixels, any sequence of four numbers, lets ``CAMERA_FEATURE_NAMES`` be computed
+    (else they read NaN).
 
     Raises:
-        GeometryError: an unknown extra feature name, or a non-positive image size.
+        GeometryError: an unknown extra feature name, a non-positive image size, or a camera
+            that is not four finite numbers with positive focal lengths (when a feature reads
+            it).
     """
     if camera is not None:
-        camera = tuple(float(c) for c in camera)  # type: ignore[assignment]
-    return InputPlan(
+        camera = as_camera(camera)
+    return _cached_plan(
         int(width), int(height), Scaling(scaling), tuple(extra), bool(directions), camera
     )
+
+
+def as_camera(camera: Sequence[float]) -> Camera:
+    """(fx, fy, cx, cy) as a tuple of floats (hashable, for the plan caches).
+
+    Raises:
+        GeometryError: not four numbers.
+    """
+    try:
+        fx, fy, cx, cy = (float(c) for c in camera)
+    except (TypeError, ValueError) as exc:
+        raise GeometryError(f'a camera is (fx, fy, cx, cy), got {camera!r}') from exc
+    return (fx, fy, cx, cy)
+
+
+@lru_cache(maxsize=64)
+def _cached_plan(
+    width: int,
+    height: int,
+    scaling: Scaling,
+    extra: tuple[str, ...],
+    directions: bool,
+    camera: Camera | None,
+) -> InputPlan:
+    return InputPlan(width, height, scaling, extra, directions, camera)
 
 
 _RAW_PLAN = InputPlan(0, 0, Scaling.PAPER, ())
@@ -524,10 +552,10 @@ def extra_features(
       (a21 - a12) / 2 (roll) and the magnitude of its shear (NaN for collinear points);
     * ``x_rotation_departure`` (needs ``camera``): the linear homography in the camera's
       normalized coordinates, G = K^-1 H K scaled to det G = 1, against a rotation:
-      ||G^T G - I||_F. Zero for any pure rotation (whatever the scene), about 2 |t| / d for a
-      plane at distance d seen after a translation t (a plane slid along keeps a flow close
-      to a rotation's, but not this); unitless, and the same at any image size and field of
-      view. NaN without a camera, below 4 points or when the fit fails.
+      ||G^T G - I||_F. Zero for any pure rotation (whatever the scene); about sqrt(2) |t| / d
+      for a plane at distance d slid along it by t (its flow stays close to a rotation's, but
+      not this) and 1.6 |t| / d moving toward it; unitless, and the same at any image size and
+      field of view. NaN without a camera, below 4 points or when the fit fails.
 
     All but the percentiles and the grid come from one Gram matrix of a few rows over the
     points. The pair table stores exactly these values.
@@ -544,7 +572,8 @@ def extra_features(
         (len(names),) float64 in the order of ``names``; all NaN for an empty set.
 
     Raises:
-        GeometryError: an unknown name, or mismatched point arrays.
+        GeometryError: an unknown name, mismatched point arrays, or a bad camera
+            (:func:`input_plan`).
     """
     plan = input_plan(width, height, Scaling.RESOLUTION_FREE, tuple(names), camera=camera)
     return np.array(MeasuredPair(p0, p1, plan).features(plan)[1], dtype=np.float64)

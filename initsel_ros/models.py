@@ -69,6 +69,7 @@ from initsel_ros.features import (
     InputPlan,
     MeasuredPair,
     Scaling,
+    as_camera,
     input_plan,
     model_inputs,
 )
@@ -103,6 +104,9 @@ DEFAULT_MODEL_NAME = 'models.json'
 KINDS = ('logistic', 'trees')
 
 LOG = logging.getLogger(__name__)
+
+#: Input plans a model set keeps (by image size and camera) before it starts afresh.
+MAX_PLANS = 16
 
 
 def _probability(z: float) -> float:
@@ -336,7 +340,7 @@ class ModelSet:
         )
         object.__setattr__(self, '_logistic_slots', logistic)
         object.__setattr__(self, '_sanitize', bool(extra) or bool(trees))
-        object.__setattr__(self, '_plans', {})  # InputPlan by image size
+        object.__setattr__(self, '_plans', {})  # InputPlan by image size and camera
         object.__setattr__(self, '_bounds', {})  # the referee's band by threshold values
         # The direction histogram has a pass of its own: made only when a model reads it.
         object.__setattr__(self, '_directions', bool(used & set(FEATURE_NAMES[15:])))
@@ -384,8 +388,12 @@ class ModelSet:
         """The constants of this set's input vector at an image size and camera (fx, fy, cx,
         cy, pixels: for the features of ``CAMERA_FEATURE_NAMES``), cached."""
         plans: dict[tuple[int, int, Camera | None], InputPlan] = self._plans  # type: ignore[attr-defined]
+        if camera is not None and type(camera) is not tuple:
+            camera = as_camera(camera)
         plan = plans.get((width, height, camera))
         if plan is None:
+            if len(plans) >= MAX_PLANS:  # a camera whose K keeps changing: no unbounded cache
+                plans.clear()
             if camera is None and set(self._extra) & set(CAMERA_FEATURE_NAMES):  # type: ignore[attr-defined]
                 LOG.warning(
                     'a model reads %s but no camera was given: it reads NaN (as 0)',

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -435,8 +437,8 @@ def _views(R: np.ndarray, t: np.ndarray, depth: np.ndarray, K: np.ndarray, rng):
 
 def test_rotation_departure_is_zero_for_any_rotation_and_grows_with_a_plane_slid_along():
     """The homography of a pan is K R K^-1 whatever the depths: no departure. A wall slid
-    along (the planar arc's case, a flow close to a pan's) departs by about 2 |t| / d, at any
-    image size and focal length; without a camera the feature is NaN."""
+    along (the planar arc's case, a flow close to a pan's) departs by sqrt(2) |t| / d to first
+    order, at any image size and focal length; without a camera the feature is NaN."""
     from initsel_ros.features import extra_features
 
     rng = np.random.default_rng(4)
@@ -457,7 +459,7 @@ def test_rotation_departure_is_zero_for_any_rotation_and_grows_with_a_plane_slid
             for b in (0.02, 0.1, 0.3)
         ]
         assert slides[0] < slides[1] < slides[2]
-        assert slides[1] == pytest.approx(2 * 0.1 / 3.5, rel=0.3)
+        assert slides[1] == pytest.approx(np.sqrt(2) * 0.1 / 3.5, rel=0.05)
         assert np.isnan(extra_features(*_views(R, np.zeros(3), scene, K, rng), *size, name)[0])
 
 
@@ -480,3 +482,59 @@ def test_a_model_set_reading_a_camera_feature_warns_without_a_camera(caplog):
     assert np.isnan(values[-1]) and 'no camera' in caplog.text
     values = models.input_values(p0, p1, 640, 480, (535.4, 539.2, 320.1, 247.6))[0]
     assert np.isfinite(values[-1]) and values[-1] > 0
+
+
+@pytest.mark.parametrize(
+    'camera',
+    [(0.0, 535.0, 320.0, 240.0), (-5.0, 535.0, 320.0, 240.0), (math.nan, 535.0, 320.0, 240.0),
+     (math.inf, 535.0, 320.0, 240.0), (535.0, 535.0, math.nan, 240.0), (535.0, 535.0, 320.0),
+     'fx'],
+)  # fmt: skip
+def test_a_bad_camera_is_a_clear_error(camera):
+    from initsel_ros.features import extra_features
+
+    p0, p1 = _perspective_tracks(np.random.default_rng(0), 20)
+    with pytest.raises(GeometryError, match='camera'):
+        extra_features(p0, p1, 640, 480, ('x_rotation_departure',), camera)
+
+
+def test_a_camera_given_as_a_list_or_array_reads_as_the_tuple():
+    from initsel_ros.features import FEATURE_NAMES, extra_features
+    from initsel_ros.models import METHODS, LogisticModel, ModelSet
+
+    p0, p1 = _perspective_tracks(np.random.default_rng(0), 40)
+    camera = (535.4, 539.2, 320.1, 247.6)
+    name = ('x_rotation_departure',)
+    want = extra_features(p0, p1, 640, 480, name, camera)
+    for given in (list(camera), np.array(camera)):
+        np.testing.assert_array_equal(extra_features(p0, p1, 640, 480, name, given), want)
+    names = (*FEATURE_NAMES, *name)
+    k = len(names)
+    models = ModelSet(
+        {m: LogisticModel(m, np.ones(k), 0.0, 0.5, np.zeros(k), np.ones(k), features=names)
+         for m in METHODS}
+    )  # fmt: skip
+    for given in (camera, list(camera), np.array(camera)):
+        assert models.input_values(p0, p1, 640, 480, given)[0][-1] == want[0]
+
+
+def test_a_camera_whose_focal_length_keeps_changing_does_not_grow_the_plan_cache():
+    from initsel_ros.models import MAX_PLANS
+
+    models = _camera_reading_models()
+    p0, p1 = _perspective_tracks(np.random.default_rng(0), 40)
+    for k in range(3 * MAX_PLANS):
+        models.input_values(p0, p1, 640, 480, (500.0 + k, 500.0 + k, 320.0, 240.0))
+        assert len(models._plans) <= MAX_PLANS
+
+
+def _camera_reading_models():
+    from initsel_ros.features import FEATURE_NAMES
+    from initsel_ros.models import METHODS, LogisticModel, ModelSet
+
+    names = (*FEATURE_NAMES, 'x_rotation_departure')
+    k = len(names)
+    return ModelSet(
+        {m: LogisticModel(m, np.ones(k), 0.0, 0.5, np.zeros(k), np.ones(k), features=names)
+         for m in METHODS}
+    )  # fmt: skip

@@ -564,3 +564,40 @@ def test_an_h_refused_as_ambiguous_at_the_last_frame_is_taken_where_the_verified
     assert (out is not None) == replaced
     if replaced:
         assert np.allclose(out.t / np.linalg.norm(out.t), t_refit)
+
+
+def test_the_selector_gives_its_camera_to_a_model_that_reads_it(caplog):
+    """A model reading x_rotation_departure gets the selector's intrinsics and no 'no camera'
+    warning: an image shift of s pixels is no rotation, but departs from one by about
+    sqrt(2) s / f (without the camera the feature would read NaN, taken as 0); intrinsics set
+    later reach it from the next reference on (a quarter of the focal length: four times
+    the departure)."""
+    import math
+
+    from initsel_ros.features import FEATURE_NAMES
+    from initsel_ros.models import METHODS, LogisticModel
+
+    names = (*FEATURE_NAMES, 'x_rotation_departure')
+    k = len(names)
+    weights = np.zeros(k)
+    weights[-1] = 1.0  # the probability is sigmoid(x_rotation_departure): it shows the value
+    models = ModelSet(
+        {
+            m: LogisticModel(m, weights, -10.0, 0.999, np.zeros(k), np.ones(k), features=names)
+            for m in METHODS
+        }
+    )
+    sel = Selector(models, CAMERA)
+    img = texture(6)
+    with caplog.at_level('WARNING'):
+        sel.process(img, ns(0.0))
+        result = sel.process(shifted(img, 3.0, 0.0), ns(0.033))
+    assert 'no camera' not in caplog.text
+    departure = math.log(1 / (1 / result.decision.probabilities['E'] - 1)) + 10.0
+    assert departure == pytest.approx(math.sqrt(2) * 3.0 / CAMERA.fx, rel=0.2)
+    wide = Intrinsics(CAMERA.fx * 0.25, CAMERA.fy * 0.25, CAMERA.cx, CAMERA.cy, 640, 480)
+    sel.set_intrinsics(wide)
+    sel.process(img, ns(0.066))
+    later = sel.process(shifted(img, 3.0, 0.0), ns(0.1))
+    departed = math.log(1 / (1 / later.decision.probabilities['E'] - 1)) + 10.0
+    assert departed == pytest.approx(4 * departure, rel=0.2)
