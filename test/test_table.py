@@ -101,3 +101,37 @@ def test_an_older_table_without_the_parallax_column_reads_it_as_nan(tmp_path, ca
     table = read_table(path)
     assert np.isnan(table['gt_parallax_deg']).all() and len(table) == 12
     assert 'an older pair table without gt_parallax_deg: read as NaN' in caplog.text
+
+
+def test_a_camera_feature_missing_from_an_older_table_is_a_clear_error(tmp_path, caplog):
+    """A table written before x_rotation_departure reads it as NaN, which a model would read
+    as 0 ("exactly a rotation"): training on it, distilling on it and scoring a model that
+    reads it are errors that say what to do; leaving the feature out trains as before."""
+    from table_fixtures import synthetic_table
+
+    from initsel_ros.errors import DatasetError
+    from initsel_ros.learn.table import read_table, table_probabilities, write_table
+    from initsel_ros.learn.train import TrainConfig, train_models
+
+    table = synthetic_table(n=120)
+    path = tmp_path / 'old.csv'
+    write_table(table, path)
+    text = path.read_text().splitlines()
+    header = text[0].split(',')
+    k = header.index('x_rotation_departure')
+    path.write_text(
+        '\n'.join(','.join(c for j, c in enumerate(line.split(',')) if j != k) for line in text)
+        + '\n'
+    )
+    with caplog.at_level('WARNING'):
+        old = read_table(path)
+    assert 'x_rotation_departure' in caplog.text
+    with pytest.raises(DatasetError, match='x_rotation_departure is missing on 120 of 120'):
+        train_models(old, TrainConfig(folds=2))
+    others = tuple(n for n in TrainConfig().extra if n != 'x_rotation_departure')
+    models = train_models(old, TrainConfig(folds=2, extra=others)).models
+    assert 'x_rotation_departure' not in models.input_names
+    table_probabilities(models, old)  # a model that does not read it scores the old table
+    reading = train_models(table, TrainConfig(folds=2)).models
+    with pytest.raises(DatasetError, match='rebuild them'):
+        table_probabilities(reading, old)

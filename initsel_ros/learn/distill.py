@@ -25,7 +25,7 @@ import numpy as np
 
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import ALL_FEATURE_NAMES, FEATURE_NAMES
-from initsel_ros.learn.table import PairTable, input_columns, table_logits
+from initsel_ros.learn.table import PairTable, check_camera_features, input_columns, table_logits
 from initsel_ros.learn.train import TreeConfig, export_trees, grouped_folds, impute
 from initsel_ros.models import METHODS, ModelSet, Referee, logit
 from initsel_ros.trees import TreeEnsembleModel
@@ -209,6 +209,7 @@ def distill_models(
     if teacher.referee is not None:
         raise DatasetError('the teacher has a referee of its own: distill from a file without')
     target = teacher_logits(teacher, table)
+    check_camera_features(table, features)
     X = impute(table.matrix(input_columns(features, teacher.scaling)))
     students: dict[str, TreeEnsembleModel] = {}
     agreement, rmse, bands = {}, {}, {}

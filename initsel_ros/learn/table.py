@@ -34,7 +34,12 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.errors import DatasetError
-from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
+from initsel_ros.features import (
+    CAMERA_FEATURE_NAMES,
+    EXTRA_FEATURE_NAMES,
+    FEATURE_NAMES,
+    Scaling,
+)
 from initsel_ros.models import ModelSet
 from initsel_ros.names import POSE_METHODS as METHODS_FEH  # the pose methods, in table order
 from initsel_ros.trees import sigmoid
@@ -286,9 +291,38 @@ def read_tables(paths: Sequence[Path]) -> PairTable:
     return PairTable.concat([read_table(p) for p in paths])
 
 
+def check_camera_features(table: PairTable, names: Sequence[str]) -> None:
+    """Raise when a feature of ``names`` that needs the camera is missing on pairs whose
+    linear homography exists (a table written before the feature, read as NaN: a model would
+    read 0, which for ``x_rotation_departure`` says "exactly a rotation").
+
+    Raises:
+        DatasetError: naming the feature and how many pairs lack it.
+    """
+    fitted = np.isfinite(np.asarray(table['x_homography_dlt_residual'], dtype=float))
+    for name in CAMERA_FEATURE_NAMES:
+        if name not in names:
+            continue
+        missing = int(np.count_nonzero(fitted & ~np.isfinite(np.asarray(table[name], float))))
+        if missing:
+            raise DatasetError(
+                f'{name} is missing on {missing} of {len(table)} pairs that have a homography '
+                f'fit: pair tables written before it (rebuild them with `initsel dataset`); '
+                f'or leave it out (`initsel train --extra-features` without it)'
+            )
+
+
 def table_logits(models: ModelSet, table: PairTable) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The logits of ``models`` on every pair of ``table``, by model, its referee deciding
-    where it should (:meth:`ModelSet.review_logits`); and the (N,) rows it decided."""
+    where it should (:meth:`ModelSet.review_logits`); and the (N,) rows it decided.
+
+    Raises:
+        DatasetError: a feature the models read that the table lacks
+            (:func:`check_camera_features`).
+    """
+    check_camera_features(table, models.input_names)
+    if models.referee is not None:
+        check_camera_features(table, models.referee_input_names)
     logits = models.logits_batch(table.matrix(input_columns(models.input_names, models.scaling)))
     if models.referee is None:
         return logits, np.zeros(len(table), dtype=bool)
@@ -310,6 +344,7 @@ __all__ = [
     'METHODS_FEH',
     'PAPER_PREFIX',
     'PairTable',
+    'check_camera_features',
     'free_feature_columns',
     'input_columns',
     'method_columns',

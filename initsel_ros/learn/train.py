@@ -30,6 +30,7 @@ from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES, Scaling
 from initsel_ros.learn.labels import LabelConfig, relabel
 from initsel_ros.learn.table import (
     PairTable,
+    check_camera_features,
     free_feature_columns,
     input_columns,
     paper_feature_columns,
@@ -521,6 +522,7 @@ def train_models(
     for name in METHODS:
         family = config.family_of(name)
         features = config.features_of(family)
+        check_camera_features(table, features)
         X = impute(table.matrix(input_columns(features, config.scaling)))
         y = np.asarray(table[label_column(name)]).astype(int)
         positives[name] = int(y.sum())
