@@ -391,7 +391,7 @@ class InputPlan:
         # The camera (fx, fy, cx, cy) in fit coordinates, when a model reads its features.
         self._camera_fit: tuple[float, float, float, float] | None = None
         if camera is not None and _ROTATION_DEPARTURE in wanted:
-            fx, fy, cx, cy = as_camera(camera)
+            fx, fy, cx, cy = camera  # (input_plan made it four floats)
             if not (math.isfinite(fx + fy + cx + cy) and fx > 0 and fy > 0):
                 raise GeometryError(
                     f'a camera (fx, fy, cx, cy) needs finite values and positive focal '

@@ -73,19 +73,9 @@ def _camera(
         if not 10.0 <= hfov_deg <= 150.0:
             raise ConfigError(f'hfov_deg must be in [10, 150] degrees, got {hfov_deg}')
         f = cam.width / 2 / math.tan(math.radians(hfov_deg) / 2)
-        cam = Intrinsics(
-            f, f * cam.fy / cam.fx, cam.cx, cam.cy, cam.width, cam.height, cam.distortion
-        )
+        cam = replace(cam, fx=f, fy=f * cam.fy / cam.fx)
     if distortion:
-        cam = Intrinsics(
-            cam.fx,
-            cam.fy,
-            cam.cx,
-            cam.cy,
-            cam.width,
-            cam.height,
-            tuple(float(d) for d in distortion),
-        )
+        cam = replace(cam, distortion=tuple(float(d) for d in distortion))
     return cam
 
 
