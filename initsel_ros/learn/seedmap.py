@@ -52,7 +52,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.geometry import triangulate_pair
 from initsel_ros.image import to_gray
-from initsel_ros.initialize import FireConfig, initialize_pair, seed_map
+from initsel_ros.initialize import FireConfig, initialize_pair, plane_is_the_scene, seed_map
 from initsel_ros.learn.baselines import (
     ORB_MIN_PARALLAX_DEG,
     ORB_MIN_POINTS,
@@ -370,7 +370,14 @@ def _compare_methods(
         if not estimate.ok:
             errors[m] = math.nan
             continue
-        seed = seed_map(estimate, p0, p1, K, refine=config.refine)
+        seed = seed_map(
+            estimate,
+            p0,
+            p1,
+            K,
+            refine=config.refine,
+            as_plane=plane_is_the_scene(estimate, config.policy),
+        )
         errors[m] = _pose_errors(batch.poses[ref], batch.poses[cur], seed.R, seed.t)[0]
     finite = {m: e for m, e in errors.items() if math.isfinite(e)}
     best = min(finite, key=finite.get) if finite else ''
