@@ -20,8 +20,9 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
 6. the better-model test: an E or F winner is refused when an H that failed the pose check
    scores a lower GRIC (the tracks are a plane, where E and F are degenerate), and an H
    winner when a failed E or F does (the tracks have depth): the pair waits for that model;
-7. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``), refused when
-   it fixes the direction of motion worse than ``max_translation_sigma_deg``.
+7. the seed map of the winner, bundle-adjusted (``refine.refine_two_view``; an H whose
+   plane is the scene as one plane, ``refine_plane.refine_as_plane``), refused when it fixes
+   the direction of motion worse than ``max_translation_sigma_deg``.
 
 Each step can be switched off (labels need the estimates only). The result carries every
 method's estimate and check, not only the winner's. Verification over the next frames is not
