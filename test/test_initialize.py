@@ -179,6 +179,27 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     assert steps[right].fraction > steps[1 - right].fraction
 
 
+def test_an_ambiguous_h_waits_while_its_runner_up_has_no_seed_map_to_follow(monkeypatch):
+    # The pair of the test above: both decompositions pass the pose check and go on to the
+    # verification together. When the runner-up's seed map is not usable yet (here: made
+    # so), the winner alone would pass the verification whichever it is: the pair waits.
+    import initsel_ros.initialize as fire_path
+
+    p0, p1, _, _, _ = two_view(planar=True, baseline=0.1, seed=1)
+    policy = PolicyConfig(
+        min_points=30, min_homography_parallax_deg=0.2, max_translation_sigma_deg=0.0
+    )
+    config = FireConfig(policy=policy, rotation_test=False)
+    both = initialize_pair(p0, p1, K, (Method.H,), config)
+    assert both.reason is Reason.INITIALIZED and len(both.alternatives) == 1
+    monkeypatch.setattr(fire_path, 'usable_seed', lambda *args, **kwargs: None)
+    waits = initialize_pair(p0, p1, K, (Method.H,), config)
+    assert waits.reason is Reason.LOW_PARALLAX and not waits.alternatives, waits.detail
+    assert 'its two decompositions are close, and the runner-up has no usable seed' in (
+        waits.detail
+    )
+
+
 def test_a_pan_is_a_rotation_when_boards_moving_on_their_own_hold_more_than_half_the_tracks():
     # Textured boards attract many corners: here 55 % of the tracks move with them.
     p0, p1 = _pan(n=300)
@@ -353,14 +374,22 @@ def _decompositions_of_the_wall(wall, R, t, n_off):
     """The true motion and the mirrored one of the wall's homography, as two H estimates."""
     from initsel_ros.geometry import PoseEstimate
 
-    # the wall's plane in the reference frame: n.X = d (two_view's wall, 2 m ahead)
+    # the wall's plane in the reference frame: n.X = d (two_view's wall, 2 m ahead), at the
+    # scale of the unit t (two_view's baseline of 0.15 m, 0.01 m and 0.02 m)
     normal = np.array([np.sin(0.35), 0.0, -np.cos(0.35)])
-    H = K @ (R + np.outer(t, normal) / -2.0) @ np.linalg.inv(K)
+    d = -2.0 / np.linalg.norm([0.15, 0.01, 0.02])
+    H = K @ (R + np.outer(t, normal) / d) @ np.linalg.inv(K)
     _, rotations, translations, _ = cv2.decomposeHomographyMat(H, K)
     unit = [np.ravel(v) / np.linalg.norm(v) for v in translations]
     true = int(np.argmin([np.linalg.norm(u - t / np.linalg.norm(t)) for u in unit]))
+    # the other rotation (the decomposition with -t is the same motion's epipolar geometry)
     mirror = next(
-        i for i in range(len(unit)) if i != true and np.linalg.norm(unit[i] - unit[true]) > 0.3
+        i
+        for i in range(len(unit))
+        if np.degrees(
+            np.arccos(np.clip((np.trace(rotations[i].T @ rotations[true]) - 1) / 2, -1, 1))
+        )
+        > 0.5
     )
     inliers = np.arange(len(wall[0]) + n_off) < len(wall[0])
 
