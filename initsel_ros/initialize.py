@@ -481,15 +481,6 @@ def _estimate_and_choose(
             f' (max {policy.max_translation_sigma_deg:g} deg): the baseline is too short yet; '
             + selection.summary(),
         )
-    elif rival is not None and other is None:
-        # the frames after an ambiguous pair tell its decompositions apart; one that cannot
-        # be followed yet leaves the other's verification proving nothing
-        refusal = (
-            Reason.LOW_PARALLAX,
-            f'{selection.winner.value}: its two decompositions are close, and the runner-up '
-            'has no usable seed map yet (too few points, or its direction of motion too '
-            'uncertain) for the next frames to choose between them; ' + selection.summary(),
-        )
     if refusal is not None:
         return FireResult(
             *refusal, residual, estimates, checks, selection, seed, background=background

@@ -179,27 +179,6 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     assert steps[right].fraction > steps[1 - right].fraction
 
 
-def test_an_ambiguous_h_waits_while_its_runner_up_has_no_seed_map_to_follow(monkeypatch):
-    # The pair of the test above: both decompositions pass the pose check and go on to the
-    # verification together. When the runner-up's seed map is not usable yet (here: made
-    # so), the winner alone would pass the verification whichever it is: the pair waits.
-    import initsel_ros.initialize as fire_path
-
-    p0, p1, _, _, _ = two_view(planar=True, baseline=0.1, seed=1)
-    policy = PolicyConfig(
-        min_points=30, min_homography_parallax_deg=0.2, max_translation_sigma_deg=0.0
-    )
-    config = FireConfig(policy=policy, rotation_test=False)
-    both = initialize_pair(p0, p1, K, (Method.H,), config)
-    assert both.reason is Reason.INITIALIZED and len(both.alternatives) == 1
-    monkeypatch.setattr(fire_path, 'usable_seed', lambda *args, **kwargs: None)
-    waits = initialize_pair(p0, p1, K, (Method.H,), config)
-    assert waits.reason is Reason.LOW_PARALLAX and not waits.alternatives, waits.detail
-    assert 'its two decompositions are close, and the runner-up has no usable seed' in (
-        waits.detail
-    )
-
-
 def test_a_pan_is_a_rotation_when_boards_moving_on_their_own_hold_more_than_half_the_tracks():
     # Textured boards attract many corners: here 55 % of the tracks move with them.
     p0, p1 = _pan(n=300)

@@ -353,8 +353,7 @@ def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
     tracker.reset(batch.gray(ref - batch.start))
     tracks = tracker.tracks()
     for k in range(ref - batch.start + 1, cur - batch.start + 1):
-        tracker.track(batch.gray(k))
-    tracks = tracker.anchored()  # as the selector estimates geometry
+        tracks = tracker.track(batch.gray(k))
     return batch.undistort(tracks.ref), batch.undistort(tracks.cur)
 
 
@@ -450,8 +449,7 @@ def _run_track_baselines(
     tracker.reset(batch.gray(0))
     K = batch.intrinsics.K
     for k in range(1, len(batch.images)):
-        tracker.track(batch.gray(k))
-        tracks = tracker.anchored()  # what the selector estimates its geometry from
+        tracks = tracker.track(batch.gray(k))
         if len(tracks) < config.policy.min_tracks:
             break  # the selector would re-reference here; the rules stop
         p0, p1 = batch.undistort(tracks.ref), batch.undistort(tracks.cur)
