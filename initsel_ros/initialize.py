@@ -213,8 +213,9 @@ def seed_map(
         K: (3, 3) camera matrix.
         refine: run :func:`refine.refine_two_view` and drop the points it rejects.
         max_reprojection_px: the refinement's rejection threshold, pixels.
-        as_plane: refine under the homography's own model instead, the points on one plane
-            (:func:`refine_plane.refine_homography`): for an H whose decomposition is unique
+        as_plane: refine under the homography's own model instead, the points on one plane,
+            unless free depths explain the tracks better than the noise allows
+            (:func:`refine_plane.refine_as_plane`): for an H whose plane is the scene
             (:func:`plane_is_the_scene`).
     """
     R, t, points, indices = estimate.R, estimate.t, estimate.points, estimate.indices
