@@ -56,6 +56,7 @@ class Refinement:
             least certain axis, degrees (first-order, from the solution's normal equations
             and the noise its residuals imply; NaN when not computed): how well the pair
             fixes the direction the camera moved.
+        as_plane: refined as one plane (:mod:`initsel_ros.refine_plane`), not with free depths.
     """
 
     R: np.ndarray
@@ -67,6 +68,7 @@ class Refinement:
     iterations: int
     converged: bool
     translation_sigma_deg: float = float('nan')
+    as_plane: bool = False
 
 
 def _tangent_basis(t: np.ndarray) -> np.ndarray:

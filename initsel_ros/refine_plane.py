@@ -204,7 +204,8 @@ def _refine_homography(
     )
     X = triangulate_pair(Rk, tk, K, problem.p0, problem.p1).points
     refinement = problem.refinement(Rk, tk, X, evaluations, converged, max_reprojection_px)
-    return replace(refinement, translation_sigma_deg=plane_translation_sigma_deg(final)), final
+    sigma = plane_translation_sigma_deg(final)
+    return replace(refinement, translation_sigma_deg=sigma, as_plane=True), final
 
 
 def relief_statistic(

@@ -96,6 +96,7 @@ def test_few_points_leave_it_to_the_free_bundle_adjustment():
     free = refine_two_view(R, t, X, p0, p1, K)
     assert np.allclose(planar.t, free.t)
     assert planar.translation_sigma_deg == pytest.approx(free.translation_sigma_deg)
+    assert not planar.as_plane  # (it fell back to free depths)
 
 
 @pytest.mark.parametrize('relief_m, plane', [(0.0, True), (0.03, False)])
@@ -109,6 +110,7 @@ def test_free_depths_win_only_where_they_explain_the_tracks_beyond_the_noise(rel
         chosen = refine_as_plane(R, t, X, p0, p1, K)
         kept = planar if plane else free
         assert chosen.translation_sigma_deg == kept.translation_sigma_deg
+        assert chosen.as_plane is plane and planar.as_plane and not free.as_plane
     threshold = relief_threshold(150)
     assert 1.3 < threshold < 1.7
     if plane:  # Fisher's distribution about 1

@@ -657,7 +657,8 @@ class SelectorNode(Node):
                 else ''
             )
             + (
-                f'; refined: RMS {init.refinement.rms_before_px:.2f} -> '
+                f'; refined{" as one plane" if init.refinement.as_plane else ""}: RMS '
+                f'{init.refinement.rms_before_px:.2f} -> '
                 f'{init.refinement.rms_after_px:.2f} px, direction of motion +-'
                 f'{init.refinement.translation_sigma_deg:.2f} deg'
                 if init.refinement is not None
