@@ -32,13 +32,14 @@ from initsel_ros.refine import (
     _MIN_DIAGONAL,
     Refinement,
     State,
+    TwoViewProblem,
     _levenberg_marquardt,
     _pixels_and_jacobian,
     _pose_step,
     _tangent_basis,
-    refine_two_view,
     reprojection_errors,
     soft_l1,
+    solve_two_view,
     two_view_problem,
 )
 
@@ -153,28 +154,18 @@ def refine_homography(
     Raises:
         GeometryError: inconsistent shapes or a zero translation.
     """
-    options = dict(
-        huber_px=huber_px, max_reprojection_px=max_reprojection_px, max_evaluations=max_evaluations
-    )
-    refinement, final = _refine_homography(R, t, points, p0, p1, K, **options)
-    return refinement if final is not None else refine_two_view(R, t, points, p0, p1, K, **options)
-
-
-def _refine_homography(
-    R: np.ndarray,
-    t: np.ndarray,
-    points: np.ndarray,
-    p0: np.ndarray,
-    p1: np.ndarray,
-    K: np.ndarray,
-    *,
-    huber_px: float,
-    max_reprojection_px: float,
-    max_evaluations: int,
-) -> tuple[Refinement, _PlaneLinearization] | tuple[None, None]:
-    """:func:`refine_homography` and the final linearization (its transfer residuals);
-    ``(None, None)`` without a plane to fit."""
     problem = two_view_problem(R, t, points, p0, p1, K)
+    refinement, final = _refine_plane(problem, huber_px, max_reprojection_px, max_evaluations)
+    if final is None:
+        return solve_two_view(problem, huber_px, max_reprojection_px, max_evaluations)
+    return refinement
+
+
+def _refine_plane(
+    problem: TwoViewProblem, huber_px: float, max_reprojection_px: float, max_evaluations: int
+) -> tuple[Refinement, _PlaneLinearization] | tuple[None, None]:
+    """:func:`refine_homography` on a checked problem, with the final linearization (its
+    transfer residuals); ``(None, None)`` without a plane to fit."""
     plane = _fit_plane(problem.points)
     if plane is None:
         return None, None
@@ -277,16 +268,12 @@ def refine_as_plane(
     Raises:
         GeometryError: inconsistent shapes or a zero translation.
     """
-    options = dict(
-        huber_px=huber_px, max_reprojection_px=max_reprojection_px, max_evaluations=max_evaluations
-    )
-    free = refine_two_view(R, t, points, p0, p1, K, **options)
-    planar, final = _refine_homography(R, t, points, p0, p1, K, **options)
+    problem = two_view_problem(R, t, points, p0, p1, K)
+    free = solve_two_view(problem, huber_px, max_reprojection_px, max_evaluations)
+    planar, final = _refine_plane(problem, huber_px, max_reprojection_px, max_evaluations)
     if final is None:
         return free
-    p0 = np.asarray(p0, dtype=np.float64).reshape(-1, 2)
-    p1 = np.asarray(p1, dtype=np.float64).reshape(-1, 2)
-    statistic = relief_statistic(free, final.residuals, p0, p1, np.asarray(K, dtype=np.float64))
+    statistic = relief_statistic(free, final.residuals, problem.p0, problem.p1, problem.K)
     n = int(np.count_nonzero(free.kept))
     if math.isfinite(statistic) and statistic <= relief_threshold(n):
         return planar

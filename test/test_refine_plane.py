@@ -13,10 +13,10 @@ from initsel_ros.geometry import Method, estimate_pose
 from initsel_ros.initialize import FireConfig, initialize_pair, plane_is_the_scene, seed_map
 from initsel_ros.metrics import translation_chordal_error
 from initsel_ros.policy import PolicyConfig
-from initsel_ros.refine import _pose_step, _tangent_basis, refine_two_view
+from initsel_ros.refine import _pose_step, _tangent_basis, refine_two_view, two_view_problem
 from initsel_ros.refine_plane import (
     _linearize_plane,
-    _refine_homography,
+    _refine_plane,
     refine_as_plane,
     refine_homography,
     relief_statistic,
@@ -105,7 +105,7 @@ def test_free_depths_win_only_where_they_explain_the_tracks_beyond_the_noise(rel
     for seed in range(5):
         p0, p1, R, t, X = _wall(relief_m=relief_m, seed=seed)
         free = refine_two_view(R, t, X, p0, p1, K, **_OPTIONS)
-        planar, final = _refine_homography(R, t, X, p0, p1, K, **_OPTIONS)
+        planar, final = _refine_plane(two_view_problem(R, t, X, p0, p1, K), 1.0, 2.0, 30)
         statistics.append(relief_statistic(free, final.residuals, p0, p1, K))
         chosen = refine_as_plane(R, t, X, p0, p1, K)
         kept = planar if plane else free
