@@ -43,6 +43,7 @@ from initsel_ros.geometry import (
     RotationTest,
     estimate_pose,
     fundamental_from_essential,
+    plane_perspective_test,
     rotation_test,
     sampson_fundamental,
     skew,
@@ -307,6 +308,31 @@ def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEsti
     )
 
 
+def _plane_or_relief(
+    estimate: PoseEstimate, ref: np.ndarray, cur: np.ndarray, K: np.ndarray, policy: PolicyConfig
+) -> PoseEstimate:
+    """An H that explains its own tracks no better than a rotation is refused
+    (:func:`geometry.plane_perspective_test` under ``min_plane_residual_sigma``): it was fitted
+    to the relief of a scene with depth at a short baseline, not to a plane's perspective
+    change, and its decompositions are no pose. Other estimates pass unchanged."""
+    if estimate.method is not Method.H or not estimate.ok:
+        return estimate
+    floor = policy.min_plane_residual_sigma
+    test = plane_perspective_test(ref, cur, K, estimate.matrix, estimate.inliers, floor)
+    if test.statistic >= floor:
+        return estimate
+    return replace(
+        estimate,
+        ok=False,
+        reason=(
+            f'on the {int(np.count_nonzero(estimate.inliers))} tracks H holds, a rotation '
+            f'leaves {test.statistic:.1f} x what H leaves (< {floor:g} x): H fits the relief of '
+            'a scene with depth at this baseline, not the perspective change of a plane'
+        ),
+        alternative=None,
+    )
+
+
 def _estimate(
     method: Method | str, ref: np.ndarray, cur: np.ndarray, K: np.ndarray, config: FireConfig
 ) -> PoseEstimate:
@@ -407,6 +433,8 @@ def _estimate_and_choose(
     policy = config.policy
     if estimates is None:
         estimates = tuple(_estimate(m, ref, cur, K, config) for m in methods)
+    if residual is not None:
+        estimates = tuple(_plane_or_relief(e, ref, cur, K, policy) for e in estimates)
     checks = tuple(check_pose(e, policy) for e in estimates)
     low_essential = _low_essential_parallax(estimates, checks)
     if low_essential is not None:
@@ -481,6 +509,15 @@ def _estimate_and_choose(
             f'{selection.winner.value} fixes the direction of motion {known}'
             f' (max {policy.max_translation_sigma_deg:g} deg): the baseline is too short yet; '
             + selection.summary(),
+        )
+    elif rival is not None and other is None:
+        # the frames after an ambiguous pair tell its decompositions apart; one that cannot
+        # be followed yet leaves the other's verification proving nothing
+        refusal = (
+            Reason.LOW_PARALLAX,
+            f'{selection.winner.value}: its two decompositions are close, and the runner-up '
+            'has no usable seed map yet (too few points, or its direction of motion too '
+            'uncertain) for the next frames to choose between them; ' + selection.summary(),
         )
     if refusal is not None:
         return FireResult(

@@ -425,6 +425,13 @@ class Selector:
             result = self._new_reference(gray, stamp_ns, Reason.TOO_FEW_TRACKS, index, decision)
             return replace(result, reference_stamp_ns=stamp_ns)
 
+        recheck = self._recheck_rotation(decision, since)
+        if self._candidate is not None or decision.positive or recheck:
+            # geometry is estimated on this frame: from each point measured against the
+            # reference, not carried frame to frame (tracking.py)
+            tracks = self.tracker.anchored()
+            self._frame_tracks = tracks
+            cur = self.intrinsics.undistort_pixels(tracks.cur)
         if self._candidate is not None:
             result = self._verify(tracks, ref, cur, decision, index, stamp_ns, since)
         else:
@@ -433,7 +440,7 @@ class Selector:
             )
             if decision.positive:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since)
-            elif self._recheck_rotation(decision, since):
+            elif recheck:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since, RECHECK_METHODS)
         if result.initialization is not None:
             self.initialized = self.config.mode is Mode.ONCE

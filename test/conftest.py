@@ -26,6 +26,13 @@ def near_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def desk_start_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The README demo's first 62 frames (default scene, near trajectory from its start: 1.5 cm
+    of baseline at frame 61)."""
+    return _render(tmp_path_factory, 'desk_start', trajectory='near', frames=62)
+
+
+@pytest.fixture(scope='session')
 def far_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Default scene, the near motion (frames 80-139) at twice the distance."""
     return _render(tmp_path_factory, 'far', trajectory='far', frames=60, start=80)

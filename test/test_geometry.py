@@ -220,3 +220,38 @@ def test_an_opencv_error_in_an_estimator_is_a_failed_estimate_not_a_crash(
     est = estimate_pose(method, p0, p1, K)
     assert not est.ok and est.reason.startswith(f'OpenCV {function} failed')
     assert 'Assertion failed' in est.reason
+
+
+def _homography_of(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    H, mask = cv2.findHomography(p0.reshape(-1, 1, 2), p1.reshape(-1, 1, 2), cv2.RANSAC, 1.0)
+    return H, mask.ravel().astype(bool)
+
+
+def test_a_homography_takes_out_a_planes_perspective_change_not_the_relief_of_depth():
+    from geometry_fixtures import two_view
+
+    from initsel_ros.geometry import plane_perspective_test, rotation_test
+
+    rng = np.random.default_rng(2)
+    # a wall from a 15 cm sideways move: H explains what a rotation leaves
+    a, b, *_ = two_view(planar=True, baseline=0.15)
+    H, held = _homography_of(a, b)
+    assert plane_perspective_test(a, b, K, H, held).statistic > 4.0
+    # depths of 1.5-2.5 m 3 cm apart: the rotation test sees parallax on all the tracks, but
+    # the homography fitted to half of them holds their relief, no perspective change
+    pixels = rng.uniform([20, 20], [620, 460], (300, 2))
+    X = np.c_[pixels, np.ones(300)] @ np.linalg.inv(K).T * rng.uniform(1.5, 2.5, (300, 1))
+    R = rotation(0.0, 0.05, 0.0)
+    a, b = views(X, R, np.array([0.03, 0.0, 0.0]), rng, noise=0.15)
+    assert rotation_test(a, b, K).statistic > 2.0
+    H, held = _homography_of(a, b)
+    relief = plane_perspective_test(a, b, K, H, held)
+    assert 0.5 < relief.statistic < 1.5 and relief.noise_px > 0.1
+    # a pan: the homography is the rotation's, and both leave the noise
+    a, b = views(X, R, np.zeros(3), rng, noise=0.15)
+    H, held = _homography_of(a, b)
+    assert plane_perspective_test(a, b, K, H, held).statistic < 1.5
+    # too few tracks held, and a mask of the wrong length
+    assert np.isnan(plane_perspective_test(a, b, K, H, np.arange(len(a)) < 5).statistic)
+    with pytest.raises(GeometryError, match='inliers'):
+        plane_perspective_test(a, b, K, H, held[:-1])

@@ -601,3 +601,29 @@ def test_the_selector_gives_its_camera_to_a_model_that_reads_it(caplog):
     later = sel.process(shifted(img, 3.0, 0.0), ns(0.1))
     departed = math.log(1 / (1 / later.decision.probabilities['E'] - 1)) + 10.0
     assert departed == pytest.approx(4 * departure, rel=0.2)
+
+
+def test_geometry_is_estimated_from_points_measured_against_the_reference(monkeypatch):
+    # The decision reads the chained tracks (what the models were trained on); a frame on
+    # which a model fires reads the points re-measured against the reference.
+    from initsel_ros.tracking import KltTracker, Tracks
+
+    measured = []
+    original = KltTracker.anchored
+
+    def anchored(self):
+        tracks = original(self)
+        measured.append(self.frames_since_reference)
+        return Tracks(tracks.ref, tracks.cur + np.float32(0.25), tracks.ids)
+
+    monkeypatch.setattr(KltTracker, 'anchored', anchored)
+    img = texture(6)
+    quiet = Selector(constant_models(), CAMERA)
+    quiet.process(img, ns(0.0))
+    result = quiet.process(shifted(img, 4.0, 1.5), ns(0.1))
+    assert result.decision.reason is Reason.NO_MODEL_FIRED and not measured
+    firing = Selector(constant_models(E=0.9, H=0.8), CAMERA)
+    firing.process(img, ns(0.0))
+    result = firing.process(shifted(img, 4.0, 1.5), ns(0.1))
+    assert measured == [1]
+    assert np.allclose(result.tracks_cur, original(firing.tracker).cur + 0.25)

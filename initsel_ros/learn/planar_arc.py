@@ -6,8 +6,9 @@ machinery of :mod:`initsel_ros.learn.seedmap`: the live selector in mode 'once')
 - the selector's first published initialization: the frame it was published on, its E_t and
   rotation error (as in the seed-map table);
 - the oracle frame: the first frame whose homography estimate from the same tracks (the
-  selector's tracker from the first frame, the core's H estimate; where its decompositions
-  are ambiguous, the one nearest the ground truth) has E_t < :data:`ORACLE_E_T`.
+  selector's tracker from the first frame, its points measured against the reference as the
+  fire path reads them; the core's H estimate; where its decompositions are ambiguous, the
+  one nearest the ground truth) has E_t < :data:`ORACLE_E_T`.
 
 Sequences named ``rotation*`` or ``static*`` have no baseline: nothing may initialize there.
 Run it as ``initsel planar_arc SEQUENCE... --out-dir DIR`` (``scripts/planar_arc.sh``).
@@ -99,7 +100,8 @@ def oracle_frame(batch: _Batch, config: SelectorConfig) -> float:
     tracker.reset(batch.gray(0))
     K = batch.intrinsics.K
     for k in range(1, len(batch.images)):
-        tracks = tracker.track(batch.gray(k))
+        tracker.track(batch.gray(k))
+        tracks = tracker.anchored()  # the tracks the selector estimates geometry from
         if len(tracks) < config.policy.min_tracks:
             break
         _, t_gt = relative_pose(batch.poses[batch.start], batch.poses[batch.start + k])

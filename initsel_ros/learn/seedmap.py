@@ -353,7 +353,8 @@ def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
     tracker.reset(batch.gray(ref - batch.start))
     tracks = tracker.tracks()
     for k in range(ref - batch.start + 1, cur - batch.start + 1):
-        tracks = tracker.track(batch.gray(k))
+        tracker.track(batch.gray(k))
+    tracks = tracker.anchored()  # as the selector estimates geometry
     return batch.undistort(tracks.ref), batch.undistort(tracks.cur)
 
 
@@ -449,7 +450,8 @@ def _run_track_baselines(
     tracker.reset(batch.gray(0))
     K = batch.intrinsics.K
     for k in range(1, len(batch.images)):
-        tracks = tracker.track(batch.gray(k))
+        tracker.track(batch.gray(k))
+        tracks = tracker.anchored()  # what the selector estimates its geometry from
         if len(tracks) < config.policy.min_tracks:
             break  # the selector would re-reference here; the rules stop
         p0, p1 = batch.undistort(tracks.ref), batch.undistort(tracks.cur)
