@@ -183,6 +183,13 @@ def triangulate_pair(
 #: H decomposition: the best solution must triangulate this many times more good points than
 #: the runner-up (ORB-SLAM's rule: the second best keeps fewer than 75 % of the best's points).
 HOMOGRAPHY_AMBIGUITY_RATIO = 0.75
+#: A decomposition whose plane leaves more than this share of the homography's inliers behind
+#: the reference or the current camera is not their plane: every inlier lies on it, so the
+#: ray of each must meet it in front of both cameras. (The right decomposition left none
+#: behind on 2,280 planar and desk pairs; the mirrored one of a plane seen from a sideways
+#: move has its horizon through the image and leaves 20-80 % behind, yet triangulates enough
+#: points in front to pass the ambiguity ratio.)
+HOMOGRAPHY_MAX_BEHIND_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -215,6 +222,7 @@ def choose_homography_decomposition(
     inliers: np.ndarray,
     max_reprojection_px: float,
     min_baseline_ratio: float,
+    plane_visibility_share: float | None = None,
 ) -> HomographyChoice:
     """Choose among the decompositions of H by triangulating its inliers (as ORB-SLAM does).
 
@@ -226,22 +234,46 @@ def choose_homography_decomposition(
     two-fold ambiguity at small baselines) and nothing is chosen.
     Solutions whose translation (baseline over plane distance) is below
     ``min_baseline_ratio`` are rotations and are skipped.
+
+    Where the inliers are at least ``plane_visibility_share`` of the correspondences (the
+    plane is the scene), so are solutions whose plane leaves more than
+    :data:`HOMOGRAPHY_MAX_BEHIND_SHARE` of the inliers' rays behind it in either view: the
+    mirror of the planar two-fold ambiguity, whose horizon crosses the image when the camera
+    moves sideways. On a smaller share the inliers may be a plane-like part of a scene with
+    depth, whose decompositions all miss (their closeness is then what refuses them), and the
+    rest of the scene gives E and F the parallax to decide; None turns the test off.
     """
-    count, rotations, translations, _ = cv2.decomposeHomographyMat(H, K)
+    count, rotations, translations, normals = cv2.decomposeHomographyMat(H, K)
     a, b = p0[inliers], p1[inliers]
     scored = []
+    behind_plane = 0
+    visibility = plane_visibility_share is not None and len(a) >= plane_visibility_share * len(p0)
+    if visibility:
+        rays0, rays1 = homogeneous(a) @ np.linalg.inv(K).T, homogeneous(b) @ np.linalg.inv(K).T
     for i in range(count):
         R = np.asarray(rotations[i], dtype=np.float64)
         t = np.asarray(translations[i], dtype=np.float64).reshape(3)
         norm = float(np.linalg.norm(t))
         if norm < min_baseline_ratio:
             continue
+        if visibility:
+            normal = np.asarray(normals[i], dtype=np.float64).reshape(3)
+            behind = ((rays0 @ normal) <= 0.0) | ((rays1 @ (R @ normal)) <= 0.0)
+            if np.count_nonzero(behind) > HOMOGRAPHY_MAX_BEHIND_SHARE * len(a):
+                behind_plane += 1
+                continue
         tri = triangulate_pair(R, t / norm, K, a, b)
         # Cheirality and reprojection only: a parallax cut would favour the mirrored solution,
         # whose points come out nearer and so with more parallax (seen on forward motion).
         good = tri.in_front & (tri.reprojection_px <= max_reprojection_px)
         scored.append((int(good.sum()), i, R, t / norm))
     none = HomographyChoice(np.eye(3), np.zeros(3), (), '')
+    if not scored and behind_plane:
+        return replace(
+            none,
+            reason='every decomposition of the homography leaves some of its points behind '
+            'its plane (the tracks are no plane)',
+        )
     if not scored:
         return replace(none, reason='homography has no decomposition with translation (rotation?)')
     scored.sort(key=lambda item: -item[0])
@@ -283,6 +315,7 @@ def estimate_pose(
     min_points: int = 8,
     min_homography_baseline_ratio: float = 0.01,
     keep_ambiguous: bool = False,
+    plane_visibility_share: float | None = None,
 ) -> PoseEstimate:
     """Recover the relative pose with one method and triangulate the map points.
 
@@ -312,6 +345,9 @@ def estimate_pose(
             ``alternative`` (both triangulated and checked alike) instead of refusing the
             pair; the caller decides (``initialize.py`` keeps both only when both pass its
             pose check).
+        plane_visibility_share: H's decompositions whose plane leaves its inliers behind a
+            camera are dropped when the inliers are at least this share of the
+            correspondences (:func:`choose_homography_decomposition`); None: never.
 
     Returns:
         A :class:`PoseEstimate`; ``ok`` False with a ``reason`` for degenerate input
@@ -354,6 +390,7 @@ def estimate_pose(
             inliers,
             max_reprojection_px,
             min_homography_baseline_ratio,
+            plane_visibility_share,
         )
         if choice.reason and not (keep_ambiguous and choice.runner_up is not None):
             return _failure(method, n, choice.reason, inliers, matrix)

@@ -347,6 +347,9 @@ def _estimate(
         # only a selection goes on to verification, which can choose between the two;
         # without one (labels, the baselines' rules) an ambiguous H is refused as before
         keep_ambiguous=config.select,
+        # and where the plane is the scene, a decomposition leaving it behind a camera is
+        # none (the labels keep ORB-SLAM's rule)
+        plane_visibility_share=config.policy.min_homography_plane_share if config.select else None,
     )
     return _resolve_ambiguity(estimate, config.policy)
 

@@ -255,3 +255,30 @@ def test_a_homography_takes_out_a_planes_perspective_change_not_the_relief_of_de
     assert np.isnan(plane_perspective_test(a, b, K, H, np.arange(len(a)) < 5).statistic)
     with pytest.raises(GeometryError, match='inliers'):
         plane_perspective_test(a, b, K, H, held[:-1])
+
+
+def test_a_decomposition_whose_plane_leaves_its_points_behind_a_camera_is_no_rival():
+    from geometry_fixtures import poster_off_centre
+
+    from initsel_ros.geometry import HOMOGRAPHY_MAX_BEHIND_SHARE, estimate_pose
+
+    # a poster seen from below and to its left, the camera slid 2 cm sideways: H's mirrored
+    # decomposition (its plane's normal along the slide, its horizon down the image's middle)
+    # still triangulates enough points in front to pass ORB-SLAM's 0.75 rule
+    p0, p1, t = poster_off_centre()
+    rng = np.random.default_rng(5)
+    kept = estimate_pose('H', p0, p1, K, keep_ambiguous=True)
+    assert kept.alternative is not None  # ambiguous by the count of points in front
+    # but the mirror's plane leaves a fifth of the poster behind the reference camera
+    assert HOMOGRAPHY_MAX_BEHIND_SHARE < 0.2
+    seen = estimate_pose('H', p0, p1, K, keep_ambiguous=True, plane_visibility_share=0.8)
+    assert seen.ok and seen.alternative is None
+    assert translation_chordal_error(t, seen.t) < 0.1
+    # where the plane holds less than that share, its decompositions are judged as before
+    others = rng.uniform([20, 20], [620, 460], (150, 2))
+    shifted = others + rng.normal(0, 5.0, (150, 2))
+    part = estimate_pose(
+        'H', np.r_[p0, others], np.r_[p1, shifted], K, keep_ambiguous=True,
+        plane_visibility_share=0.8,
+    )  # fmt: skip
+    assert part.alternative is not None

@@ -142,14 +142,15 @@ def test_a_noisy_miscalibrated_pan_is_a_rotation_at_the_noise_level():
 
 
 def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_them_apart():
+    from geometry_fixtures import TOWARD_A_WALL_TURN, toward_a_wall, view_of
+
     from initsel_ros.verify import VerifyConfig, check_frame
 
     baseline = 0.1
-    p0, p1, _, t, X = two_view(planar=True, baseline=baseline, seed=1)
-    # The mirrored solution puts the plane far away, with 0.3 degrees of parallax and 48
-    # points: the default pose check would drop it; a laxer one keeps both, as happens when
-    # the two are closer. (The rotation test is not what this is about.)
-    # (the mirrored pose's direction is also too uncertain for the default bound: off here)
+    p0, p1, _, t, X = toward_a_wall(baseline)
+    # Moving toward a wall, both decompositions keep the whole wall in front of both cameras;
+    # the mirrored one has fewer points with parallax, which a laxer pose check keeps.
+    # (the rotation test, and the directions' uncertainty, are not what this is about)
     policy = PolicyConfig(
         min_points=30, min_homography_parallax_deg=0.2, max_translation_sigma_deg=0.0
     )
@@ -161,11 +162,10 @@ def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_th
     seeds = (fire.seed, *fire.alternatives)
     errors = [translation_chordal_error(t, s.t) for s in seeds]
     assert min(errors) < 0.1 and max(errors) > 0.5  # one is the mirrored plane
-    # The camera goes on, three times as far.
-    R3 = cv2.Rodrigues(3 * np.array([0.01, -0.06, 0.005]))[0]
-    t3 = 3 * np.array([-baseline, 0.01, 0.02]) / np.linalg.norm([-baseline, 0.01, 0.02])
-    proj = (X @ R3.T + t3) @ K.T
-    p2 = proj[:, :2] / proj[:, 2:3] + np.random.default_rng(2).normal(0, 0.3, (len(X), 2))
+    # The camera goes on, twice as far, bending right and down.
+    bend = np.array([0.6, 0.3, 1.0]) / np.linalg.norm([0.6, 0.3, 1.0])
+    p2 = view_of(X * baseline, 2 * TOWARD_A_WALL_TURN, 2 * baseline * bend)
+    p2 = p2 + np.random.default_rng(2).normal(0, 0.3, p2.shape)
     steps = [
         check_frame(s.points, p2[s.indices], np.ones(s.n_points, bool), K, VerifyConfig())
         for s in seeds
@@ -183,9 +183,11 @@ def test_an_ambiguous_h_waits_while_its_runner_up_has_no_seed_map_to_follow(monk
     # The pair of the test above: both decompositions pass the pose check and go on to the
     # verification together. When the runner-up's seed map is not usable yet (here: made
     # so), the winner alone would pass the verification whichever it is: the pair waits.
+    from geometry_fixtures import toward_a_wall
+
     import initsel_ros.initialize as fire_path
 
-    p0, p1, _, _, _ = two_view(planar=True, baseline=0.1, seed=1)
+    p0, p1, *_ = toward_a_wall(0.1)
     policy = PolicyConfig(
         min_points=30, min_homography_parallax_deg=0.2, max_translation_sigma_deg=0.0
     )
@@ -561,3 +563,15 @@ def test_an_h_fitted_to_a_desks_relief_at_a_short_baseline_is_refused(desk_start
     refused = fire.estimate(Method.H)
     assert refused is not None and not refused.ok, fire.detail
     assert 'H fits the relief of a scene with depth' in refused.reason
+
+
+def test_a_poster_whose_mirrored_plane_would_hide_part_of_it_initializes_without_waiting():
+    # H's mirrored decomposition passes the count of points in front (test_geometry), but its
+    # plane leaves a fifth of the poster behind the camera: no rival for the frames to judge
+    from geometry_fixtures import poster_off_centre
+
+    p0, p1, t = poster_off_centre()
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H))
+    assert fire.reason is Reason.INITIALIZED, fire.detail
+    assert fire.seed is not None and fire.seed.method is Method.H and not fire.alternatives
+    assert translation_chordal_error(t, fire.seed.t) < 0.1
