@@ -27,9 +27,9 @@ def near_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope='session')
 def desk_start_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The README demo's first 62 frames (default scene, near trajectory from its start: 1.5 cm
-    of baseline at frame 61)."""
-    return _render(tmp_path_factory, 'desk_start', trajectory='near', frames=62)
+    """The README demo's first 64 frames (default scene, near trajectory from its start: 1.8 cm
+    of baseline at frame 63)."""
+    return _render(tmp_path_factory, 'desk_start', trajectory='near', frames=64)
 
 
 @pytest.fixture(scope='session')

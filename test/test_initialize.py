@@ -262,6 +262,26 @@ def test_a_board_moving_on_its_own_with_most_of_the_tracks_is_no_baseline(camera
 
 
 @pytest.mark.parametrize('camera', ['still', 'panning'])
+def test_two_boards_moving_their_own_ways_with_three_fifths_of_the_tracks_are_no_baseline(camera):
+    # Two boards, each with 31 % of the tracks, move differently in front of a still or
+    # panning camera (the planar-arc tuning set's still camera at 2 grey levels: its boards
+    # held 62 %). A winner can fit one board and the background as one rigid scene, leaving
+    # the other board out, whose motion no rotation explains: only the rotation test can tell,
+    # and a rotation must explain a third of the tracks for it to (40 % let F publish there).
+    p0, p1, first = _board_scene(camera, 300, 0.31, seed=41)
+    rest = ~first
+    second = rest & (np.cumsum(rest) <= int(0.31 * 300))
+    # the second board, facing the camera, slides down-left and turns about the view axis
+    turn = (p0[second] - [320.0, 240.0]) @ np.array([[0.0, 1.0], [-1.0, 0.0]])
+    p1[second] = p0[second] + [-12.0, 6.0] + 0.03 * turn
+    p1[second] += np.random.default_rng(43).normal(0, 0.2, (second.sum(), 2))
+    assert first.sum() + second.sum() == 186  # 62 % of 300
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.F, Method.H), FireConfig(refine=False))
+    assert fire.reason is Reason.ROTATION, fire.detail
+    assert fire.rotation is not None and fire.rotation.statistic < 2.0 and fire.seed is None
+
+
+@pytest.mark.parametrize('camera', ['still', 'panning'])
 def test_a_board_with_most_of_few_tracks_is_no_baseline_either(camera):
     # Late in a pan the background has lost most of its tracks: 75 are left, 57 on the board
     # and 18 on the background, which a rotation explains to within the noise.
@@ -537,9 +557,9 @@ def test_between_the_plane_and_the_rotation_floor_h_alone_goes_on(monkeypatch):
 
 
 def test_an_h_fitted_to_a_desks_relief_at_a_short_baseline_is_refused(desk_start_sequence):
-    # The README demo's frame 61, 1.5 cm from its reference: a homography holds 81 % of the
-    # tracks within a pixel, and the rotation test measures 2.2 x the noise (the plane floor
-    # is 2), but H's pose is wrong (every decomposition: E_t 1.4) ...
+    # The README demo's frame 63, 1.8 cm from its reference: a homography holds 79 % of the
+    # tracks within a pixel, and the rotation test measures 2.6 x the noise (the plane floor
+    # is 2), but H's pose is wrong (E_t 1.4) ...
     from initsel_ros.datasets import open_sequence
     from initsel_ros.geometry import estimate_pose
     from initsel_ros.metrics import relative_pose
@@ -548,17 +568,20 @@ def test_an_h_fitted_to_a_desks_relief_at_a_short_baseline_is_refused(desk_start
     seq = open_sequence(desk_start_sequence)
     tracker = KltTracker(TrackerConfig())
     tracker.reset(seq.gray(0))
-    for k in range(1, 62):
+    for k in range(1, 64):
         tracker.track(seq.gray(k))
     tracks = tracker.anchored()
     ref, cur = (seq.intrinsics.undistort_pixels(p) for p in (tracks.ref, tracks.cur))
     K_seq = seq.intrinsics.K
-    _, t_true = relative_pose(seq.frames[0].pose, seq.frames[61].pose)
+    _, t_true = relative_pose(seq.frames[0].pose, seq.frames[63].pose)
     plane = estimate_pose(Method.H, ref, cur, K_seq)
     assert plane.ok and translation_chordal_error(t_true, plane.t) > 1.0
     # ... because it holds the relief of the desk, not a plane's perspective change: on its
-    # own tracks it leaves as much as a rotation does, and the fire path refuses it
-    fire = initialize_pair(ref, cur, K_seq, (Method.E, Method.F, Method.H))
+    # own tracks it leaves as much as a rotation does, and the fire path refuses it (with the
+    # share rule relaxed, which refuses it at 80 % too, so that this test is what decides)
+    config = FireConfig(policy=PolicyConfig(min_homography_plane_share=0.6))
+    fire = initialize_pair(ref, cur, K_seq, (Method.E, Method.F, Method.H), config)
+    assert fire.rotation is not None and fire.rotation.statistic >= 2.0
     assert fire.seed is None and fire.reason is not Reason.INITIALIZED, fire.detail
     refused = fire.estimate(Method.H)
     assert refused is not None and not refused.ok, fire.detail
