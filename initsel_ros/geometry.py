@@ -249,7 +249,8 @@ def choose_homography_decomposition(
     behind_plane = 0
     visibility = plane_visibility_share is not None and len(a) >= plane_visibility_share * len(p0)
     if visibility:
-        rays0, rays1 = homogeneous(a) @ np.linalg.inv(K).T, homogeneous(b) @ np.linalg.inv(K).T
+        to_rays = np.linalg.inv(K).T
+        rays0, rays1 = homogeneous(a) @ to_rays, homogeneous(b) @ to_rays
     for i in range(count):
         R = np.asarray(rotations[i], dtype=np.float64)
         t = np.asarray(translations[i], dtype=np.float64).reshape(3)
