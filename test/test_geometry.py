@@ -230,7 +230,7 @@ def _homography_of(p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray, np.ndarr
 def test_a_homography_takes_out_a_planes_perspective_change_not_the_relief_of_depth():
     from geometry_fixtures import two_view
 
-    from initsel_ros.geometry import plane_perspective_test, rotation_test
+    from initsel_ros.geometry import ROTATION_QUANTILE, plane_perspective_test, rotation_test
 
     rng = np.random.default_rng(2)
     # a wall from a 15 cm sideways move: H explains what a rotation leaves
@@ -247,6 +247,12 @@ def test_a_homography_takes_out_a_planes_perspective_change_not_the_relief_of_de
     H, held = _homography_of(a, b)
     relief = plane_perspective_test(a, b, K, H, held)
     assert 0.5 < relief.statistic < 1.5 and relief.noise_px > 0.1
+    # the noise it weighs against is H's own transfer residual on those tracks (the same
+    # quantile as the rotation's), not a fundamental matrix's
+    q = np.c_[a[held], np.ones(held.sum())] @ H.T
+    transfer = np.linalg.norm(q[:, :2] / q[:, 2:] - b[held], axis=1)
+    per_sigma = np.sqrt(-4.0 * np.log(1.0 - ROTATION_QUANTILE))
+    assert relief.noise_px == pytest.approx(np.quantile(transfer, ROTATION_QUANTILE) / per_sigma)
     # a pan: the homography is the rotation's, and both leave the noise
     a, b = views(X, R, np.zeros(3), rng, noise=0.15)
     H, held = _homography_of(a, b)
