@@ -21,6 +21,7 @@ from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import (
     FireConfig,
+    FireResult,
     SeedMap,
     fire_methods,
     initialize_pair,
@@ -37,6 +38,7 @@ from initsel_ros.policy import (
     decide,
     effective_thresholds,
 )
+from initsel_ros.recheck import evidence_gap, frames_to_recheck
 from initsel_ros.refine import Refinement
 from initsel_ros.tracking import KltTracker, TrackerConfig, Tracks
 from initsel_ros.verify import VerifyConfig, VerifyStep, check_frame
@@ -91,7 +93,9 @@ class SelectorConfig:
             every this many frames after the reference: its rotation test, which measures
             the flow a rotation leaves against the tracking noise, either confirms R (cheap:
             it stops at the first good rotation) or finds the parallax of a plane seen from
-            a sideways arc, which the models' summary features do not see. 0 = never.
+            a sideways arc, which the models' summary features do not see. A re-check that
+            found the baseline just short schedules the next one for the frame its gate is
+            predicted to pass (``recheck.py``), never later than the cadence. 0 = never.
         bit_depth: significant bits of 16-bit frames (8-16); 0 = automatic, per stream
             (:class:`~initsel_ros.image.BitDepth`; :meth:`Selector.reset` forgets it).
     """
@@ -301,6 +305,9 @@ class Selector:
         self._reference_stamp_ns: int | None = None
         self._candidate: _Candidate | None = None
         self._frame_tracks: Tracks | None = None
+        # (frames since the reference when set, frames since the reference of the next
+        # re-check of R's veto): see _recheck_rotation
+        self._recheck_schedule = (0, self.config.rotation_recheck_frames)
 
     def set_intrinsics(self, intrinsics: Intrinsics) -> bool:
         """Use new intrinsics from the next frame on (e.g. from CameraInfo).
@@ -455,9 +462,22 @@ class Selector:
         return result
 
     def _recheck_rotation(self, decision: Decision, since: int) -> bool:
-        """Is this a frame on which the rotation test re-checks model R's veto?"""
+        """Is this a frame on which the rotation test re-checks model R's veto?
+
+        The first re-check comes ``rotation_recheck_frames`` frames after the reference;
+        each fire-path run schedules the next (:func:`recheck.frames_to_recheck`: when the
+        gate that stopped it is predicted to pass, at most that many frames on). Called on
+        every tracked frame: a frame count not above the schedule's own means a new
+        reference, which starts the cadence over.
+        """
         every = self.config.rotation_recheck_frames
-        return every > 0 and decision.reason is Reason.ROTATION and since % every == 0
+        if every <= 0:
+            return False
+        set_at, due = self._recheck_schedule
+        if since <= set_at:
+            self._recheck_schedule = (0, every)
+            due = every
+        return decision.reason is Reason.ROTATION and since >= due
 
     def _fire(
         self,
@@ -477,6 +497,7 @@ class Selector:
             methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
         result = replace(result, rotation=fire.rotation, background=fire.background)
+        schedule = self._schedule_recheck(fire, since) if recheck else ''
         if fire.reason is Reason.ROTATION:  # (after a re-check: R stands)
             fired = '/'.join(m.value for m in decision.candidates)
             why = f'{fired} fired, but '
@@ -484,14 +505,15 @@ class Selector:
                 why = 'R fired; the rotation test re-checked it: '
             return replace(
                 result,
-                decision=replace(decision, reason=Reason.ROTATION, detail=why + fire.detail),
+                decision=replace(
+                    decision, reason=Reason.ROTATION, detail=why + fire.detail + schedule
+                ),
             )
         context = ''
         if recheck:  # the test found parallax: the pair goes on as if E and H had fired
             statistic = fire.rotation.statistic if fire.rotation is not None else math.nan
             context = (
-                f'R fired, but the flow a rotation leaves is {statistic:.1f} x the noise '
-                f'(re-checked every {self.config.rotation_recheck_frames} frames), so '
+                f'R fired, but the flow a rotation leaves is {statistic:.1f} x the noise, so '
                 + '/'.join(e.method.value for e in fire.estimates)
                 + (' was' if len(fire.estimates) == 1 else ' were')
                 + ' tried; '
@@ -500,7 +522,9 @@ class Selector:
         if fire.reason is not Reason.INITIALIZED or fire.seed is None:
             return replace(
                 result,
-                decision=replace(decision, reason=fire.reason, detail=context + fire.detail),
+                decision=replace(
+                    decision, reason=fire.reason, detail=context + fire.detail + schedule
+                ),
             )
         init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
         detail = f'{context}{init.method.value}: {fire.detail}'
@@ -531,6 +555,19 @@ class Selector:
             initialization=self._published(init),
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
+
+    def _schedule_recheck(self, fire: FireResult, since: int) -> str:
+        """Schedule the next re-check of R's veto after a fire-path run on a re-check; the
+        log's words for it ('' when the pair initialized)."""
+        every = self.config.rotation_recheck_frames
+        gap = evidence_gap(fire, self.config.policy)
+        frames = frames_to_recheck(since, every, gap)
+        self._recheck_schedule = (since, since + frames)
+        if fire.reason is Reason.INITIALIZED:
+            return ''
+        if frames < every:
+            return f'; re-checked in {frames} frame(s), when {gap.gate} should pass'
+        return f'; re-checked in {frames} frames'
 
     def _published(self, init: Initialization) -> Initialization:
         """The initialization as published: an H map's points on their plane

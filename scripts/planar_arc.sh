@@ -2,10 +2,12 @@
 # The planar-arc family of issue 20: planes seen from sideways arcs and slides, and the pans,
 # moving boards and miscalibrated pans that must not initialize; render, evaluate, write
 # the table (docs/initialization.md, "Planes from a sideways arc").
-#   scripts/planar_arc.sh tune|accept [DATA_DIR] [OUT_DIR]
-#   scripts/planar_arc.sh render-tune [DATA_DIR]     (the tune set's renders only)
+#   scripts/planar_arc.sh tune|accept|holdout [DATA_DIR] [OUT_DIR]
+#   scripts/planar_arc.sh render-tune|render-holdout [DATA_DIR]     (renders only)
 # tune renders seeds 0-4 (what the rotation test was tuned on, and what the distilled models
-# of scripts/train_models.sh imitate their teacher on), accept seeds 5-9 (held out).
+# of scripts/train_models.sh imitate their teacher on), accept seeds 5-9 (held out; issue 20's
+# acceptance set), holdout seeds 10-14 (a second held-out set, added on 2026-12-05 after the
+# acceptance seeds had been read in failure traces: evaluated, never traced).
 # Renders are kept in DATA_DIR (default /tmp/initsel-planar-arc) and reused; OUT_DIR (default
 # DATA_DIR/out/SET) gets planar_arc.md and planar_arc.csv. About 10 minutes per set here.
 set -euo pipefail
@@ -13,13 +15,16 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
     exec "$root/scripts/run.sh" bash "$root/scripts/planar_arc.sh" "$@"
 fi
-set_name=${1:?usage: scripts/planar_arc.sh tune|accept [DATA_DIR] [OUT_DIR]}
+set_name=${1:?usage: scripts/planar_arc.sh tune|accept|holdout [DATA_DIR] [OUT_DIR]}
 render_only=0
 case "$set_name" in
     tune) seeds="0 1 2 3 4" ;;
     render-tune) seeds="0 1 2 3 4"; render_only=1 ;;
     accept) seeds="5 6 7 8 9" ;;
-    *) echo "unknown set $set_name: tune, accept or render-tune" >&2; exit 2 ;;
+    holdout) seeds="10 11 12 13 14" ;;
+    render-holdout) seeds="10 11 12 13 14"; render_only=1 ;;
+    *) echo "unknown set $set_name: tune, accept, holdout, render-tune or render-holdout" >&2
+        exit 2 ;;
 esac
 D=${2:-/tmp/initsel-planar-arc}
 OUT=${3:-$D/out/$set_name}

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from image_fixtures import shifted, texture
@@ -9,7 +11,7 @@ from model_fixtures import constant_models
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
-from initsel_ros.geometry import Method
+from initsel_ros.geometry import Method, RotationTest
 from initsel_ros.models import ModelSet
 from initsel_ros.policy import PolicyConfig, Reason
 from initsel_ros.selector import (
@@ -427,7 +429,13 @@ def test_the_rotation_test_re_checks_r_and_a_wall_seen_from_an_arc_initializes(
     inits = [r for r in results if r.initialization is not None]
     assert len(inits) == 1
     checked = [r for r in results if r.rotation is not None]
-    assert all(r.frames_since_reference % 3 == 0 for r in checked)
+    # the first re-check 3 frames after the reference, each next one at most 3 later, and
+    # sooner only where the previous one said which gate was about to pass
+    assert checked[0].frames_since_reference == 3
+    for before, after in itertools.pairwise(checked):
+        step = after.frames_since_reference - before.frames_since_reference
+        assert 1 <= step <= 3
+        assert (step < 3) == ('should pass' in before.decision.detail), before.decision.detail
     fired = next(r for r in results if r.decision.reason is Reason.VERIFYING)
     assert 'R fired, but the flow a rotation leaves is' in fired.decision.detail
     # a re-check that finds parallax but no pose yet says so, not 'rotation'
@@ -627,3 +635,44 @@ def test_geometry_is_estimated_from_points_measured_against_the_reference(monkey
     result = firing.process(shifted(img, 4.0, 1.5), ns(0.1))
     assert measured == [1]
     assert np.allclose(result.tracks_cur, original(firing.tracker).cur + 0.25)
+
+
+def test_a_re_check_just_short_of_its_bar_comes_back_on_the_frame_it_should_pass(monkeypatch):
+    # The fire path is replaced by a stand-in that reports, on the re-check of frame 9, an H
+    # at 0.49 degrees of parallax against its floor of 0.5: parallax grows with the baseline,
+    # so frame 10 should pass, and the next re-check comes then, not on frame 12.
+    import initsel_ros.selector as selector_module
+    from initsel_ros.geometry import PoseEstimate
+    from initsel_ros.initialize import FireResult
+
+    n = 240
+    short = PoseEstimate(
+        Method.H, True, '', np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((n, 3)),
+        np.arange(n), np.ones(n, dtype=bool), 0.49,
+    )  # fmt: skip
+    calls = []
+
+    def fire_path(ref, cur, K, methods, config):
+        calls.append(sel.tracker.frames_since_reference)
+        rotation = RotationTest(0.5, 0.1, 5.0 if len(calls) >= 3 else 1.2, 1.0)
+        if len(calls) < 3:
+            return FireResult(Reason.ROTATION, 'a rotation alone explains the flow', rotation)
+        return FireResult(
+            Reason.LOW_PARALLAX, 'H: low parallax', rotation, (short,), (Reason.LOW_PARALLAX,)
+        )
+
+    monkeypatch.setattr(selector_module, 'initialize_pair', fire_path)
+    img = texture(3)
+    sel = Selector(constant_models(R=0.99), CAMERA, SelectorConfig())
+    results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(11)]
+    assert calls == [3, 6, 9, 10]
+    assert results[9].decision.detail.endswith(
+        're-checked in 1 frame(s), when H parallax 0.49 of 0.5 deg should pass'
+    )
+    assert results[6].decision.detail.endswith('re-checked in 3 frames')
+    # a new reference starts the cadence over: 3 frames after it, whatever was scheduled
+    sel.restart()
+    calls.clear()
+    for i in range(11, 16):
+        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+    assert calls == [3]

@@ -1,0 +1,101 @@
+"""When to run the fire path again after it found the baseline too short.
+
+While model R's yes holds every other model back, the selector re-checks the pair with the
+fire path's rotation test (``selector.SelectorConfig.rotation_recheck_frames``). A fixed
+cadence wastes frames where the evidence was just short of its bar: a poster seen from an
+arc whose H had 0.49 degrees of median parallax against a floor of 0.5 waited three more
+frames, then five of verification.
+
+Each gate that stopped the fire path for want of baseline measures something that grows
+with it, so the frame at which the nearest one is predicted to pass follows from the
+measure, its bar and the frames since the reference (motion at a steady pace):
+
+- parallax (``policy.min_parallax_of``) grows in proportion to the baseline;
+- the rotation test's statistic is the flow a rotation leaves over the noise, about 1 at no
+  baseline, with the perspective change adding in quadrature: ``s^2 - 1`` grows with the
+  square of the baseline (its bars are ``min_plane_residual_sigma`` for H and
+  ``min_rotation_residual_sigma`` for E and F: between the two only H was tried);
+- the standard deviation of the refined direction of motion shrinks in inverse proportion.
+
+The re-check then runs on that frame, but never later than the fixed cadence's next frame (a
+multiple of ``rotation_recheck_frames`` after the reference): the early re-checks come on top
+of the cadence, and a pan, whose statistic stays near 1, is re-checked exactly as before.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from initsel_ros.initialize import FireResult
+from initsel_ros.policy import PolicyConfig, Reason, min_parallax_of, plane_share
+
+
+@dataclass(frozen=True)
+class EvidenceGap:
+    """How far the nearest baseline-limited gate of one fire-path run is from its bar.
+
+    Attributes:
+        growth: the factor by which the baseline must grow for that gate to pass (inf when
+            no gate that stopped the run is baseline-limited; 1 when it already passes).
+        gate: what that gate measured against its bar, for the log ('' when none).
+    """
+
+    growth: float = math.inf
+    gate: str = ''
+
+
+def evidence_gap(fire: FireResult, policy: PolicyConfig) -> EvidenceGap:
+    """The baseline growth the nearest gate that stopped ``fire`` needs (see the module)."""
+    gaps = [EvidenceGap()]
+    rotation, background = fire.rotation, fire.background
+    if fire.reason is Reason.ROTATION and background is not None:
+        gaps.append(
+            _statistic_gap(background.statistic, policy.min_rotation_residual_sigma, 'left-out')
+        )
+    elif rotation is not None:
+        # under E's bar only H was tried (or nothing): the next bar is a gate of its own
+        bars = sorted({policy.min_plane_residual_sigma, policy.min_rotation_residual_sigma})
+        bar = next((b for b in bars if not rotation.statistic >= b), math.nan)
+        gaps.append(_statistic_gap(rotation.statistic, bar, 'rotation test'))
+    for estimate, check in zip(fire.estimates, fire.checks, strict=True):
+        if check is Reason.LOW_PARALLAX and estimate.parallax_deg > 0.0:
+            floor = min_parallax_of(estimate.method.value, policy, plane_share(estimate))
+            if estimate.parallax_deg < floor:
+                gaps.append(
+                    EvidenceGap(
+                        floor / estimate.parallax_deg,
+                        f'{estimate.method.value} parallax {estimate.parallax_deg:.2f} of '
+                        f'{floor:g} deg',
+                    )
+                )
+    seed = fire.seed
+    if fire.reason is Reason.LOW_PARALLAX and seed is not None:
+        sigma, bound = seed.translation_sigma_deg, policy.max_translation_sigma_deg
+        if math.isfinite(sigma) and sigma > bound > 0.0:
+            gaps.append(EvidenceGap(sigma / bound, f'direction +-{sigma:.1f} of {bound:g} deg'))
+    return min(gaps, key=lambda g: g.growth)
+
+
+def _statistic_gap(statistic: float, bar: float, name: str) -> EvidenceGap:
+    """The growth a noise-relative statistic needs to reach ``bar`` (quadrature with the
+    noise: ``s^2 - 1`` grows with the square of the baseline)."""
+    if not (math.isfinite(statistic) and math.isfinite(bar)) or statistic <= 1.0 or bar <= 1.0:
+        return EvidenceGap()
+    growth = math.sqrt(max(bar * bar - 1.0, 0.0) / (statistic * statistic - 1.0))
+    return EvidenceGap(growth, f'{name} {statistic:.1f} of {bar:g} x the noise')
+
+
+def frames_to_recheck(since: int, every: int, gap: EvidenceGap) -> int:
+    """Frames from now (``since`` frames after the reference) to the next re-check: when the
+    baseline has grown by ``gap.growth`` at the pace it had so far, at least 1, and never
+    later than the fixed cadence's next multiple of ``every`` frames after the reference
+    (the statistic's noise estimate moves from frame to frame: an early re-check that
+    comes out short does not push the cadence back)."""
+    if every < 1:
+        raise ValueError(f'every must be at least 1, got {every}')
+    cadence = every - since % every if since >= 1 else every
+    if since < 1 or not gap.growth < math.inf:
+        return cadence
+    due = math.ceil(since * max(gap.growth, 1.0) - 1e-9) - since
+    return int(min(max(due, 1), cadence))
