@@ -2,12 +2,14 @@
 # The planar-arc family of issue 20: planes seen from sideways arcs and slides, and the pans,
 # moving boards and miscalibrated pans that must not initialize; render, evaluate, write
 # the table (docs/initialization.md, "Planes from a sideways arc").
-#   scripts/planar_arc.sh tune|accept|holdout [DATA_DIR] [OUT_DIR]
+#   scripts/planar_arc.sh tune|accept|holdout|movers [DATA_DIR] [OUT_DIR]
 #   scripts/planar_arc.sh render-tune|render-holdout [DATA_DIR]     (renders only)
 # tune renders seeds 0-4 (what the rotation test was tuned on, and what the distilled models
 # of scripts/train_models.sh imitate their teacher on), accept seeds 5-9 (held out; issue 20's
 # acceptance set), holdout seeds 10-14 (a second held-out set, added on 2026-12-05 after the
-# acceptance seeds had been read in failure traces: evaluated, never traced).
+# acceptance seeds had been read in failure traces: evaluated, never traced); movers renders
+# only the pans and still cameras with two moving boards, seeds 15-44 (a stress set of its own:
+# 30 of each kind, where the other sets hold 5).
 # Renders are kept in DATA_DIR (default /tmp/initsel-planar-arc) and reused; OUT_DIR (default
 # DATA_DIR/out/SET) gets planar_arc.md and planar_arc.csv. About 10 minutes per set here.
 set -euo pipefail
@@ -15,15 +17,17 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
     exec "$root/scripts/run.sh" bash "$root/scripts/planar_arc.sh" "$@"
 fi
-set_name=${1:?usage: scripts/planar_arc.sh tune|accept|holdout [DATA_DIR] [OUT_DIR]}
+set_name=${1:?usage: scripts/planar_arc.sh tune|accept|holdout|movers [DATA_DIR] [OUT_DIR]}
 render_only=0
+movers_only=0
 case "$set_name" in
     tune) seeds="0 1 2 3 4" ;;
     render-tune) seeds="0 1 2 3 4"; render_only=1 ;;
     accept) seeds="5 6 7 8 9" ;;
     holdout) seeds="10 11 12 13 14" ;;
     render-holdout) seeds="10 11 12 13 14"; render_only=1 ;;
-    *) echo "unknown set $set_name: tune, accept, holdout, render-tune or render-holdout" >&2
+    movers) seeds=$(seq 15 44); movers_only=1 ;;
+    *) echo "unknown set $set_name: tune, accept, holdout, movers, render-tune or render-holdout" >&2
         exit 2 ;;
 esac
 D=${2:-/tmp/initsel-planar-arc}
@@ -38,6 +42,12 @@ render() {  # name, then initsel synth options; skipped when already rendered
 }
 sequences=()
 for seed in $seeds; do
+    if [ "$movers_only" = 1 ]; then
+        render "rotation_pan_movers_n2_s$seed" --trajectory rotation --noise 2 --movers 2 --seed "$seed"
+        render "static_n2_s$seed" --trajectory static --noise 2 --movers 2 --seed "$seed"
+        sequences+=("$D/rotation_pan_movers_n2_s$seed" "$D/static_n2_s$seed")
+        continue
+    fi
     for noise in 0 1 2 3; do
         # planes: a wall 3.5 m away on an arc that keeps it centred (the issue's case), a
         # wall 5 m away from a straight slide, a poster 1.2 m away (8 cm), a table top seen
