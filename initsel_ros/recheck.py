@@ -87,15 +87,17 @@ def _statistic_gap(statistic: float, bar: float, name: str) -> EvidenceGap:
 
 
 def frames_to_recheck(since: int, every: int, gap: EvidenceGap) -> int:
-    """Frames from now (``since`` frames after the reference) to the next re-check: when the
-    baseline has grown by ``gap.growth`` at the pace it had so far, at least 1, and never
-    later than the fixed cadence's next multiple of ``every`` frames after the reference
-    (the statistic's noise estimate moves from frame to frame: an early re-check that
-    comes out short does not push the cadence back)."""
+    """Frames from now (``since`` frames after the reference) to the next run: the last whole
+    frame at or before the one where the baseline has grown by ``gap.growth`` at the pace it
+    had so far, at least 1 frame on, and never later than the fixed cadence's next multiple
+    of ``every`` frames after the reference (the statistic's noise estimate moves from frame
+    to frame: an early run that comes out short does not push the cadence back)."""
     if every < 1:
         raise ValueError(f'every must be at least 1, got {every}')
     cadence = every - since % every if since >= 1 else every
     if since < 1 or not gap.growth < math.inf:
         return cadence
-    due = math.ceil(since * max(gap.growth, 1.0) - 1e-9) - since
+    # rounded down: the statistics move from frame to frame with their noise estimate, and a
+    # frame too early costs one run, a frame too late a frame of delay
+    due = math.floor(since * max(gap.growth, 1.0)) - since
     return int(min(max(due, 1), cadence))

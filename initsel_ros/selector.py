@@ -69,6 +69,22 @@ RECHECK_METHODS = (Method.E, Method.H)
 
 
 @dataclass(frozen=True)
+class _FireSchedule:
+    """When the fire path runs next for want of baseline (frames since the reference).
+
+    Attributes:
+        set_at: the frame of the run that set it (0: none since the reference).
+        due: the frame of the next run (a re-check of R's veto, or a model's yes).
+        rotation: that run's rotation test when the test stopped it (a model's yes before
+            ``due`` is then held without running the fire path), else None.
+    """
+
+    set_at: int
+    due: int
+    rotation: RotationTest | None = None
+
+
+@dataclass(frozen=True)
 class SelectorConfig:
     """Settings of the live pipeline.
 
@@ -93,9 +109,11 @@ class SelectorConfig:
             every this many frames after the reference: its rotation test, which measures
             the flow a rotation leaves against the tracking noise, either confirms R (cheap:
             it stops at the first good rotation) or finds the parallax of a plane seen from
-            a sideways arc, which the models' summary features do not see. A re-check that
-            found the baseline just short schedules the next one for the frame its gate is
-            predicted to pass (``recheck.py``), never later than the cadence. 0 = never.
+            a sideways arc, which the models' summary features do not see. Each fire-path
+            run that found the baseline too short schedules the next for the frame its gate
+            is predicted to pass (``recheck.py``), never later than this cadence; where the
+            rotation test stopped it, a model's yes on the frames before is held without
+            running the fire path. 0 = never (and every yes runs the fire path).
         bit_depth: significant bits of 16-bit frames (8-16); 0 = automatic, per stream
             (:class:`~initsel_ros.image.BitDepth`; :meth:`Selector.reset` forgets it).
     """
@@ -305,9 +323,8 @@ class Selector:
         self._reference_stamp_ns: int | None = None
         self._candidate: _Candidate | None = None
         self._frame_tracks: Tracks | None = None
-        # (frames since the reference when set, frames since the reference of the next
-        # re-check of R's veto): see _recheck_rotation
-        self._recheck_schedule = (0, self.config.rotation_recheck_frames)
+        # when the fire path runs next for want of baseline: see _recheck_rotation
+        self._schedule = _FireSchedule(0, self.config.rotation_recheck_frames)
 
     def set_intrinsics(self, intrinsics: Intrinsics) -> bool:
         """Use new intrinsics from the next frame on (e.g. from CameraInfo).
@@ -433,7 +450,8 @@ class Selector:
             return replace(result, reference_stamp_ns=stamp_ns)
 
         recheck = self._recheck_rotation(decision, since)
-        if self._candidate is not None or decision.positive or recheck:
+        held = decision.positive and self._rotation_holds(since)
+        if self._candidate is not None or (decision.positive and not held) or recheck:
             # geometry is estimated on this frame: from each point measured against the
             # reference, not carried frame to frame (tracking.py)
             tracks = self.tracker.anchored()
@@ -445,7 +463,9 @@ class Selector:
             result = FrameResult(
                 index, stamp_ns, self._reference_stamp_ns, decision, None, False, since
             )
-            if decision.positive:
+            if held:
+                result = self._held(result, since)
+            elif decision.positive:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since)
             elif recheck:
                 result = self._fire(result, ref, cur, tracks.ids, stamp_ns, since, RECHECK_METHODS)
@@ -473,11 +493,36 @@ class Selector:
         every = self.config.rotation_recheck_frames
         if every <= 0:
             return False
-        set_at, due = self._recheck_schedule
-        if since <= set_at:
-            self._recheck_schedule = (0, every)
-            due = every
-        return decision.reason is Reason.ROTATION and since >= due
+        if since <= self._schedule.set_at:
+            self._schedule = _FireSchedule(0, every)
+        return decision.reason is Reason.ROTATION and since >= self._schedule.due
+
+    def _rotation_holds(self, since: int) -> bool:
+        """Does the last fire-path run's rotation test still stand for a model that fired on
+        this frame? It does until the frame it scheduled (the flow a rotation leaves grows
+        with the baseline, and the frames before that frame are predicted to fall short too):
+        the fire path, and its points re-measured against the reference, are skipped."""
+        schedule = self._schedule
+        return (
+            self.config.rotation_recheck_frames > 0
+            and self._candidate is None
+            and schedule.rotation is not None
+            and schedule.set_at < since < schedule.due
+        )
+
+    def _held(self, result: FrameResult, since: int) -> FrameResult:
+        """A model fired on a frame before the one the last rotation test scheduled."""
+        schedule = self._schedule
+        test = schedule.rotation
+        assert test is not None  # (_rotation_holds)
+        decision = result.decision
+        fired = '/'.join(m.value for m in decision.candidates)
+        detail = (
+            f'{fired} fired, but the rotation test {since - schedule.set_at} frame(s) ago found '
+            f'the flow a rotation leaves {test.statistic:.1f} x the noise; the fire path runs '
+            f'again in {schedule.due - since} frame(s)'
+        )
+        return replace(result, decision=replace(decision, reason=Reason.ROTATION, detail=detail))
 
     def _fire(
         self,
@@ -497,7 +542,7 @@ class Selector:
             methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
         result = replace(result, rotation=fire.rotation, background=fire.background)
-        schedule = self._schedule_recheck(fire, since) if recheck else ''
+        schedule = self._schedule_next(fire, since, recheck)
         if fire.reason is Reason.ROTATION:  # (after a re-check: R stands)
             fired = '/'.join(m.value for m in decision.candidates)
             why = f'{fired} fired, but '
@@ -556,18 +601,24 @@ class Selector:
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
 
-    def _schedule_recheck(self, fire: FireResult, since: int) -> str:
-        """Schedule the next re-check of R's veto after a fire-path run on a re-check; the
-        log's words for it ('' when the pair initialized)."""
+    def _schedule_next(self, fire: FireResult, since: int, recheck: bool) -> str:
+        """Schedule the next fire-path run for want of baseline after this one (a re-check
+        of R's veto, or a model's yes that the rotation test stopped); the log's words for it
+        ('' when there is nothing to say)."""
         every = self.config.rotation_recheck_frames
+        if every <= 0 or fire.reason is Reason.INITIALIZED:
+            return ''
+        if not recheck and fire.reason is not Reason.ROTATION:
+            # a model's yes that got past the rotation test: the next frame tries again
+            self._schedule = replace(self._schedule, rotation=None)
+            return ''
         gap = evidence_gap(fire, self.config.policy)
         frames = frames_to_recheck(since, every, gap)
-        self._recheck_schedule = (since, since + frames)
-        if fire.reason is Reason.INITIALIZED:
-            return ''
+        rotation = fire.rotation if fire.reason is Reason.ROTATION else None
+        self._schedule = _FireSchedule(since, since + frames, rotation)
         if frames < every:
-            return f'; re-checked in {frames} frame(s), when {gap.gate} should pass'
-        return f'; re-checked in {frames} frames'
+            return f'; the fire path runs again in {frames} frame(s), when {gap.gate} should pass'
+        return f'; the fire path runs again in {frames} frames'
 
     def _published(self, init: Initialization) -> Initialization:
         """The initialization as published: an H map's points on their plane

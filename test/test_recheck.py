@@ -35,11 +35,11 @@ def test_a_pan_keeps_the_fixed_cadence():
         gap = evidence_gap(FireResult(Reason.ROTATION, rotation=_rotation(statistic)), POLICY)
         for since in (3, 6, 30, 60):
             assert frames_to_recheck(since, 3, gap) == 3, (statistic, since)
-    # 1.6 on frame 3 may be parallax on its way (frame 4.2 reaches 2): re-checked sooner;
-    # on frame 6 and later the prediction lies past the cadence
+    # 1.6 may be parallax on its way (it reaches 2 when the baseline has grown by 1.39):
+    # from frame 3 on frame 4, from frame 6 on frame 8; from frame 9 on the prediction lies
+    # past the cadence
     gap = evidence_gap(FireResult(Reason.ROTATION, rotation=_rotation(1.6)), POLICY)
-    assert frames_to_recheck(3, 3, gap) == 2
-    assert [frames_to_recheck(s, 3, gap) for s in (6, 9, 30)] == [3, 3, 3]
+    assert [frames_to_recheck(s, 3, gap) for s in (3, 6, 9, 30)] == [1, 2, 3, 3]
 
 
 def test_the_rotation_statistic_is_extrapolated_in_quadrature_with_the_noise():
@@ -47,7 +47,8 @@ def test_the_rotation_statistic_is_extrapolated_in_quadrature_with_the_noise():
     gap = evidence_gap(FireResult(Reason.ROTATION, rotation=_rotation(1.9)), POLICY)
     assert gap.growth == pytest.approx(math.sqrt(3.0 / 2.61))
     assert gap.gate == 'rotation test 1.9 of 2 x the noise'
-    assert frames_to_recheck(30, 3, gap) == 3  # 30 x 1.072 = 32.2: frame 33
+    assert frames_to_recheck(30, 3, gap) == 2  # 30 x 1.072 = 32.2: frame 32
+    assert frames_to_recheck(60, 3, gap) == 3  # 64.3: the cadence's 63 first
     assert frames_to_recheck(12, 3, gap) == 1  # 12.9: the next frame
     # between the plane's bar and E's, after H was refused for its share: E's bar is next
     past_plane = evidence_gap(FireResult(Reason.ROTATION, rotation=_rotation(2.8)), POLICY)
@@ -75,7 +76,8 @@ def test_an_uncertain_direction_shrinks_with_the_baseline():
     fire = FireResult(Reason.LOW_PARALLAX, rotation=_rotation(5.0), seed=seed)
     gap = evidence_gap(fire, POLICY)
     assert gap.growth == pytest.approx(2.5 / POLICY.max_translation_sigma_deg)
-    assert frames_to_recheck(6, 3, gap) == 2  # 6 x 1.25 = 7.5: frame 8
+    assert frames_to_recheck(12, 3, gap) == 3  # 12 x 1.25 = 15: frame 15
+    assert frames_to_recheck(6, 3, gap) == 1  # 7.5: frame 7
     assert frames_to_recheck(8, 3, gap) == 1  # 10, but the cadence's frame 9 comes first
 
 
@@ -125,6 +127,6 @@ def test_between_the_plane_bar_and_e_s_the_next_bar_is_a_gate_whatever_h_did():
     )
     gap = evidence_gap(failed, POLICY)
     assert gap.growth == pytest.approx(math.sqrt(8.0 / (2.4**2 - 1.0)))
-    assert frames_to_recheck(4, 3, gap) == 2  # 4 x 1.30 = 5.2: frame 6
+    assert frames_to_recheck(9, 3, gap) == 2  # 9 x 1.30 = 11.7: frame 11
     # past E's bar nothing is extrapolated from the statistic
     assert evidence_gap(replace(failed, rotation=_rotation(3.5)), POLICY) == EvidenceGap()

@@ -365,7 +365,17 @@ def test_a_firing_model_on_a_pan_is_refused_as_rotation(rotation_sequence):
     results = [sel.process(seq.image(i), int(t)) for i, t in enumerate(seq.stamps_ns)]
     assert not any(r.initialization for r in results)
     refused = [r for r in results if r.decision.reason is Reason.ROTATION]
-    assert refused and 'rotation alone explains the flow' in refused[-1].decision.detail
+    assert refused and len(refused) == len(results) - 1  # (the first frame is the reference)
+    # the fire path runs where its last rotation test scheduled it, at least every 3 frames;
+    # the models' yes on the frames between is held without running it
+    ran = [r for r in refused if r.rotation is not None]
+    held = [r for r in refused if r.rotation is None]
+    assert ran and all('rotation alone explains the flow' in r.decision.detail for r in ran)
+    assert held and all(
+        ' ago found the flow a rotation leaves ' in r.decision.detail for r in held
+    )
+    frames = [r.frames_since_reference for r in ran]
+    assert frames[0] == 1 and all(1 <= b - a <= 3 for a, b in itertools.pairwise(frames))
 
 
 def test_boards_moving_in_front_of_a_pan_do_not_pass_for_parallax(tmp_path):
@@ -667,12 +677,52 @@ def test_a_re_check_just_short_of_its_bar_comes_back_on_the_frame_it_should_pass
     results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(11)]
     assert calls == [3, 6, 9, 10]
     assert results[9].decision.detail.endswith(
-        're-checked in 1 frame(s), when H parallax 0.49 of 0.5 deg should pass'
+        'the fire path runs again in 1 frame(s), when H parallax 0.49 of 0.5 deg should pass'
     )
-    assert results[6].decision.detail.endswith('re-checked in 3 frames')
+    assert results[6].decision.detail.endswith('the fire path runs again in 3 frames')
     # a new reference starts the cadence over: 3 frames after it, whatever was scheduled
     sel.restart()
     calls.clear()
     for i in range(11, 16):
         sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
     assert calls == [3]
+
+
+def test_a_model_s_yes_waits_for_the_frame_its_last_rotation_test_scheduled(monkeypatch):
+    # The stand-in fire path's rotation test says 1.2 x the noise (a pan's: from frame 3 on
+    # its prediction lies past the cadence), and 1.9 on frame 6 (2 is the bar: frame 7
+    # should pass). The models say E and H on every frame.
+    import initsel_ros.selector as selector_module
+    from initsel_ros.initialize import FireResult
+
+    statistics = {6: 1.9}  # (1.2 elsewhere)
+    calls = []
+
+    def fire_path(ref, cur, K, methods, config):
+        since = sel.tracker.frames_since_reference
+        calls.append(since)
+        test = RotationTest(0.2, 0.1, statistics.get(since, 1.2), 1.0)
+        return FireResult(Reason.ROTATION, 'a rotation alone explains the flow', test)
+
+    monkeypatch.setattr(selector_module, 'initialize_pair', fire_path)
+    img = texture(6)
+    models = constant_models(E=0.9, H=0.9, R=0.01)
+    sel = Selector(models, CAMERA, SelectorConfig())
+    results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(9)]
+    assert calls == [1, 2, 3, 6, 7]  # (frames 1 and 2: 2.6 x their frame count is 2 and 5)
+    held = results[4].decision
+    assert held.reason is Reason.ROTATION and results[4].rotation is None
+    assert held.detail == (
+        'E/H fired, but the rotation test 1 frame(s) ago found the flow a rotation leaves 1.2 x '
+        'the noise; the fire path runs again in 2 frame(s)'
+    )
+    assert results[6].decision.detail.endswith(
+        'the fire path runs again in 1 frame(s), when rotation test 1.9 of 2 x the noise '
+        'should pass'
+    )
+    # with the re-check off nothing is scheduled, and every yes runs the fire path
+    calls.clear()
+    sel = Selector(models, CAMERA, SelectorConfig(rotation_recheck_frames=0))
+    for i in range(5):
+        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+    assert calls == [1, 2, 3, 4]

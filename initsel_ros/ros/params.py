@@ -323,8 +323,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         'rotation_recheck_frames',
         _SELECTOR.rotation_recheck_frames,
         "while model R's yes holds every other model back, the rotation test re-checks it "
-        'every this many frames after the reference, and sooner where the last re-check '
-        'predicts when the evidence it lacked reaches its bar (0 = never)',
+        'every this many frames after the reference, and sooner where the last fire-path run '
+        "predicts when the evidence it lacked reaches its bar; a model's yes before a frame "
+        'so scheduled by a rotation test is held (0 = never: every yes runs the fire path)',
         Number(0, 1_000_000, integer=True),
     ),
     ParameterSpec(
