@@ -17,9 +17,11 @@ measure, its bar and the frames since the reference (motion at a steady pace):
   ``min_rotation_residual_sigma`` for E and F: between the two only H was tried);
 - the standard deviation of the refined direction of motion shrinks in inverse proportion.
 
-The re-check then runs on that frame, but never later than the fixed cadence's next frame (a
-multiple of ``rotation_recheck_frames`` after the reference): the early re-checks come on top
-of the cadence, and a pan, whose statistic stays near 1, is re-checked exactly as before.
+The next run comes on the last whole frame at or before that one, never later than the
+fixed cadence's next frame (a multiple of ``rotation_recheck_frames`` after the reference):
+the early runs come on top of the cadence, and a pan, whose statistic stays near 1, is
+re-checked as before. Where the rotation test stopped the run, the selector holds a model's
+yes on the frames before the scheduled one without running the fire path.
 """
 
 from __future__ import annotations

@@ -495,7 +495,10 @@ class Selector:
             return False
         if since <= self._schedule.set_at:
             self._schedule = _FireSchedule(0, every)
-        return decision.reason is Reason.ROTATION and since >= self._schedule.due
+        # before any run since the reference: the cadence's first frame (the setting may
+        # have changed since the schedule was made)
+        due = self._schedule.due if self._schedule.set_at > 0 else every
+        return decision.reason is Reason.ROTATION and since >= due
 
     def _rotation_holds(self, since: int) -> bool:
         """Does the last fire-path run's rotation test still stand for a model that fired on
@@ -513,13 +516,12 @@ class Selector:
     def _held(self, result: FrameResult, since: int) -> FrameResult:
         """A model fired on a frame before the one the last rotation test scheduled."""
         schedule = self._schedule
-        test = schedule.rotation
-        assert test is not None  # (_rotation_holds)
+        statistic = math.nan if schedule.rotation is None else schedule.rotation.statistic
         decision = result.decision
         fired = '/'.join(m.value for m in decision.candidates)
         detail = (
             f'{fired} fired, but the rotation test {since - schedule.set_at} frame(s) ago found '
-            f'the flow a rotation leaves {test.statistic:.1f} x the noise; the fire path runs '
+            f'the flow a rotation leaves {statistic:.1f} x the noise; the fire path runs '
             f'again in {schedule.due - since} frame(s)'
         )
         return replace(result, decision=replace(decision, reason=Reason.ROTATION, detail=detail))

@@ -726,3 +726,25 @@ def test_a_model_s_yes_waits_for_the_frame_its_last_rotation_test_scheduled(monk
     for i in range(5):
         sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
     assert calls == [1, 2, 3, 4]
+
+
+def test_the_re_check_cadence_follows_a_live_change_of_the_setting(monkeypatch):
+    import initsel_ros.selector as selector_module
+    from initsel_ros.initialize import FireResult
+
+    calls = []
+
+    def fire_path(ref, cur, K, methods, config):
+        calls.append(sel.tracker.frames_since_reference)
+        test = RotationTest(0.1, 0.1, 1.0, 1.0)
+        return FireResult(Reason.ROTATION, 'a rotation alone explains the flow', test)
+
+    monkeypatch.setattr(selector_module, 'initialize_pair', fire_path)
+    img = texture(7)
+    sel = Selector(constant_models(R=0.99), CAMERA, SelectorConfig(rotation_recheck_frames=0))
+    sel.process(img, ns(0.0))
+    sel.process(shifted(img, 0.5, 0.0), ns(1 / 30))
+    sel.update_config(SelectorConfig(rotation_recheck_frames=3))  # switched on, live
+    for i in range(2, 8):
+        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+    assert calls == [3, 6]
