@@ -618,9 +618,8 @@ class Selector:
         frames = frames_to_recheck(since, every, gap)
         rotation = fire.rotation if fire.reason is Reason.ROTATION else None
         self._schedule = _FireSchedule(since, since + frames, rotation)
-        if frames < every:
-            return f'; the fire path runs again in {frames} frame(s), when {gap.gate} should pass'
-        return f'; the fire path runs again in {frames} frames'
+        when = f', when {gap.gate} should pass' if gap.gate and frames < every else ''
+        return f'; the fire path runs again in {frames} frame(s){when}'
 
     def _published(self, init: Initialization) -> Initialization:
         """The initialization as published: an H map's points on their plane
