@@ -39,7 +39,7 @@ class EvidenceGap:
 
     Attributes:
         growth: the factor by which the baseline must grow for that gate to pass (inf when
-            no gate that stopped the run is baseline-limited; 1 when it already passes).
+            no gate that stopped the run is baseline-limited; under 1 counts as 1).
         gate: what that gate measured against its bar, for the log ('' when none).
     """
 
@@ -47,8 +47,12 @@ class EvidenceGap:
     gate: str = ''
 
 
-def evidence_gap(fire: FireResult, policy: PolicyConfig) -> EvidenceGap:
-    """The baseline growth the nearest gate that stopped ``fire`` needs (see the module)."""
+def evidence_gap(fire: FireResult, policy: PolicyConfig, h_tried: bool = True) -> EvidenceGap:
+    """The baseline growth the nearest gate that stopped ``fire`` needs (see the module).
+
+    ``h_tried``: H was among the methods of the run (H's own bar of the rotation test,
+    ``min_plane_residual_sigma``, is a gate only then, and only under E's bar).
+    """
     gaps = [EvidenceGap()]
     rotation, background = fire.rotation, fire.background
     if fire.reason is Reason.ROTATION and background is not None:
@@ -57,7 +61,9 @@ def evidence_gap(fire: FireResult, policy: PolicyConfig) -> EvidenceGap:
         )
     elif rotation is not None:
         # under E's bar only H was tried (or nothing): the next bar is a gate of its own
-        bars = sorted({policy.min_plane_residual_sigma, policy.min_rotation_residual_sigma})
+        bars = [policy.min_rotation_residual_sigma]
+        if h_tried and policy.min_plane_residual_sigma < bars[0]:
+            bars.insert(0, policy.min_plane_residual_sigma)
         bar = next((b for b in bars if not rotation.statistic >= b), math.nan)
         gaps.append(_statistic_gap(rotation.statistic, bar, 'rotation test'))
     for estimate, check in zip(fire.estimates, fire.checks, strict=True):
@@ -94,12 +100,19 @@ def frames_to_recheck(since: int, every: int, gap: EvidenceGap) -> int:
     had so far, at least 1 frame on, and never later than the fixed cadence's next multiple
     of ``every`` frames after the reference (the statistic's noise estimate moves from frame
     to frame: an early run that comes out short does not push the cadence back)."""
-    if every < 1:
-        raise ValueError(f'every must be at least 1, got {every}')
-    cadence = every - since % every if since >= 1 else every
-    if since < 1 or not gap.growth < math.inf:
+    cadence = cadence_frames(since, every)
+    target = since * max(gap.growth, 1.0)
+    if since < 1 or not math.isfinite(target):
         return cadence
     # rounded down: the statistics move from frame to frame with their noise estimate, and a
     # frame too early costs one run, a frame too late a frame of delay
-    due = math.floor(since * max(gap.growth, 1.0)) - since
+    due = math.floor(target) - since
     return int(min(max(due, 1), cadence))
+
+
+def cadence_frames(since: int, every: int) -> int:
+    """Frames from now (``since`` frames after the reference) to the cadence's next frame, a
+    multiple of ``every`` after the reference."""
+    if every < 1:
+        raise ValueError(f'every must be at least 1, got {every}')
+    return every - since % every if since >= 1 else every

@@ -38,7 +38,7 @@ from initsel_ros.policy import (
     decide,
     effective_thresholds,
 )
-from initsel_ros.recheck import evidence_gap, frames_to_recheck
+from initsel_ros.recheck import cadence_frames, evidence_gap, frames_to_recheck
 from initsel_ros.refine import Refinement
 from initsel_ros.tracking import KltTracker, TrackerConfig, Tracks
 from initsel_ros.verify import VerifyConfig, VerifyStep, check_frame
@@ -75,13 +75,16 @@ class _FireSchedule:
     Attributes:
         set_at: the frame of the run that set it (0: none since the reference).
         due: the frame of the next run (a re-check of R's veto, or a model's yes).
-        rotation: that run's rotation test when the test stopped it (a model's yes before
-            ``due`` is then held without running the fire path), else None.
+        rotation: the rotation test that stopped that run (the main one, or the background
+            test of the tracks the winner left out), else None; a model's yes before ``due``
+            is held without running the fire path while it is set.
+        stopped_by: what ``rotation`` measured, for the log of a held frame.
     """
 
     set_at: int
     due: int
     rotation: RotationTest | None = None
+    stopped_by: str = ''
 
 
 @dataclass(frozen=True)
@@ -491,10 +494,10 @@ class Selector:
         reference, which starts the cadence over.
         """
         every = self.config.rotation_recheck_frames
+        if since <= self._schedule.set_at:  # (also while off: it may be switched on later)
+            self._schedule = _FireSchedule(0, every)
         if every <= 0:
             return False
-        if since <= self._schedule.set_at:
-            self._schedule = _FireSchedule(0, every)
         # before any run since the reference: the cadence's first frame (the setting may
         # have changed since the schedule was made)
         due = self._schedule.due if self._schedule.set_at > 0 else every
@@ -521,7 +524,7 @@ class Selector:
         fired = '/'.join(m.value for m in decision.candidates)
         detail = (
             f'{fired} fired, but the rotation test {since - schedule.set_at} frame(s) ago found '
-            f'the flow a rotation leaves {statistic:.1f} x the noise; the fire path runs '
+            f'{schedule.stopped_by} {statistic:.1f} x the noise; the fire path runs '
             f'again in {schedule.due - since} frame(s)'
         )
         return replace(result, decision=replace(decision, reason=Reason.ROTATION, detail=detail))
@@ -544,7 +547,7 @@ class Selector:
             methods = fire_methods(decision, self.thresholds, self.config.policy)
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, self._fire_config())
         result = replace(result, rotation=fire.rotation, background=fire.background)
-        schedule = self._schedule_next(fire, since, recheck)
+        schedule = self._schedule_next(fire, since, recheck, Method.H in methods)
         if fire.reason is Reason.ROTATION:  # (after a re-check: R stands)
             fired = '/'.join(m.value for m in decision.candidates)
             why = f'{fired} fired, but '
@@ -603,10 +606,10 @@ class Selector:
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
 
-    def _schedule_next(self, fire: FireResult, since: int, recheck: bool) -> str:
+    def _schedule_next(self, fire: FireResult, since: int, recheck: bool, h_tried: bool) -> str:
         """Schedule the next fire-path run for want of baseline after this one (a re-check
         of R's veto, or a model's yes that the rotation test stopped); the log's words for it
-        ('' when there is nothing to say)."""
+        ('' when there is nothing to say). ``h_tried``: H was among the run's methods."""
         every = self.config.rotation_recheck_frames
         if every <= 0 or fire.reason is Reason.INITIALIZED:
             return ''
@@ -614,11 +617,21 @@ class Selector:
             # a model's yes that got past the rotation test: the next frame tries again
             self._schedule = replace(self._schedule, rotation=None)
             return ''
-        gap = evidence_gap(fire, self.config.policy)
+        gap = evidence_gap(fire, self.config.policy, h_tried)
         frames = frames_to_recheck(since, every, gap)
-        rotation = fire.rotation if fire.reason is Reason.ROTATION else None
-        self._schedule = _FireSchedule(since, since + frames, rotation)
-        when = f', when {gap.gate} should pass' if gap.gate and frames < every else ''
+        if fire.reason is not Reason.ROTATION:
+            self._schedule = _FireSchedule(since, since + frames)
+        elif fire.background is not None:  # the winner's left-out tracks were a rotation's
+            self._schedule = _FireSchedule(
+                since, since + frames, fire.background, 'the tracks the winner left out at'
+            )
+        else:
+            self._schedule = _FireSchedule(
+                since, since + frames, fire.rotation, 'the flow a rotation leaves'
+            )
+        # (sooner than the cadence because of the prediction, not the cadence's own frame)
+        predicted = gap.gate and frames < cadence_frames(since, every)
+        when = f', when {gap.gate} should pass' if predicted else ''
         return f'; the fire path runs again in {frames} frame(s){when}'
 
     def _published(self, init: Initialization) -> Initialization:

@@ -104,6 +104,16 @@ def test_the_nearest_gate_decides_and_other_failures_keep_the_cadence():
     assert evidence_gap(background, POLICY).gate == 'left-out 2.9 of 3 x the noise'
 
 
+def test_h_s_bar_is_a_gate_only_where_h_was_tried_under_e_s_bar():
+    stopped = FireResult(Reason.ROTATION, rotation=_rotation(1.5))
+    without_h = evidence_gap(stopped, POLICY, h_tried=False)
+    assert without_h.growth == pytest.approx(math.sqrt(8.0 / 1.25))  # E's bar of 3
+    assert without_h.gate == 'rotation test 1.5 of 3 x the noise'
+    # a plane bar at or over E's switches H's own test off: 3.2 stops at no bar
+    off = replace(POLICY, min_plane_residual_sigma=3.5)
+    assert evidence_gap(replace(stopped, rotation=_rotation(3.2)), off) == EvidenceGap()
+
+
 def test_frames_to_recheck_bounds():
     assert frames_to_recheck(9, 3, EvidenceGap(1.0, 'passes')) == 1
     assert frames_to_recheck(9, 3, EvidenceGap(100.0, 'far')) == 3
@@ -114,6 +124,8 @@ def test_frames_to_recheck_bounds():
     assert frames_to_recheck(11, 3, EvidenceGap(1.05, 'near')) == 1
     with pytest.raises(ValueError, match='every'):
         frames_to_recheck(5, 0, EvidenceGap())
+    # a finite growth too large to multiply (a direction bound near 0) keeps the cadence
+    assert frames_to_recheck(2, 3, EvidenceGap(1e308, 'far')) == 1
 
 
 def test_between_the_plane_bar_and_e_s_the_next_bar_is_a_gate_whatever_h_did():

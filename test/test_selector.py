@@ -721,8 +721,10 @@ def test_a_model_s_yes_waits_for_the_frame_its_last_rotation_test_scheduled(monk
         'the fire path runs again in 1 frame(s), when rotation test 1.9 of 2 x the noise '
         'should pass'
     )
-    # 0.9 x the noise predicts nothing: the cadence's frame 9
+    # 0.9 x the noise predicts nothing: the cadence's frame 9; on frame 2 the cadence's
+    # frame 3 comes before the prediction (frame 5), and the log names no gate
     assert results[7].decision.detail.endswith('the fire path runs again in 2 frame(s)')
+    assert results[2].decision.detail.endswith('the fire path runs again in 1 frame(s)')
     # with the re-check off nothing is scheduled, and every yes runs the fire path
     calls.clear()
     sel = Selector(models, CAMERA, SelectorConfig(rotation_recheck_frames=0))
@@ -751,3 +753,61 @@ def test_the_re_check_cadence_follows_a_live_change_of_the_setting(monkeypatch):
     for i in range(2, 8):
         sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
     assert calls == [3, 6]
+
+
+def _stub_fire_path(monkeypatch, calls, sel_ref, result):
+    import initsel_ros.selector as selector_module
+
+    def fire_path(ref, cur, K, methods, config):
+        calls.append(sel_ref[0].tracker.frames_since_reference)
+        return result
+
+    monkeypatch.setattr(selector_module, 'initialize_pair', fire_path)
+
+
+def test_a_schedule_from_before_a_new_reference_holds_nothing(monkeypatch):
+    # the re-check switched off and on again across a new reference: the old reference's
+    # rotation test must not hold the new one's frames
+    from initsel_ros.initialize import FireResult
+
+    calls, holder = [], [None]
+    stopped = FireResult(Reason.ROTATION, 'rotation', RotationTest(0.1, 0.1, 1.2, 1.0))
+    _stub_fire_path(monkeypatch, calls, holder, stopped)
+    img = texture(8)
+    models = constant_models(E=0.9, H=0.9, R=0.01)
+    sel = holder[0] = Selector(models, CAMERA, SelectorConfig())
+    for i in range(5):
+        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+    assert calls == [1, 2, 3]  # (then held: frame 4, before the cadence's 6)
+    sel.restart()
+    sel.update_config(SelectorConfig(rotation_recheck_frames=0))
+    calls.clear()
+    for i in range(5, 10):  # a new reference, then its frames 1-4
+        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+    sel.update_config(SelectorConfig())
+    result = sel.process(shifted(img, 5.0, 0.0), ns(10 / 30))  # its frame 5
+    assert calls == [1, 2, 3, 4, 5]
+    assert 'ago found' not in result.decision.detail
+
+
+def test_a_held_frame_names_the_test_that_stopped_the_run(monkeypatch):
+    # the winner's left-out tracks were a rotation's (1.5 x the noise) while the main test
+    # passed (6.0): the held frames quote the left-out tracks, not the passing statistic
+    from initsel_ros.initialize import FireResult
+
+    calls, holder = [], [None]
+    stopped = FireResult(
+        Reason.ROTATION,
+        'the rest is a rotation',
+        RotationTest(0.6, 0.1, 6.0, 1.0),
+        background=RotationTest(0.15, 0.1, 1.5, 1.0),
+    )
+    _stub_fire_path(monkeypatch, calls, holder, stopped)
+    img = texture(9)
+    sel = holder[0] = Selector(constant_models(E=0.9, H=0.9, R=0.01), CAMERA, SelectorConfig())
+    results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(6)]
+    assert calls == [1, 2, 3]
+    assert results[4].decision.detail == (
+        'E/H fired, but the rotation test 1 frame(s) ago found the tracks the winner left out '
+        'at 1.5 x the noise; the fire path runs again in 2 frame(s)'
+    )
