@@ -247,6 +247,10 @@ class FrameResult:
         rotation: on frames where a model fired, the rotation test (residual, noise, ratio).
         background: on frames where a winner was chosen and left many tracks out, the
             rotation test of those tracks (``initialize.background_test``).
+        fire_path_due_in: frames from this one until the fire path next runs on a model's
+            yes or a re-check of R's veto (0: on the next frame that asks; ``recheck.py``);
+            None when nothing is scheduled (the re-check off, a candidate under
+            verification, initialized in mode ONCE).
     """
 
     frame_index: int
@@ -263,6 +267,7 @@ class FrameResult:
     thresholds: Mapping[str, float] = field(default_factory=dict, compare=False)
     rotation: RotationTest | None = None
     background: RotationTest | None = None
+    fire_path_due_in: int | None = None
 
 
 def decide_pair(
@@ -482,6 +487,10 @@ class Selector:
             self.tracker.reset(gray)
             self._reference_stamp_ns = stamp_ns
             result = replace(result, new_reference=True)
+        elif self._candidate is None and self.config.rotation_recheck_frames > 0:
+            schedule = self._schedule
+            due = schedule.due if schedule.set_at > 0 else self.config.rotation_recheck_frames
+            result = replace(result, fire_path_due_in=max(due - since, 0))
         return result
 
     def _recheck_rotation(self, decision: Decision, since: int) -> bool:

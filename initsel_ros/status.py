@@ -156,6 +156,7 @@ class FrameStatus:
     verification: VerificationStatus | None
     rotation_test: Mapping[str, float | None] | None = None
     background_test: Mapping[str, float | None] | None = None
+    fire_path_due_in: int | None = None
 
     # ------------------------------------------------------------------------------ building
     @classmethod
@@ -248,6 +249,7 @@ class FrameStatus:
                 if result is not None and result.background is not None
                 else None
             ),
+            fire_path_due_in=result.fire_path_due_in if result is not None else None,
         )
 
     # --------------------------------------------------------------------------------- reading
@@ -320,7 +322,8 @@ class FrameStatus:
                 verification.
         """
         names = [f.name for f in fields(cls)]
-        data = {'referred': [], **data}  # (records of earlier versions have no 'referred')
+        # (records of earlier versions have no 'referred' and no 'fire_path_due_in')
+        data = {'referred': [], 'fire_path_due_in': None, **data}
         missing = [n for n in names if n not in data]
         unknown = sorted(set(data) - set(names))
         problems = ([f'missing {", ".join(missing)}'] if missing else []) + (

@@ -711,6 +711,8 @@ def test_a_model_s_yes_waits_for_the_frame_its_last_rotation_test_scheduled(monk
     sel = Selector(models, CAMERA, SelectorConfig())
     results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(9)]
     assert calls == [1, 2, 3, 6, 7]  # (frames 1 and 2: 2.6 x their frame count is 2 and 5)
+    # ~/status's fire_path_due_in: 3 after the run on frame 3, 2 on held frame 4, 1 on 6
+    assert [r.fire_path_due_in for r in results[3:8]] == [3, 2, 1, 1, 2]
     held = results[4].decision
     assert held.reason is Reason.ROTATION and results[4].rotation is None
     assert held.detail == (

@@ -228,3 +228,17 @@ def test_a_status_record_of_an_earlier_version_without_referred_still_loads():
     assert data['referred'] == ['R']
     del data['referred']
     assert FrameStatus.from_dict(data).referred == ()
+
+
+def test_the_next_fire_path_run_is_in_the_status_and_older_records_load():
+    held = FrameResult(
+        7, STAMP_NS, REFERENCE_NS, Decision(Reason.ROTATION, detail='H fired, but ...'),
+        frames_since_reference=4, fire_path_due_in=2,
+    )  # fmt: skip
+    status = _status(held)
+    assert status.fire_path_due_in == 2
+    assert json.loads(status.to_json())['fire_path_due_in'] == 2
+    assert _status().fire_path_due_in is None  # (an initializing frame: nothing scheduled)
+    data = status.to_dict()
+    del data['fire_path_due_in']
+    assert FrameStatus.from_dict(data).fire_path_due_in is None
