@@ -86,6 +86,11 @@ class _FireSchedule:
     rotation: RotationTest | None = None
     stopped_by: str = ''
 
+    def next_run(self, every: int) -> int:
+        """The frame of the next run: ``due``, or before any run since the reference the
+        cadence's first frame (``every``: the setting may have changed since)."""
+        return self.due if self.set_at > 0 else every
+
 
 @dataclass(frozen=True)
 class SelectorConfig:
@@ -488,8 +493,7 @@ class Selector:
             self._reference_stamp_ns = stamp_ns
             result = replace(result, new_reference=True)
         elif self._candidate is None and self.config.rotation_recheck_frames > 0:
-            schedule = self._schedule
-            due = schedule.due if schedule.set_at > 0 else self.config.rotation_recheck_frames
+            due = self._schedule.next_run(self.config.rotation_recheck_frames)
             result = replace(result, fire_path_due_in=max(due - since, 0))
         return result
 
@@ -507,10 +511,7 @@ class Selector:
             self._schedule = _FireSchedule(0, every)
         if every <= 0:
             return False
-        # before any run since the reference: the cadence's first frame (the setting may
-        # have changed since the schedule was made)
-        due = self._schedule.due if self._schedule.set_at > 0 else every
-        return decision.reason is Reason.ROTATION and since >= due
+        return decision.reason is Reason.ROTATION and since >= self._schedule.next_run(every)
 
     def _rotation_holds(self, since: int) -> bool:
         """Does the last fire-path run's rotation test still stand for a model that fired on

@@ -351,7 +351,6 @@ def _run_selector(
 def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
     tracker = KltTracker(config.tracker)
     tracker.reset(batch.gray(ref - batch.start))
-    tracks = tracker.tracks()
     for k in range(ref - batch.start + 1, cur - batch.start + 1):
         tracker.track(batch.gray(k))
     tracks = tracker.anchored()  # as the selector estimates geometry
