@@ -47,11 +47,8 @@ class PolicyConfig:
         min_parallax_deg: a pose needs at least this median parallax, degrees.
         min_homography_parallax_deg: the same floor for H, whose pose comes from the
             perspective change of a plane rather than from each point's parallax (the
-            rotation test and the translation's standard deviation judge that change, against
-            the noise). By default it is the parallax each point needs to count as
-            triangulated (``geometry.estimate_pose``'s 0.36 degrees), so that those noise-
-            relative gates decide. It applies when the plane is the scene: see
-            ``min_homography_plane_share``.
+            rotation test and the translation's standard deviation judge that change). It
+            applies when the plane is the scene: see ``min_homography_plane_share``.
         min_homography_plane_share: H's own floor holds only when H's triangulated points
             are at least this share of the tracks; on less, the tracks have depth beyond
             the plane, the parallax of that depth will let E or F decide, and H needs
@@ -81,7 +78,7 @@ class PolicyConfig:
     min_tracks: int = 50
     min_points: int = 50
     min_parallax_deg: float = 1.0
-    min_homography_parallax_deg: float = 0.36
+    min_homography_parallax_deg: float = 0.5
     min_homography_plane_share: float = 0.8
     min_rotation_residual_sigma: float = 3.0
     min_plane_residual_sigma: float = 2.0

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import replace
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from initsel_ros.geometry import Method, PoseEstimate, estimate_pose
+from initsel_ros.geometry import Method, PoseEstimate
 from initsel_ros.policy import (
     PolicyConfig,
     Reason,
@@ -94,17 +92,6 @@ def test_h_has_its_own_parallax_floor_in_both_pose_checks():
     ok, n, parallax = np.ones(2, bool), np.array([100, 100]), np.array([0.7, 0.4])
     assert list(check_pose_batch(ok, n, parallax, cfg, 'H')) == [None, Reason.LOW_PARALLAX]
     assert list(check_pose_batch(ok, n, parallax, cfg, 'E')) == [Reason.LOW_PARALLAX] * 2
-
-
-def test_h_floor_defaults_to_the_parallax_a_point_needs_to_count():
-    """By default H's floor is no higher than the parallax each of its points needs to be
-    triangulated at all: the rotation test and the direction's sigma judge a plane's pose
-    against the noise (a poster at 1.2 m from an arc: 0.42 degrees, E_t 0.01)."""
-    point_floor = inspect.signature(estimate_pose).parameters['min_point_parallax_deg'].default
-    cfg = PolicyConfig()
-    assert cfg.min_homography_parallax_deg == pytest.approx(point_floor)
-    assert check_pose(_estimate(parallax=0.42, method=Method.H), cfg) is None
-    assert check_pose(_estimate(parallax=0.42, method=Method.E), cfg) is Reason.LOW_PARALLAX
 
 
 def test_h_floor_holds_only_where_the_plane_is_the_scene():

@@ -14,9 +14,7 @@ from initsel_ros.initialize import FireResult
 from initsel_ros.policy import PolicyConfig, Reason
 from initsel_ros.recheck import EvidenceGap, evidence_gap, frames_to_recheck
 
-# H's parallax floor above the points' own (0.36), as on the day these cases were traced, so
-# that it can be the gate still short
-POLICY = PolicyConfig(min_homography_parallax_deg=0.5)
+POLICY = PolicyConfig()
 
 
 def _rotation(statistic: float) -> RotationTest:
@@ -68,7 +66,7 @@ def test_a_parallax_just_short_of_its_floor_is_re_checked_on_the_next_frame():
         checks=(Reason.POSE_FAILED, Reason.LOW_PARALLAX),
     )
     gap = evidence_gap(fire, POLICY)
-    assert gap.growth == pytest.approx(0.5 / 0.49)
+    assert gap.growth == pytest.approx(POLICY.min_homography_parallax_deg / 0.49)
     assert gap.gate.startswith('H parallax 0.49 of')
     assert frames_to_recheck(9, 3, gap) == 1
 

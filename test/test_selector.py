@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import itertools
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -651,9 +650,8 @@ def test_geometry_is_estimated_from_points_measured_against_the_reference(monkey
 
 def test_a_re_check_just_short_of_its_bar_comes_back_on_the_frame_it_should_pass(monkeypatch):
     # The fire path is replaced by a stand-in that reports, on the re-check of frame 9, an H
-    # at 0.49 degrees of parallax against a floor of 0.5 (set here: the default is lower):
-    # parallax grows with the baseline, so frame 10 should pass, and the next re-check comes
-    # then, not on frame 12.
+    # at 0.49 degrees of parallax against its floor of 0.5: parallax grows with the baseline,
+    # so frame 10 should pass, and the next re-check comes then, not on frame 12.
     import initsel_ros.selector as selector_module
     from initsel_ros.geometry import PoseEstimate
     from initsel_ros.initialize import FireResult
@@ -676,9 +674,7 @@ def test_a_re_check_just_short_of_its_bar_comes_back_on_the_frame_it_should_pass
 
     monkeypatch.setattr(selector_module, 'initialize_pair', fire_path)
     img = texture(3)
-    config = SelectorConfig()
-    config = replace(config, policy=replace(config.policy, min_homography_parallax_deg=0.5))
-    sel = Selector(constant_models(R=0.99), CAMERA, config)
+    sel = Selector(constant_models(R=0.99), CAMERA, SelectorConfig())
     results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(11)]
     assert calls == [3, 6, 9, 10]
     assert results[9].decision.detail.endswith(
