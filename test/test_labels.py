@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from initsel_ros.errors import ConfigError
 from initsel_ros.learn.labels import LabelConfig, ScaleRule, backproject, label_pair, relabel
 
 K = np.array([[535.4, 0.0, 320.1], [0.0, 539.2, 247.6], [0.0, 0.0, 1.0]])
@@ -222,3 +223,69 @@ def test_relabel_by_parallax_keeps_the_baseline_rule_where_there_is_none():
     assert relabel(columns, LabelConfig())['R_label'].tolist() == [0, 0, 1]
     with pytest.raises(Exception, match='rotation_label must be one of baseline, parallax'):
         LabelConfig(rotation_label='depth')
+
+
+def test_the_best_method_label_keeps_only_the_methods_a_pair_should_use():
+    # row 0, a plane: H at 0.01, E landing at 0.30 and F at 0.70 from degenerate fits, all
+    # "good" under the paper's 0.8; row 1, a desk: E 0.02 and F 0.06 (within 0.05), H 0.40;
+    # row 2: only F's pose succeeded; row 3: none good (E's 0.9 fails E_t < 0.8)
+    columns = {
+        'gt_baseline_m': np.full(4, 0.2),
+        'scale_rule': np.array(['median'] * 4, dtype=object),
+    }
+    et = {
+        'F': [0.70, 0.06, 0.30, np.nan],
+        'E': [0.30, 0.02, np.nan, 0.9],
+        'H': [0.01, 0.40, np.nan, np.nan],
+    }
+    for m in ('F', 'E', 'H'):
+        columns[f'{m}_ok'] = np.isfinite(et[m]).astype(int)
+        columns[f'{m}_et'] = np.array(et[m])
+        columns[f'{m}_er_median'] = np.full(4, 0.1)
+        columns[f'{m}_er_first_two'] = np.full(4, 0.1)
+    paper = relabel(columns, LabelConfig())
+    assert [paper[f'{m}_label'].tolist() for m in 'FEH'] == [
+        [1, 1, 1, 0],
+        [1, 1, 0, 0],
+        [1, 1, 0, 0],
+    ]
+    best = relabel(columns, LabelConfig(method_label='best'))
+    assert best['F_label'].tolist() == [0, 1, 1, 0]
+    assert best['E_label'].tolist() == [0, 1, 0, 0]
+    assert best['H_label'].tolist() == [1, 0, 0, 0]
+    wide = relabel(columns, LabelConfig(method_label='best', best_margin=0.3))
+    assert wide['E_label'].tolist() == [1, 1, 0, 0]
+    assert best['R_label'].tolist() == paper['R_label'].tolist()  # R is not a method's pose
+
+
+def test_the_best_method_label_is_the_same_pair_by_pair_and_on_tables():
+    rng = np.random.default_rng(5)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(_rot_y(0.02), np.array([0.2, 0.0, 0.03]))
+    p0, p1 = _correspondences(rng, depth, T_cur)
+    config = LabelConfig(method_label='best', best_margin=0.0)
+    labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur, config)
+    good = {m: labels.outcomes[m].label(config) for m in 'FEH'}
+    assert sum(good.values()) >= 2  # (a scene with depth: F and E both good at least)
+    # with no margin exactly the good method of lowest E_t keeps its label
+    et = {m: labels.outcomes[m].et if good[m] else np.inf for m in 'FEH'}
+    winner = min(et, key=et.get)
+    assert {m: labels.label(m) for m in 'FEH'} == {m: int(m == winner) for m in 'FEH'}
+    row = {
+        'gt_baseline_m': np.array([labels.baseline_m]),
+        'scale_rule': np.array(['median'], dtype=object),
+    }
+    for m, o in labels.outcomes.items():
+        row[f'{m}_ok'] = np.array([int(o.ok)])
+        row[f'{m}_et'] = np.array([o.et])
+        row[f'{m}_er_median'] = np.array([o.er_median])
+        row[f'{m}_er_first_two'] = np.array([o.er_first_two])
+    table = relabel(row, config)
+    assert {m: int(table[f'{m}_label'][0]) for m in 'FEH'} == {m: labels.label(m) for m in 'FEH'}
+
+
+def test_an_unknown_method_label_or_a_negative_margin_is_refused():
+    with pytest.raises(ConfigError, match='method_label'):
+        LabelConfig(method_label='chosen')
+    with pytest.raises(ConfigError, match='best_margin'):
+        LabelConfig(method_label='best', best_margin=-0.1)

@@ -203,6 +203,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='R label with --rotation-label parallax: median parallax under this, deg (1.0)',
     )
+    labels.add_argument(
+        '--method-label',
+        choices=('good', 'best'),
+        default=None,
+        help="F, E, H label rule: 'good' (the paper's: the method's own pose is good) or "
+        "'best' (good, and within --best-margin E_t of the pair's best good pose: the method "
+        'the pair should be initialized with; on a plane H, not a degenerate E or F)',
+    )
+    labels.add_argument(
+        '--best-margin',
+        type=float,
+        default=None,
+        help='E_t margin of --method-label best (0.05)',
+    )
     options.add_scale_rule_option(labels, None, 'E_R scale rule')
 
 
@@ -233,6 +247,8 @@ def run(args: argparse.Namespace) -> int:
         'rotation_baseline_m': args.rotation_baseline,
         'rotation_label': args.rotation_label,
         'rotation_parallax_deg': args.rotation_parallax,
+        'method_label': args.method_label,
+        'best_margin': args.best_margin,
         'scale_rule': None if args.scale_rule is None else ScaleRule(args.scale_rule),
     }
     relabel_given = {k: v for k, v in relabel_given.items() if v is not None}

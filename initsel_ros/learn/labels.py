@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -87,6 +88,15 @@ class LabelConfig:
         rotation_error_max_deg: (float)
             Without depth: a pose is good when E_t is below ``et_max`` and its rotation error
             (degrees) below this.
+        method_label: (str)
+            ``good`` (the paper's): a method is labelled 1 when its own pose is good, whatever
+            the others do; ``best``: when its pose is good and its E_t is within
+            ``best_margin`` of the lowest E_t of the pair's good poses, that is, when it is a
+            method the pair should be initialized with (on a plane H, whose pose is
+            determined, not E or F landing near it by chance from a degenerate fit).
+        best_margin: (float)
+            The E_t margin of ``method_label='best'`` (the seed map's "chosen method best"
+            criterion uses the same 0.05).
     """
 
     et_max: float = 0.8
@@ -97,6 +107,8 @@ class LabelConfig:
     rotation_error_max_deg: float = ROTATION_ERROR_MAX_DEG
     rotation_label: str = 'baseline'
     rotation_parallax_deg: float = 1.0
+    method_label: str = 'good'
+    best_margin: float = 0.05
 
     def __post_init__(self) -> None:
         if self.rotation_label not in ROTATION_LABELS:
@@ -104,6 +116,29 @@ class LabelConfig:
                 f'rotation_label must be one of {", ".join(ROTATION_LABELS)}, '
                 f'got {self.rotation_label!r}'
             )
+        if self.method_label not in METHOD_LABELS:
+            raise ConfigError(
+                f'method_label must be one of {", ".join(METHOD_LABELS)}, '
+                f'got {self.method_label!r}'
+            )
+        if not (math.isfinite(self.best_margin) and self.best_margin >= 0.0):
+            raise ConfigError(f'best_margin must be a finite number >= 0, got {self.best_margin}')
+
+    def method_labels(
+        self, good: Mapping[str, np.ndarray], et: Mapping[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """The F, E, H labels by ``method_label`` from each method's own verdict ``good``
+        and its E_t (arrays of one length, or scalars), as int64 arrays."""
+        good = {m: np.asarray(v).astype(bool) for m, v in good.items()}
+        if self.method_label == 'good':
+            return {m: v.astype(np.int64) for m, v in good.items()}
+        et = {m: np.asarray(v, dtype=float) for m, v in et.items()}
+        # the lowest E_t among the pair's good poses (inf where none is good)
+        lowest = np.min(np.stack([np.where(good[m], et[m], np.inf) for m in good]), axis=0)
+        with np.errstate(invalid='ignore'):
+            return {
+                m: (good[m] & (et[m] <= lowest + self.best_margin)).astype(np.int64) for m in good
+            }
 
     def rotation_labels(self, baseline_m: np.ndarray, parallax_deg: np.ndarray) -> np.ndarray:
         """(N,) int64 R labels from the ground-truth baselines and median parallax angles."""
@@ -119,6 +154,8 @@ class LabelConfig:
 
 #: The R label rules of :class:`LabelConfig` (``rotation_label``).
 ROTATION_LABELS = ('baseline', 'parallax')
+#: The F, E, H label rules of :class:`LabelConfig` (``method_label``).
+METHOD_LABELS = ('good', 'best')
 
 
 @dataclass(frozen=True)
@@ -180,7 +217,14 @@ class PairLabels:
         return self.config.scale_rule.value if self.has_depth else NO_DEPTH
 
     def label(self, method: str) -> int:
-        """Label of ``method`` ('F', 'E' or 'H')."""
+        """Label of ``method`` ('F', 'E' or 'H'), by ``config.method_label``."""
+        if self.config.method_label == 'good':
+            return self._good(method)
+        good = {m: self._good(m) for m in self.outcomes}
+        et = {m: o.et for m, o in self.outcomes.items()}
+        return int(self.config.method_labels(good, et)[method])
+
+    def _good(self, method: str) -> int:
         outcome = self.outcomes[method]
         if self.has_depth:
             return outcome.label(self.config)
@@ -431,7 +475,8 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     Rows labelled without depth (``scale_rule == 'no_depth'``) keep that rule and get
     ``ok and E_t < et_max and m_rot_err_deg < rotation_error_max_deg``; a table without the
     ``m_rot_err_deg`` column keeps their stored label as the rotation verdict, so only
-    ``et_max`` is re-applied to them (logged once).
+    ``et_max`` is re-applied to them (logged once). With ``method_label='best'`` a good pose
+    keeps its label only where it is among the pair's best (:meth:`LabelConfig.method_labels`).
     """
     out = dict(columns)
     rule = ScaleRule(config.scale_rule)
@@ -441,6 +486,7 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     ).astype(str)
     no_depth = stored_rule == NO_DEPTH
     warned = False
+    good, et_of = {}, {}
     for m in POSE_METHODS:
         er = np.asarray(columns[f'{m}_er_{rule.value}'], dtype=float)
         et = np.asarray(columns[f'{m}_et'], dtype=float)
@@ -463,7 +509,9 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
                         warned = True
                 label = np.where(no_depth, ok & (et < config.et_max) & rotation_ok, label)
         out[f'{m}_er'] = er
-        out[f'{m}_label'] = label.astype(np.int64)
+        good[m], et_of[m] = label, et
+    for m, label in config.method_labels(good, et_of).items():
+        out[f'{m}_label'] = label
     parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
     out['R_label'] = config.rotation_labels(baseline, parallax)
     out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
@@ -471,6 +519,7 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
 
 
 __all__ = [
+    'METHOD_LABELS',
     'NO_DEPTH',
     'POSE_METHODS',
     'ROTATION_ERROR_MAX_DEG',

@@ -608,6 +608,11 @@ def train_models(
                 if labels.rotation_label == 'parallax'
                 else {}
             ),
+            **(
+                {'method_label': 'best', 'best_margin': labels.best_margin}
+                if labels.method_label == 'best'
+                else {}
+            ),
             'scale_rule': rules[0] if len(rules) == 1 else rules,
             'relabelled_at_training': config.labels is not None,
         },
