@@ -86,7 +86,7 @@ def test_replayed_bag_initializes_the_installed_selector(
     )
     listener.create_subscription(PoseStamped, 'init/pose', got['pose'].append, LATCHED_QOS)
     listener.create_subscription(PointCloud2, 'init/points', got['points'].append, LATCHED_QOS)
-    listener.create_subscription(
+    status_sub = listener.create_subscription(
         String,
         'selector/status',
         lambda m: got['status'].append(FrameStatus.from_json(m.data)),
@@ -111,6 +111,12 @@ def test_replayed_bag_initializes_the_installed_selector(
                 stderr=subprocess.STDOUT,
             )
         _wait_for_text(selector_log, 'ready:', selector, TIMEOUT_S)
+        # ~/status is volatile: a subscription matched after the node's last frame gets
+        # nothing (seen once in CI under load), so the replay starts once it is matched
+        matched_by = time.monotonic() + TIMEOUT_S
+        while status_sub.get_publisher_count() < 1:
+            assert time.monotonic() < matched_by, 'selector/status never matched'
+            executor.spin_once(timeout_sec=0.1)
         with replay_log.open('w') as out:
             replay = subprocess.Popen(
                 [
