@@ -208,8 +208,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=('good', 'best'),
         default=None,
         help="F, E, H label rule: 'good' (the paper's: the method's own pose is good) or "
-        "'best' (good, and within --best-margin E_t of the pair's best good pose: the method "
-        'the pair should be initialized with; on a plane H, not a degenerate E or F)',
+        "'best' (good, and within --best-margin E_t of the pair's best good pose: a method "
+        'the pair should be initialized with)',
     )
     labels.add_argument(
         '--best-margin',

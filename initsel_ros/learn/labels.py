@@ -92,8 +92,8 @@ class LabelConfig:
             ``good`` (the paper's): a method is labelled 1 when its own pose is good, whatever
             the others do; ``best``: when its pose is good and its E_t is within
             ``best_margin`` of the lowest E_t of the pair's good poses, that is, when it is a
-            method the pair should be initialized with (on a plane H, whose pose is
-            determined, not E or F landing near it by chance from a degenerate fit).
+            method the pair should be initialized with (docs/learning.md, section 7: on
+            planes a degenerate E still lands within the margin of H about half the time).
         best_margin: (float)
             The E_t margin of ``method_label='best'`` (the seed map's "chosen method best"
             criterion uses the same 0.05).
