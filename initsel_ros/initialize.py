@@ -485,7 +485,7 @@ def _estimate_and_choose(
             plane[0], plane[1], residual, estimates, checks, selection, background=background
         )
     as_plane = plane_is_the_scene(winner, policy)
-    winner = _decomposition_by_the_rest(winner, ref, cur, K)
+    winner = _decomposition_by_the_rest(winner, ref, cur, K, config.ransac_threshold_px)
     seed = seed_map(
         winner,
         ref,
@@ -542,25 +542,33 @@ def _estimate_and_choose(
     )
 
 
-#: An H's two decompositions are told apart by the tracks off its plane when there are at
-#: least this many of them ...
-OFF_PLANE_MIN_TRACKS = 10
+#: An H's two decompositions are told apart by the tracks off its plane when at least this
+#: many of them lie on the epipolar lines of one of the two motions (squared Sampson error
+#: within the estimators' RANSAC threshold squared; a mistrack or an object moving on its own
+#: fits neither) ...
+OFF_PLANE_MIN_TRACKS = 5
 #: ... and one motion's median epipolar (Sampson) error on them is this many times the
 #: other's.
 OFF_PLANE_MIN_RATIO = 3.0
 
 
 def _decomposition_by_the_rest(
-    winner: PoseEstimate, ref: np.ndarray, cur: np.ndarray, K: np.ndarray
+    winner: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    inlier_px: float = 1.0,
 ) -> PoseEstimate:
     """Of an H whose two decompositions are close, the one the tracks off its plane confirm.
 
     Both motions explain the plane's points alike (that is the ambiguity); a static point off
-    the plane lies on the epipolar lines of the true motion only. When the tracks H left out
-    sit clearly nearer one motion's epipolar lines (median Sampson error
-    :data:`OFF_PLANE_MIN_RATIO` times smaller), that decomposition is kept alone; otherwise
-    (a single plane, mismatches or objects moving on their own off it) both go on to the
-    verification.
+    the plane lies on the epipolar lines of the true motion only. The evidence is the tracks
+    H left out that one of the two motions explains (squared Sampson error within
+    ``inlier_px`` squared, the estimators' RANSAC threshold): a mistrack fits neither, and on
+    a plane alone such tracks are all H leaves out. When at least
+    :data:`OFF_PLANE_MIN_TRACKS` tracks are evidence and they sit clearly nearer one motion's
+    epipolar lines (median Sampson error :data:`OFF_PLANE_MIN_RATIO` times smaller), that
+    decomposition is kept alone; otherwise both go on to the verification.
     """
     rival = winner.alternative
     if winner.method is not Method.H or rival is None:
@@ -569,10 +577,14 @@ def _decomposition_by_the_rest(
     if off.shape != (len(ref),) or np.count_nonzero(off) < OFF_PLANE_MIN_TRACKS:
         return winner
     a, b = ref[off], cur[off]
-    first, second = (
-        float(np.median(sampson_fundamental(fundamental_from_essential(skew(e.t) @ e.R, K), a, b)))
+    errors = [
+        sampson_fundamental(fundamental_from_essential(skew(e.t) @ e.R, K), a, b)
         for e in (winner, rival)
-    )
+    ]
+    explained = np.minimum(*errors) <= inlier_px * inlier_px
+    if np.count_nonzero(explained) < OFF_PLANE_MIN_TRACKS:
+        return winner
+    first, second = (float(np.median(e[explained])) for e in errors)
     if first * OFF_PLANE_MIN_RATIO <= second:
         return replace(winner, alternative=None)
     if second * OFF_PLANE_MIN_RATIO <= first:

@@ -444,6 +444,40 @@ def test_the_tracks_off_the_plane_tell_the_two_decompositions_of_h_apart():
     assert _decomposition_by_the_rest(alone, wall[0], wall[1], K) is alone
 
 
+def test_mistracks_off_the_plane_are_no_evidence_for_either_decomposition():
+    """Tracks that fit neither motion's epipolar lines (mistracks on a plane alone) say
+    nothing about which decomposition is right, even where they sit nearer one motion's lines:
+    both go on to the verification. (The median rule they replaced kept the mirrored one.)"""
+    from initsel_ros.geometry import fundamental_from_essential, sampson_fundamental, skew
+    from initsel_ros.initialize import _decomposition_by_the_rest
+
+    wall = two_view(planar=True, seed=4)
+    R, t = wall[2], wall[3]
+    right, mirrored = _decompositions_of_the_wall(wall, R, t, 20)
+    rng = np.random.default_rng(7)
+    ref = rng.uniform([40, 40], [600, 440], (20, 2))
+    # each mistrack 2.5 px off the mirrored motion's epipolar line near where the wall puts it
+    F = fundamental_from_essential(skew(mirrored.t) @ mirrored.R, K)
+    guess = cv2.perspectiveTransform(ref.reshape(-1, 1, 2), right.matrix).reshape(-1, 2)
+    guess += rng.normal(0, 25.0, guess.shape)
+    lines = np.hstack((ref, np.ones((20, 1)))) @ F.T
+    normal = lines[:, :2] / np.linalg.norm(lines[:, :2], axis=1, keepdims=True)
+    offset = (np.sum(lines[:, :2] * guess, axis=1) + lines[:, 2]) / np.linalg.norm(
+        lines[:, :2], axis=1
+    )
+    cur = guess - (offset - 2.5)[:, None] * normal
+    errors = [
+        np.median(sampson_fundamental(fundamental_from_essential(skew(e.t) @ e.R, K), ref, cur))
+        for e in (right, mirrored)
+    ]
+    assert errors[0] > 3 * errors[1] and errors[1] > 1.0  # nearer the mirrored motion's lines
+    both = replace(right, alternative=mirrored)
+    chosen = _decomposition_by_the_rest(
+        both, np.vstack((wall[0], ref)), np.vstack((wall[1], cur)), K
+    )
+    assert chosen is both
+
+
 def test_the_runner_up_of_an_ambiguous_h_is_judged_with_the_winners_plane_share():
     """The mirrored decomposition puts fewer of the plane's points in front of both cameras;
     the plane is no smaller for it, so H's own parallax floor applies to both."""
