@@ -545,11 +545,18 @@ def _estimate_and_choose(
 #: An H's two decompositions are told apart by the tracks off its plane when at least this
 #: many of them lie on the epipolar lines of one of the two motions (squared Sampson error
 #: within the estimators' RANSAC threshold squared; a mistrack or an object moving on its own
-#: fits neither) ...
+#: fits neither) and clearly off the plane ...
 OFF_PLANE_MIN_TRACKS = 5
+#: ... by more than this, pixels (H's transfer error): the distance within which the
+#: decomposition test counts a point as on its plane (``geometry.estimate_pose``'s
+#: ``max_reprojection_px``). Nearer, a tracking error decides which motion's lines the track
+#: lies on.
+OFF_PLANE_MIN_PX = 2.5
 #: ... and one motion's median epipolar (Sampson) error on them is this many times the
-#: other's.
+#: other's and puts them clearly off its lines, at least twice the RANSAC threshold (squared,
+#: as a Sampson error): a motion that misses them by a tracking error is not contradicted.
 OFF_PLANE_MIN_RATIO = 3.0
+OFF_PLANE_MIN_MISS = 2.0
 
 
 def _decomposition_by_the_rest(
@@ -581,13 +588,17 @@ def _decomposition_by_the_rest(
         sampson_fundamental(fundamental_from_essential(skew(e.t) @ e.R, K), a, b)
         for e in (winner, rival)
     ]
-    explained = np.minimum(*errors) <= inlier_px * inlier_px
+    mapped = np.column_stack((a, np.ones(len(a)))) @ winner.matrix.T
+    transfer = mapped[:, :2] / mapped[:, 2:]
+    off_plane = np.hypot(*(transfer - b).T) > OFF_PLANE_MIN_PX
+    explained = off_plane & (np.minimum(*errors) <= inlier_px * inlier_px)
     if np.count_nonzero(explained) < OFF_PLANE_MIN_TRACKS:
         return winner
     first, second = (float(np.median(e[explained])) for e in errors)
-    if first * OFF_PLANE_MIN_RATIO <= second:
+    miss = (OFF_PLANE_MIN_MISS * inlier_px) ** 2
+    if first * OFF_PLANE_MIN_RATIO <= second and second >= miss:
         return replace(winner, alternative=None)
-    if second * OFF_PLANE_MIN_RATIO <= first:
+    if second * OFF_PLANE_MIN_RATIO <= first and first >= miss:
         return replace(rival, alternative=None)
     return winner
 
