@@ -543,19 +543,20 @@ def _estimate_and_choose(
 
 
 #: An H's two decompositions are told apart by the tracks off its plane when at least this
-#: many of them lie on the epipolar lines of one of the two motions (squared Sampson error
-#: within the estimators' RANSAC threshold squared; a mistrack or an object moving on its own
-#: fits neither) and clearly off the plane ...
+#: many of them are evidence: clearly off the plane, and on one motion's epipolar lines
+#: (squared Sampson error within the estimators' RANSAC threshold squared; a mistrack or an
+#: object moving on its own fits neither) ...
 OFF_PLANE_MIN_TRACKS = 5
-#: ... by more than this, pixels (H's transfer error): the distance within which the
-#: decomposition test counts a point as on its plane (``geometry.estimate_pose``'s
-#: ``max_reprojection_px``). Nearer, a tracking error decides which motion's lines the track
-#: lies on.
+#: ... "clearly off the plane" meaning more than this from where H puts them, pixels: the
+#: distance within which the decomposition test counts a point as on its plane
+#: (``geometry.estimate_pose``'s ``max_reprojection_px``); nearer, a tracking error decides
+#: which motion's lines a track lies on ...
 OFF_PLANE_MIN_PX = 2.5
-#: ... and one motion's median epipolar (Sampson) error on them is this many times the
-#: other's and puts them clearly off its lines, at least twice the RANSAC threshold (squared,
-#: as a Sampson error): a motion that misses them by a tracking error is not contradicted.
+#: ... when one motion's median Sampson error on them is this many times smaller than the
+#: other's ...
 OFF_PLANE_MIN_RATIO = 3.0
+#: ... and the other misses them clearly: its median at least (this x the RANSAC threshold)
+#: squared, not by a tracking error.
 OFF_PLANE_MIN_MISS = 2.0
 
 
@@ -570,12 +571,15 @@ def _decomposition_by_the_rest(
 
     Both motions explain the plane's points alike (that is the ambiguity); a static point off
     the plane lies on the epipolar lines of the true motion only. The evidence is the tracks
-    H left out that one of the two motions explains (squared Sampson error within
-    ``inlier_px`` squared, the estimators' RANSAC threshold): a mistrack fits neither, and on
-    a plane alone such tracks are all H leaves out. When at least
-    :data:`OFF_PLANE_MIN_TRACKS` tracks are evidence and they sit clearly nearer one motion's
-    epipolar lines (median Sampson error :data:`OFF_PLANE_MIN_RATIO` times smaller), that
-    decomposition is kept alone; otherwise both go on to the verification.
+    H left out that lie more than :data:`OFF_PLANE_MIN_PX` from where H puts them and that
+    one of the two motions explains (squared Sampson error within ``inlier_px`` squared, the
+    estimators' RANSAC threshold). On a plane alone the tracks H leaves out are mistracks,
+    which fit neither motion, and tracks a pixel or two off the plane, whose error decides
+    which motion's lines they lie on. When at least :data:`OFF_PLANE_MIN_TRACKS` tracks are
+    evidence, they sit clearly nearer one motion's epipolar lines (median Sampson error
+    :data:`OFF_PLANE_MIN_RATIO` times smaller), and the other misses them by more than a
+    tracking error (:data:`OFF_PLANE_MIN_MISS` x ``inlier_px``, squared), that decomposition
+    is kept alone; otherwise both go on to the verification.
     """
     rival = winner.alternative
     if winner.method is not Method.H or rival is None:

@@ -64,8 +64,8 @@ LAST_FRAME_MORE_CERTAIN_MAX_E_T = 0.3
 #: about equally well (on the seed-map planes the RMS of one was 0.92-1.07 times the other's),
 #: and a few percent less by chance chose the wrong one. The wrong map's misfit grows with the
 #: baseline, so it shows on the last frame, the longest baseline; the noise's difference
-#: changes sides from frame to frame (straight motion toward a wall: 10-13 % less on average,
-#: 1-12 % more on the last frame).
+#: changes sides from frame to frame (straight motion toward a wall: 11-13 % less on
+#: average, on the last frame from 1 % less to 12 % more).
 RIVAL_MAX_RMS_RATIO = 0.9
 #: What the fire path tries when the rotation test re-checks model R's veto: E (the general
 #: model of a calibrated camera) and H (a plane), GRIC choosing.
