@@ -514,6 +514,14 @@ def homogeneous(p: np.ndarray) -> np.ndarray:
     return np.hstack([np.asarray(p, dtype=np.float64), np.ones((len(p), 1))])
 
 
+def transfer_px(homography: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """(N,) distances |p1 - H(p0)|, pixels, of the (N, 2) pixels under the pixel homography
+    ``p1 ~ H p0`` (inf or NaN where H maps a point to infinity)."""
+    with np.errstate(divide='ignore', invalid='ignore'):
+        q = homogeneous(p0) @ np.asarray(homography, dtype=np.float64).T
+        return np.hypot(q[:, 0] / q[:, 2] - p1[:, 0], q[:, 1] / q[:, 2] - p1[:, 1])
+
+
 def fundamental_from_essential(E: np.ndarray, K: np.ndarray) -> np.ndarray:
     """``F = K^-T E K^-1``: the pixel-space epipolar constraint of an essential matrix."""
     K_inv = np.linalg.inv(np.asarray(K, dtype=np.float64))
@@ -939,9 +947,7 @@ def plane_perspective_test(
         raise GeometryError(f'inliers must be ({a.shape[0]},), got {inliers.shape}')
     a, b = a[inliers], b[inliers]
     nan = float('nan')
-    with np.errstate(divide='ignore', invalid='ignore'):
-        q = homogeneous(a) @ np.asarray(homography, dtype=np.float64).T
-        transfer = np.hypot(q[:, 0] / q[:, 2] - b[:, 0], q[:, 1] / q[:, 2] - b[:, 1])
+    transfer = transfer_px(homography, a, b)
     transfer = transfer[np.isfinite(transfer)]
     if transfer.shape[0] < 8:
         return RotationTest(nan, nan, nan, nan)

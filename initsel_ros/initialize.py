@@ -47,6 +47,7 @@ from initsel_ros.geometry import (
     rotation_test,
     sampson_fundamental,
     skew,
+    transfer_px,
 )
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.policy import (
@@ -592,9 +593,7 @@ def _decomposition_by_the_rest(
         sampson_fundamental(fundamental_from_essential(skew(e.t) @ e.R, K), a, b)
         for e in (winner, rival)
     ]
-    mapped = np.column_stack((a, np.ones(len(a)))) @ winner.matrix.T
-    transfer = mapped[:, :2] / mapped[:, 2:]
-    off_plane = np.hypot(*(transfer - b).T) > OFF_PLANE_MIN_PX
+    off_plane = transfer_px(winner.matrix, a, b) > OFF_PLANE_MIN_PX
     explained = off_plane & (np.minimum(*errors) <= inlier_px * inlier_px)
     if np.count_nonzero(explained) < OFF_PLANE_MIN_TRACKS:
         return winner
