@@ -10,6 +10,7 @@ against ground truth (E_t, E_R, rotation error) are in :mod:`initsel_ros.metrics
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import cv2
@@ -689,6 +690,8 @@ _CHI2_1_MEDIAN = 0.4549
 #: ROTATION_QUANTILE of a transfer residual of pure noise, in units of the noise per
 #: coordinate (its squared length is 2 sigma^2 chi2(2): the noise of both views).
 _TRANSFER_QUANTILE_PER_SIGMA = float(np.sqrt(2.0 * -2.0 * np.log(1.0 - ROTATION_QUANTILE)))
+#: Median length of a transfer residual of pure noise, in units of the noise per coordinate.
+_TRANSFER_MEDIAN_PER_SIGMA = float(np.sqrt(2.0 * 2.0 * np.log(2.0)))
 
 
 def _lower_quantile(values: np.ndarray, quantile: float, axis: int = -1) -> np.ndarray:
@@ -814,9 +817,9 @@ class RotationTest:
     Attributes:
         residual_px: :data:`ROTATION_QUANTILE` quantile of the transfer residuals of the best
             rotation, pixels (over the focal scales tried).
-        noise_px: tracking noise per coordinate, pixels, from a robust fundamental matrix's
-            Sampson errors on the same tracks (F fits any rigid flow, planes and pans
-            included, to the noise).
+        noise_px: tracking noise per coordinate, pixels, from the same tracks
+            (:func:`tracking_noise_px`: a RANSAC homography's or fundamental matrix's
+            residuals, whichever is smaller).
         statistic: ``residual_px`` in units of that noise: the noise per coordinate a
             rotation would imply, over ``noise_px`` (about 1 for a rotation, large when a
             baseline leaves parallax).
@@ -841,6 +844,66 @@ class RotationTest:
         }
 
 
+#: RANSAC draws of the homography whose residuals measure the tracking noise. Its median is
+#: the noise only where H holds most of the tracks (a plane, a pan), where 4-point samples are
+#: often all inliers (30 draws miss a share of 0.7 with probability 3e-4, of 0.6 with 0.016);
+#: with depth no H holds most of them, F's estimate is taken, and unbounded draws cost 30 ms.
+NOISE_HOMOGRAPHY_MAX_ITERS = 30
+
+
+def _fundamental_noise_px(a: np.ndarray, b: np.ndarray) -> float:
+    """Noise per coordinate from a RANSAC fundamental matrix's Sampson errors on all tracks
+    (their median is about ``0.455 sigma^2``); inf when none is found."""
+    F, _ = cv2.findFundamentalMat(
+        a.reshape(-1, 1, 2), b.reshape(-1, 1, 2), cv2.FM_RANSAC, 1.0, 0.999, 500
+    )
+    if F is None or F.shape != (3, 3):
+        return math.inf
+    errors = sampson_fundamental(np.asarray(F, dtype=np.float64), a, b)
+    return float(np.sqrt(np.median(errors) / _CHI2_1_MEDIAN))
+
+
+def _homography_noise_px(a: np.ndarray, b: np.ndarray) -> float:
+    """Noise per coordinate from a RANSAC homography's transfer residuals on all tracks
+    (their median length is ``sqrt(4 ln 2) sigma``: both views' noise); inf when none is
+    found."""
+    H, _ = cv2.findHomography(
+        a.reshape(-1, 1, 2),
+        b.reshape(-1, 1, 2),
+        cv2.RANSAC,
+        1.0,
+        maxIters=NOISE_HOMOGRAPHY_MAX_ITERS,
+        confidence=0.995,
+    )
+    if H is None or H.shape != (3, 3):
+        return math.inf
+    transfer = transfer_px(np.asarray(H, dtype=np.float64), a, b)
+    transfer = transfer[np.isfinite(transfer)]
+    if transfer.shape[0] < 8:
+        return math.inf
+    return float(np.median(transfer)) / _TRANSFER_MEDIAN_PER_SIGMA
+
+
+def tracking_noise_px(a: np.ndarray, b: np.ndarray, min_noise_px: float = 0.1) -> float:
+    """The tracking noise per coordinate of correspondences ``a`` -> ``b``, pixels: the
+    smaller of what a RANSAC homography and a RANSAC fundamental matrix leave on all of them
+    (median residuals, as noise), floored at ``min_noise_px``; NaN when neither is found.
+
+    Either model fits the flow it can explain to the noise, and a median over all tracks
+    only grows where it cannot (depth, for H). F fits every rigid flow, but a plane and a pan,
+    the two flows the rotation test must tell apart, are degenerate for it: many F fit them,
+    and RANSAC's choice wobbles from frame to frame (on KLT tracks of a clean poster, 0.10 to
+    0.39 px between consecutive frames). H fits both without degeneracy. F is fitted only
+    when H leaves more than the floor. Fewer than 8 correspondences measure nothing (NaN).
+    """
+    if len(a) < 8:
+        return math.nan
+    noise = _homography_noise_px(a, b)
+    if not noise <= min_noise_px:
+        noise = min(noise, _fundamental_noise_px(a, b))
+    return max(noise, min_noise_px) if math.isfinite(noise) else math.nan
+
+
 def rotation_test(
     p0: np.ndarray,
     p1: np.ndarray,
@@ -855,11 +918,11 @@ def rotation_test(
     The rotation is the least-median fit of :func:`rotation_only_residual_px` (robust to
     independently moving objects on under half of the tracks), tried under each focal scale
     (``K`` with fx and fy scaled, :data:`ROTATION_FOCAL_SCALES`; a miscalibrated pan is
-    still a rotation); the noise is
-    estimated from a RANSAC fundamental matrix on the same tracks (the median Sampson error
-    is about ``0.455 sigma^2``), floored at ``min_noise_px`` (KLT on sharp frames reaches
-    about 0.1 px; exact synthetic shifts would otherwise make any flow parallax, as GRIC's
-    noise is bounded in ``model_selection``). Their ratio is the statistic:
+    still a rotation); the noise is that of the same tracks (:func:`tracking_noise_px`: the
+    smaller of what a RANSAC homography and a RANSAC fundamental matrix leave), floored at
+    ``min_noise_px`` (KLT on sharp frames reaches about 0.1 px; exact synthetic shifts would
+    otherwise make any flow parallax, as GRIC's noise is bounded in ``model_selection``).
+    Their ratio is the statistic:
     a plane's perspective change at ten times the noise gives about 10, a pan about 1.
 
     Args:
@@ -872,8 +935,8 @@ def rotation_test(
             search stops at the first scale (and least-squares fit) below it, since more
             fits can only lower the statistic (a plain pan costs one fit, not nine).
         noise_px: the noise, when already measured on a larger set of the same tracks (a
-            subset's own estimate would be that of its own tracks: no fundamental matrix is
-            fitted then; still floored at ``min_noise_px``).
+            subset's own estimate would be that of its own tracks: no model is fitted for
+            it then; still floored at ``min_noise_px``).
 
     Returns:
         A :class:`RotationTest`; NaN fields for fewer than 8 finite correspondences.
@@ -885,15 +948,10 @@ def rotation_test(
     nan = float('nan')
     if a.shape[0] < 8:
         return RotationTest(nan, nan, nan, nan)
-    noise = nan if noise_px is None else float(noise_px)
     if noise_px is None:
-        F, _ = cv2.findFundamentalMat(
-            a.reshape(-1, 1, 2), b.reshape(-1, 1, 2), cv2.FM_RANSAC, 1.0, 0.999, 500
-        )
-        if F is not None and F.shape == (3, 3):
-            errors = sampson_fundamental(np.asarray(F, dtype=np.float64), a, b)
-            noise = float(np.sqrt(np.median(errors) / _CHI2_1_MEDIAN))
-    noise = max(noise, min_noise_px) if np.isfinite(noise) else nan
+        noise = tracking_noise_px(a, b, min_noise_px)
+    else:
+        noise = max(float(noise_px), min_noise_px) if np.isfinite(noise_px) else nan
     per_sigma = _TRANSFER_QUANTILE_PER_SIGMA
     stop_px = None
     if enough_below is not None and np.isfinite(noise):

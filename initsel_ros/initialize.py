@@ -5,9 +5,9 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
 
 1. the rotation test: a flow that one rotation explains to within the tracking noise has no
    baseline, whatever the estimators make of it (``geometry.rotation_test``: the residual of
-   the best rotation against the noise of a fundamental matrix on the same tracks); between
-   ``min_plane_residual_sigma`` and ``min_rotation_residual_sigma`` only H goes on (a
-   plane's perspective change is parallax enough for H before it is for E and F);
+   the best rotation against the tracking noise a homography or F leaves on the same
+   tracks); between ``min_plane_residual_sigma`` and ``min_rotation_residual_sigma`` only H
+   goes on (a plane's perspective change is parallax enough for H before it is for E and F);
 2. the estimates of the candidate methods (``geometry.estimate_pose``);
 3. the pose check of each (``policy.check_pose``);
 4. the choice among those that pass, by GRIC (``model_selection.select_method``);

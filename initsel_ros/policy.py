@@ -57,8 +57,9 @@ class PolicyConfig:
             rotation is taken out must reach this many times the tracking noise
             (``geometry.rotation_test``: a least-median rotation fit that independently moving
             objects on under half of the tracks do not sway, under focal lengths up to 20 %
-            off, against the noise of a fundamental matrix on the same tracks): a rotation
-            alone explains any flow with less, whatever the pose estimators make of it.
+            off, against the tracking noise a homography or F leaves on the same tracks): a
+            rotation alone explains any flow with less, whatever the pose estimators make of
+            it.
         min_plane_residual_sigma: where the rotation test's statistic is at least this but
             under ``min_rotation_residual_sigma``, H alone is tried: a plane's perspective
             change is parallax enough for H's decomposition (as ``min_homography_parallax_deg``

@@ -236,7 +236,7 @@ class FireTimes:
 #: Names of the fire path's steps, in :attr:`FireTimes.parts` order.
 FIRE_PARTS = (
     f'rotation test (least-quantile fits under {len(ROTATION_FOCAL_SCALES)} focal scales at '
-    'once, F-RANSAC noise)',
+    'once, noise from H- and F-RANSAC)',
     'one least-median rotation fit under the nominal K (not in the total)',
     'F + E + H estimates',
     'GRIC selection (with the E refit)',
