@@ -67,6 +67,18 @@ def wall_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def poster_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A poster 1.2 m away seen from a sideways arc of 8 cm turning half-way back toward it
+    (issue 20's hard case, the planar-arc family's poster of seed 8), 16 frames, no noise."""
+    from initsel_ros.synth.trajectories import ArcPath
+
+    arc = ArcPath(distance=1.2, extent=0.08, centring=0.5)
+    return _render(
+        tmp_path_factory, 'poster_arc', scene='wall', trajectory='arc', frames=16, seed=8, arc=arc
+    )
+
+
+@pytest.fixture(scope='session')
 def near_pair_table(near_sequence: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """``initsel dataset`` on ``near_sequence`` (batches of 30): a real labelled pair table."""
     from initsel_ros.cli import main

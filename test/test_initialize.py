@@ -673,32 +673,28 @@ def test_a_poster_whose_mirrored_plane_would_hide_part_of_it_initializes_without
     assert translation_chordal_error(t, fire.seed.t) < 0.1
 
 
-def test_the_rotation_statistic_of_a_poster_grows_with_the_baseline_frame_by_frame(tmp_path):
+def test_the_rotation_statistic_of_a_poster_follows_the_baseline_not_the_noise_estimate(
+    poster_arc_sequence,
+):
     # A poster 1.2 m away from a sideways arc, re-measured KLT tracks against frame 0: the
-    # perspective change grows with the baseline, and so must the statistic. With the noise
-    # from F alone, which a plane leaves undetermined, the noise read 0.17 px on frame 7
-    # against 0.10 on its neighbours, and the statistic fell 2.4 -> 1.5 -> 3.0.
+    # perspective change grows with the baseline, and so must the statistic, up to the
+    # rotation fit's own spread (one frame 12 % under the one before). With the noise from
+    # F alone, which a plane leaves undetermined, the noise read 0.10 px on most frames and
+    # up to twice that on others, and the statistic fell 0.77 -> 0.36 and 3.13 -> 1.70.
     from initsel_ros.datasets import open_sequence
     from initsel_ros.geometry import rotation_test
-    from initsel_ros.synth import render
-    from initsel_ros.synth.trajectories import ArcPath
     from initsel_ros.tracking import KltTracker
 
-    path = render(
-        tmp_path / 'poster',
-        scene='wall',
-        trajectory='arc',
-        frames=11,
-        seed=2,
-        arc=ArcPath(distance=1.2, extent=0.08, centring=0.5),
-    ).path
-    sequence = open_sequence(path)
+    sequence = open_sequence(poster_arc_sequence)
     tracker = KltTracker()
     tracker.reset(sequence.gray(0))
-    statistics = []
-    for k in range(1, 11):
+    tests = []
+    for k in range(1, 16):
         tracker.track(sequence.gray(k))
         tracks = tracker.anchored()
-        statistics.append(rotation_test(tracks.ref, tracks.cur, sequence.intrinsics.K).statistic)
-    assert statistics[-1] > PolicyConfig().min_rotation_residual_sigma
-    assert all(s >= 0.9 * max(statistics[:k]) for k, s in enumerate(statistics) if k), statistics
+        tests.append(rotation_test(tracks.ref, tracks.cur, sequence.intrinsics.K))
+    statistics = [t.statistic for t in tests]
+    assert statistics[-1] > 1.5 * PolicyConfig().min_rotation_residual_sigma
+    assert all(s >= 0.8 * max(statistics[:k]) for k, s in enumerate(statistics) if k), statistics
+    noise = [t.noise_px for t in tests]
+    assert max(noise) <= 1.2 * min(noise), noise

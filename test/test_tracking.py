@@ -203,23 +203,15 @@ def _depth_truth(sequence, tracks, k):
     return q[:, :2] / q[:, 2:], batch.undistort(tracks.cur), z > 0
 
 
-def test_points_measured_against_the_reference_do_not_carry_the_chains_drift(tmp_path):
+def test_points_measured_against_the_reference_do_not_carry_the_chains_drift(
+    poster_arc_sequence,
+):
     # A poster 1.2 m away from a sideways arc (issue 20's hard case), 15 frames, no noise:
     # chained frame to frame, a tenth of the tracks end a pixel or more off the truth;
     # measured against the reference they are within a few tenths.
     from initsel_ros.datasets import open_sequence
-    from initsel_ros.synth import render
-    from initsel_ros.synth.trajectories import ArcPath
 
-    path = render(
-        tmp_path / 'poster',
-        scene='wall',
-        trajectory='arc',
-        frames=16,
-        seed=8,
-        arc=ArcPath(distance=1.2, extent=0.08, centring=0.5),
-    ).path
-    sequence = open_sequence(path)
+    sequence = open_sequence(poster_arc_sequence)
     tracker = KltTracker()
     tracker.reset(sequence.gray(0))
     for k in range(1, 16):
