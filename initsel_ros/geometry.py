@@ -686,7 +686,7 @@ ROTATION_FOCAL_SCALES = tuple(float(s) for s in np.geomspace(0.87, 1.15, 9))
 ROTATION_QUANTILE = 0.33
 #: Median of chi-square with one degree of freedom: an epipolar Sampson error of pure noise
 #: is about sigma^2 chi2(1).
-_CHI2_1_MEDIAN = 0.4549
+CHI2_1_MEDIAN = 0.4549
 #: ROTATION_QUANTILE of a transfer residual of pure noise, in units of the noise per
 #: coordinate (its squared length is 2 sigma^2 chi2(2): the noise of both views).
 _TRANSFER_QUANTILE_PER_SIGMA = float(np.sqrt(2.0 * -2.0 * np.log(1.0 - ROTATION_QUANTILE)))
@@ -862,7 +862,7 @@ def _fundamental_noise_px(a: np.ndarray, b: np.ndarray) -> float:
     if F is None or F.shape != (3, 3):
         return math.inf
     errors = sampson_fundamental(np.asarray(F, dtype=np.float64), a, b)
-    return float(np.sqrt(np.median(errors) / _CHI2_1_MEDIAN))
+    return float(np.sqrt(np.median(errors) / CHI2_1_MEDIAN))
 
 
 def _homography_noise_px(a: np.ndarray, b: np.ndarray) -> float:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from initsel_ros.geometry import (
+    CHI2_1_MEDIAN,
     Method,
     PoseEstimate,
     fundamental_from_essential,
@@ -171,9 +172,6 @@ def _refined_essential(
     return skew(t) @ R
 
 
-#: Median of the chi-square distribution with one degree of freedom: a Sampson error of an
-#: epipolar model is about sigma^2 chi2(1) for noise sigma per coordinate.
-CHI2_1_MEDIAN = 0.4549
 #: Bounds of the noise estimated from the data, pixels (KLT on sharp frames reaches about
 #: 0.1 px; beyond 2 px the tracks are not worth initializing on).
 MIN_SIGMA_PX = 0.1
