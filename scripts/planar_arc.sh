@@ -2,7 +2,7 @@
 # The planar-arc family of issue 20: planes seen from sideways arcs and slides, and the pans,
 # moving boards and miscalibrated pans that must not initialize; render, evaluate, write
 # the table (docs/initialization.md, "Planes from a sideways arc").
-#   scripts/planar_arc.sh tune|accept|holdout|movers [DATA_DIR] [OUT_DIR]
+#   scripts/planar_arc.sh tune|accept|holdout|movers [DATA_DIR] [OUT_DIR] [initsel planar_arc options]
 #   scripts/planar_arc.sh render-tune|render-holdout [DATA_DIR]     (renders only)
 # tune renders seeds 0-4 (what the rotation test was tuned on, and what the distilled models
 # of scripts/train_models.sh imitate their teacher on), accept seeds 5-9 (held out; issue 20's
@@ -12,6 +12,8 @@
 # 30 of each kind, where the other sets hold 5).
 # Renders are kept in DATA_DIR (default /tmp/initsel-planar-arc) and reused; OUT_DIR (default
 # DATA_DIR/out/SET) gets planar_arc.md and planar_arc.csv. About 10 minutes per set here.
+# Options after OUT_DIR go to initsel planar_arc: --orbslam3 adds the real ORB-SLAM3's rows
+# (its venv and vocabulary are set up first when absent; about 5 s more per sequence).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
@@ -32,6 +34,7 @@ case "$set_name" in
 esac
 D=${2:-/tmp/initsel-planar-arc}
 OUT=${3:-$D/out/$set_name}
+shift $(( $# > 3 ? 3 : $# ))
 mkdir -p "$D" "$OUT"
 FRAMES=70
 render() {  # name, then initsel synth options; skipped when already rendered
@@ -82,5 +85,8 @@ for seed in $seeds; do
         "$D/rotation_pan_focal10_n2_s$seed" "$D/rotation_wall_focal10_n2_s$seed" "$D/static_n2_s$seed")
 done
 [ "$render_only" = 1 ] && exit 0
-initsel planar_arc "${sequences[@]}" --out-dir "$OUT" --jobs 1
+for option in "$@"; do
+    [ "$option" = --orbslam3 ] && bash "$root/scripts/setup_orbslam3.sh"  # once
+done
+initsel planar_arc "${sequences[@]}" --out-dir "$OUT" --jobs 1 "$@"
 echo "wrote $OUT/planar_arc.md" >&2

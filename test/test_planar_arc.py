@@ -1,10 +1,18 @@
-"""The planar-arc table (issue 20): verdicts, grouping and one rendered arc end to end."""
+"""The planar-arc table (issue 20): verdicts, grouping and one rendered arc end to end, with
+the real ORB-SLAM3's column (its process replaced by a stand-in here)."""
 
 from __future__ import annotations
 
+import json
 import math
+import stat
+import sys
+
+import numpy as np
 
 from initsel_ros.learn.planar_arc import ArcOutcome, arc_markdown, evaluate_arc
+from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
+from initsel_ros.learn.seedmap import ORBSLAM3_REAL
 
 
 def test_verdicts_follow_issue_20s_bar():
@@ -47,11 +55,59 @@ def test_a_rendered_arc_has_an_oracle_frame_and_a_pan_none(tmp_path):
         arc=ArcPath(distance=2.0, extent=0.3),
         workers=1,
     ).path
-    out = evaluate_arc(str(wall), str(default_model_path()), _config())
+    [out] = evaluate_arc(str(wall), str(default_model_path()), _config())
     assert not out.no_baseline and math.isfinite(out.oracle_frame) and out.oracle_frame < 20
+    assert out.system == 'initsel'
     pan = render(tmp_path / 'rotation_pan_n1_s0', 'wall', 'rotation', 20, 0, workers=1).path
-    out = evaluate_arc(str(pan), str(default_model_path()), _config())
+    [out] = evaluate_arc(str(pan), str(default_model_path()), _config())
     assert out.no_baseline and math.isnan(out.oracle_frame) and out.verdict == 'ok'
+
+    # ORB-SLAM3's row, from a stand-in for its process that initializes at frame 12 with the
+    # ground-truth keyframes (and one that crashes): judged by the same bar, oracle included
+    from initsel_ros.datasets import open_sequence
+
+    sequence = open_sequence(wall)
+    stand_in = _orbslam3_stand_in(tmp_path / 'venv', sequence, 0, 12)
+    selector, orb = evaluate_arc(str(wall), str(default_model_path()), _config(), stand_in)
+    assert (orb.system, orb.initialized, orb.failed, orb.frame) == (ORBSLAM3_REAL, True, False, 12)
+    assert orb.e_t < 1e-6 and orb.rotation_deg < 1e-4 and orb.oracle_frame == selector.oracle_frame
+    assert orb.verdict == ('ok' if orb.frame <= orb.oracle_frame + 10 else 'late')
+    crash = Orbslam3Setup(sys.executable, 'none', 60.0)  # no orbslam3 in this interpreter
+    _, failed = evaluate_arc(str(wall), str(default_model_path()), _config(), crash)
+    assert failed.failed and not failed.initialized and failed.verdict == 'failed'
+    text = arc_markdown([selector, orb, failed])
+    assert '| wall_arc | 1 | ORB-SLAM3 (real) | 2 (1 failed) | 2 | 1 |' in text
+    assert f'| wall_arc_n1_s0 | ORB-SLAM3 (real) | H/F | 12 | {orb.e_t:.3f} |' in text
+    assert (
+        '| wall_arc_n1_s0 | ORB-SLAM3 (real) | - | - | - | - |' in text
+        and 'failed: exit 1' in text
+    )
+
+
+def _orbslam3_stand_in(folder, sequence, reference: int, current: int) -> Orbslam3Setup:
+    """An executable in ORB-SLAM3's interpreter's place that writes what its worker writes:
+    an initialization at ``current`` from ``reference``, at the ground-truth poses, with
+    points 3 m in front of the reference camera."""
+    poses = sequence.poses()
+    stamps = sequence.stamps_ns / 1e9
+    ref = np.asarray(poses[reference], dtype=np.float64)
+    rays = np.array([[x, y, 1.0] for x in (-0.4, 0.0, 0.4) for y in (-0.3, 0.3)]) * 3.0
+    points = rays @ ref[:3, :3].T + ref[:3, 3]
+    result = {
+        'initialized': True,
+        'keyframes': [
+            [float(stamps[reference]), ref.ravel().tolist()],
+            [float(stamps[current]), np.asarray(poses[current]).ravel().tolist()],
+        ],
+        'points': points.tolist(),
+    }
+    folder.mkdir(parents=True, exist_ok=True)
+    script = folder / 'python'
+    script.write_text(
+        f'#!{sys.executable}\nimport sys\nopen(sys.argv[-1], "w").write({json.dumps(result)!r})\n'
+    )
+    script.chmod(script.stat().st_mode | stat.S_IEXEC)
+    return Orbslam3Setup(str(script), 'none', 60.0)
 
 
 def _config():

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from initsel_ros.names import Mode
 
 if TYPE_CHECKING:
+    from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
     from initsel_ros.selector import SelectorConfig
 
 Options = TypeVar('Options')
@@ -127,6 +128,41 @@ def add_named_models_option(parser: argparse.ArgumentParser) -> None:
         help='model file, repeatable; a bare PATH is named by its file stem '
         '(default: shipped=the packaged config/models.json)',
     )
+
+
+def add_orbslam3_options(parser: argparse.ArgumentParser) -> None:
+    """``--orbslam3-venv``, ``--orbslam3-vocab`` and ``--orbslam3-timeout``: where the real
+    ORB-SLAM3 baseline runs (scripts/setup_orbslam3.sh makes its venv)."""
+    parser.add_argument(
+        '--orbslam3-venv',
+        type=Path,
+        default=None,
+        help='the ORB-SLAM3 venv (default $INITSEL_ORBSLAM3_VENV or ./.venv-orbslam3)',
+    )
+    parser.add_argument(
+        '--orbslam3-vocab',
+        type=Path,
+        default=None,
+        help='DBoW2 text vocabulary (default VENV/initsel_orbvoc.txt; see initsel orbvocab)',
+    )
+    parser.add_argument(
+        '--orbslam3-timeout',
+        type=float,
+        default=300.0,
+        metavar='S',
+        help='seconds per batch before ORB-SLAM3 counts as failed (default 300)',
+    )
+
+
+def orbslam3_setup(args: argparse.Namespace) -> Orbslam3Setup:
+    """The checked ORB-SLAM3 setup of :func:`add_orbslam3_options`' values.
+
+    Raises:
+        ConfigError: its venv, its orbslam3 package or the vocabulary is missing.
+    """
+    from initsel_ros.learn.real_baselines.orbslam3_runner import find_orbslam3
+
+    return find_orbslam3(args.orbslam3_venv, args.orbslam3_vocab, args.orbslam3_timeout)
 
 
 def model_path(value: Path | None) -> Path:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from initsel_ros.cli import options
 
@@ -59,25 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '2020 rules, re-implemented), colmap (pycolmap two-view geometry on the same tracks), '
         'orbslam3 (the real ORB-SLAM3, from scripts/setup_orbslam3.sh) (default rules)',
     )
-    parser.add_argument(
-        '--orbslam3-venv',
-        type=Path,
-        default=None,
-        help='the ORB-SLAM3 venv (default $INITSEL_ORBSLAM3_VENV or ./.venv-orbslam3)',
-    )
-    parser.add_argument(
-        '--orbslam3-vocab',
-        type=Path,
-        default=None,
-        help='DBoW2 text vocabulary (default VENV/initsel_orbvoc.txt; see initsel orbvocab)',
-    )
-    parser.add_argument(
-        '--orbslam3-timeout',
-        type=float,
-        default=300.0,
-        metavar='S',
-        help='seconds per batch before ORB-SLAM3 counts as failed (default 300)',
-    )
+    options.add_orbslam3_options(parser)
     parser.add_argument(
         '--sensor-noise',
         type=float,
@@ -205,9 +186,7 @@ def baseline_options(args: argparse.Namespace):
     names = () if args.no_baselines else tuple(n for n in args.baselines.split(',') if n)
     setup = None
     if 'orbslam3' in names:
-        from initsel_ros.learn.real_baselines.orbslam3_runner import find_orbslam3
-
-        setup = find_orbslam3(args.orbslam3_venv, args.orbslam3_vocab, args.orbslam3_timeout)
+        setup = options.orbslam3_setup(args)
     if 'colmap' in names:
         try:
             import pycolmap  # noqa: F401

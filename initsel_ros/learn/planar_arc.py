@@ -8,7 +8,10 @@ machinery of :mod:`initsel_ros.learn.seedmap`: the live selector in mode 'once')
 - the oracle frame: the first frame whose homography estimate from the same tracks (the
   selector's tracker from the first frame, its points measured against the reference as the
   fire path reads them; the core's H estimate; where its decompositions are ambiguous, the
-  one nearest the ground truth) has E_t < :data:`ORACLE_E_T`.
+  one nearest the ground truth) has E_t < :data:`ORACLE_E_T`;
+- optionally the real ORB-SLAM3 on the same frames (``orbslam3``: the seed map's
+  ``ORB-SLAM3 (real)`` row, :func:`initsel_ros.learn.seedmap.run_orbslam3_batch`), judged at
+  its first initialization by the same bar (it publishes when it initializes).
 
 Sequences named ``rotation*`` or ``static*`` have no baseline: nothing may initialize there.
 Run it as ``initsel planar_arc SEQUENCE... --out-dir DIR`` (``scripts/planar_arc.sh``).
@@ -20,6 +23,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -28,11 +32,20 @@ from initsel_ros.geometry import (
     Method,
     estimate_pose,
 )
-from initsel_ros.learn.seedmap import NO_BASELINE_MARKERS, _Batch, _run_selector
+from initsel_ros.learn.seedmap import (
+    NO_BASELINE_MARKERS,
+    ORBSLAM3_REAL,
+    _Batch,
+    _run_selector,
+    run_orbslam3_batch,
+)
 from initsel_ros.metrics import relative_pose, translation_chordal_error
 from initsel_ros.models import ModelSet
 from initsel_ros.selector import SelectorConfig
 from initsel_ros.tracking import KltTracker
+
+if TYPE_CHECKING:
+    from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
 
 #: E_t below which the homography estimate counts as usable (the oracle frame's bar).
 ORACLE_E_T = 0.1
@@ -40,9 +53,13 @@ ORACLE_E_T = 0.1
 FRAMES_AFTER_ORACLE = 10
 
 
+#: The system name of the selector's rows.
+INITSEL = 'initsel'
+
+
 @dataclass(frozen=True)
 class ArcOutcome:
-    """One sequence of the family.
+    """One system's outcome on one sequence of the family.
 
     Attributes:
         sequence: its name.
@@ -53,6 +70,9 @@ class ArcOutcome:
         e_t: its translation direction error (NaN when none).
         rotation_deg: its rotation error, degrees (NaN when none).
         oracle_frame: the first frame with a homography estimate of E_t < 0.1 (NaN when none).
+        system: ``'initsel'`` or ``'ORB-SLAM3 (real)'``.
+        failed: the system crashed or timed out on this sequence (ORB-SLAM3 only).
+        detail: why it failed.
     """
 
     sequence: str
@@ -63,10 +83,15 @@ class ArcOutcome:
     e_t: float = math.nan
     rotation_deg: float = math.nan
     oracle_frame: float = math.nan
+    system: str = INITSEL
+    failed: bool = False
+    detail: str = ''
 
     @property
     def verdict(self) -> str:
         """'ok' when the outcome meets issue 20's bar for its kind, else why not."""
+        if self.failed:
+            return 'failed'
         if self.no_baseline:
             return 'initialized on a pan' if self.initialized else 'ok'
         if not math.isfinite(self.oracle_frame):
@@ -113,8 +138,14 @@ def oracle_frame(batch: _Batch, config: SelectorConfig) -> float:
     return math.nan
 
 
-def evaluate_arc(path: str, model_path: str, config: SelectorConfig) -> ArcOutcome:
-    """One sequence's outcome (a process-pool task: arguments are picklable)."""
+def evaluate_arc(
+    path: str,
+    model_path: str,
+    config: SelectorConfig,
+    orbslam3: Orbslam3Setup | None = None,
+) -> list[ArcOutcome]:
+    """One sequence's outcomes: the selector's, then the real ORB-SLAM3's when ``orbslam3``
+    is given (a process-pool task: arguments are picklable)."""
     from initsel_ros.datasets import open_sequence
 
     cv2.setNumThreads(1)
@@ -123,16 +154,36 @@ def evaluate_arc(path: str, model_path: str, config: SelectorConfig) -> ArcOutco
     no_baseline = any(m in batch.name.lower() for m in NO_BASELINE_MARKERS)
     selector = _run_selector(batch, ModelSet.load(model_path), config, 0.05)
     oracle = math.nan if no_baseline else oracle_frame(batch, config)
-    return ArcOutcome(
-        batch.name,
-        no_baseline,
-        selector.initialized,
-        selector.method,
-        selector.frames_to_publish,
-        selector.e_t,
-        selector.rotation_deg,
-        oracle,
-    )
+    outcomes = [
+        ArcOutcome(
+            batch.name,
+            no_baseline,
+            selector.initialized,
+            selector.method,
+            selector.frames_to_publish,
+            selector.e_t,
+            selector.rotation_deg,
+            oracle,
+        )
+    ]
+    if orbslam3 is not None:
+        orb = run_orbslam3_batch(batch, orbslam3)
+        outcomes.append(
+            ArcOutcome(
+                batch.name,
+                no_baseline,
+                orb.initialized,
+                orb.method,
+                orb.frames_to_publish,
+                orb.e_t,
+                orb.rotation_deg,
+                oracle,
+                ORBSLAM3_REAL,
+                orb.failed,
+                orb.detail,
+            )
+        )
+    return outcomes
 
 
 def evaluate_arcs(
@@ -140,17 +191,19 @@ def evaluate_arcs(
     model_path: Path | str,
     config: SelectorConfig | None = None,
     jobs: int = 1,
+    orbslam3: Orbslam3Setup | None = None,
 ) -> list[ArcOutcome]:
-    """:func:`evaluate_arc` on every sequence (in a process pool when ``jobs`` > 1)."""
+    """:func:`evaluate_arc` on every sequence (in a process pool when ``jobs`` > 1), the
+    outcomes of each sequence one after the other."""
     config = config or SelectorConfig()
-    args = [(str(p), str(model_path), config) for p in paths]
+    args = [(str(p), str(model_path), config, orbslam3) for p in paths]
     if jobs <= 1:
-        return [evaluate_arc(*a) for a in args]
+        return [o for a in args for o in evaluate_arc(*a)]
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context('spawn')) as pool:
-        return list(pool.map(evaluate_arc, *zip(*args, strict=True)))
+        return [o for outs in pool.map(evaluate_arc, *zip(*args, strict=True)) for o in outs]
 
 
 def _f(value: float, digits: int = 3) -> str:
@@ -168,25 +221,33 @@ def _noise(name: str) -> str:
 
 
 def arc_markdown(outcomes: Sequence[ArcOutcome]) -> str:
-    """The table: a summary per kind and noise level, then every sequence."""
-    groups: dict[tuple[str, str], list[ArcOutcome]] = {}
+    """The table: a summary per kind, noise level and system, then every sequence. The
+    system column appears when another system than the selector was run."""
+    systems = [INITSEL, *sorted({o.system for o in outcomes} - {INITSEL})]
+    several = len(systems) > 1
+    groups: dict[tuple[str, str, int], list[ArcOutcome]] = {}
     for o in outcomes:
-        groups.setdefault((_kind(o.sequence), _noise(o.sequence)), []).append(o)
+        key = (_kind(o.sequence), _noise(o.sequence), systems.index(o.system))
+        groups.setdefault(key, []).append(o)
+    system_head, system_rule = ('system | ', '---|') if several else ('', '')
     lines = [
-        '| sequences | noise, grey levels | runs | with an oracle frame | initialized | '
-        'median E_t | median rotation error, deg | median frame published | '
+        f'| sequences | noise, grey levels | {system_head}runs | with an oracle frame | '
+        'initialized | median E_t | median rotation error, deg | median frame published | '
         'median oracle frame | meet the bar |',
-        '|---|---|---|---|---|---|---|---|---|---|',
+        f'|---|---|{system_rule}---|---|---|---|---|---|---|---|',
     ]
-    for (kind, noise), sel in sorted(groups.items()):
+    for (kind, noise, system), sel in sorted(groups.items()):
         done = [o for o in sel if o.initialized]
 
         def median(values: list[float]) -> float:
             finite = [v for v in values if math.isfinite(v)]
             return float(np.median(finite)) if finite else math.nan
 
+        failed = sum(o.failed for o in sel)
+        runs = f'{len(sel)} ({failed} failed)' if failed else f'{len(sel)}'
+        system_cell = f'{systems[system]} | ' if several else ''
         lines.append(
-            f'| {kind} | {noise} | {len(sel)} | '
+            f'| {kind} | {noise} | {system_cell}{runs} | '
             f'{sum(math.isfinite(o.oracle_frame) for o in sel)} | {len(done)} | '
             f'{_f(median([o.e_t for o in done]))} | '
             f'{_f(median([o.rotation_deg for o in done]), 2)} | '
@@ -196,14 +257,17 @@ def arc_markdown(outcomes: Sequence[ArcOutcome]) -> str:
         )
     lines += [
         '',
-        '| sequence | method | frame published | E_t | rotation error, deg | oracle frame | '
-        'verdict |',
-        '|---|---|---|---|---|---|---|',
+        f'| sequence | {system_head}method | frame published | E_t | rotation error, deg | '
+        'oracle frame | verdict |',
+        f'|---|{system_rule}---|---|---|---|---|---|',
     ]
     for o in outcomes:
+        system_cell = f'{o.system} | ' if several else ''
+        method = o.method or ('H/F' if o.initialized else '-')  # ORB-SLAM3 reports no choice
+        verdict = f'{o.verdict}: {o.detail}' if o.failed and o.detail else o.verdict
         lines.append(
-            f'| {o.sequence} | {o.method or "-"} | {_f(o.frame, 0)} | {_f(o.e_t)} | '
-            f'{_f(o.rotation_deg, 2)} | {_f(o.oracle_frame, 0)} | {o.verdict} |'
+            f'| {o.sequence} | {system_cell}{method} | {_f(o.frame, 0)} | {_f(o.e_t)} | '
+            f'{_f(o.rotation_deg, 2)} | {_f(o.oracle_frame, 0)} | {verdict} |'
         )
     return '\n'.join(lines)
 
@@ -226,6 +290,7 @@ def write_outputs(outcomes: Sequence[ArcOutcome], out_dir: Path) -> str:
 
 __all__ = [
     'FRAMES_AFTER_ORACLE',
+    'INITSEL',
     'ORACLE_E_T',
     'ArcOutcome',
     'arc_markdown',

@@ -466,7 +466,7 @@ def _run_track_baselines(
     return [found.get(name, batch.missed(name)) for name in attempts]
 
 
-def _run_orbslam3(batch: _Batch, setup: Orbslam3Setup) -> BatchOutcome:
+def run_orbslam3_batch(batch: _Batch, setup: Orbslam3Setup) -> BatchOutcome:
     """The real ORB-SLAM3 on the batch's frames, judged at its first initialization."""
     from initsel_ros.learn.real_baselines.orbslam3_runner import run_orbslam3
 
@@ -516,7 +516,7 @@ def evaluate_batch(
     models = ModelSet.load(model_path)
     outcomes = [_run_selector(batch, models, config, tolerance)]
     if 'orbslam3' in options.baselines:
-        outcomes.append(_run_orbslam3(batch, options.orbslam3))
+        outcomes.append(run_orbslam3_batch(batch, options.orbslam3))
     outcomes += _run_track_baselines(batch, config, options.baselines)
     seed = options.noise_seed if options.sensor_noise > 0 else -1
     return [replace(o, noise_seed=seed) for o in outcomes]
@@ -703,6 +703,7 @@ __all__ = [
     'evaluate_batch',
     'evaluate_sequences',
     'outcomes_csv',
+    'run_orbslam3_batch',
     'summarize',
     'summary_markdown',
 ]
