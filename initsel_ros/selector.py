@@ -128,6 +128,13 @@ class SelectorConfig:
             running the fire path. 0 = never (and every yes runs the fire path).
         bit_depth: significant bits of 16-bit frames (8-16); 0 = automatic, per stream
             (:class:`~initsel_ros.image.BitDepth`; :meth:`Selector.reset` forgets it).
+        rotation_rereference_share: when a fire-path run finds a rotation at the noise level
+            (the rotation test's statistic at most half ``policy.min_rotation_residual_sigma``)
+            and at most this share of the reference's tracks is left, this frame becomes the
+            reference. A rotation keeps the camera centre, so no baseline is lost, and the new
+            reference holds the whole current view: on a pan the background leaves the image
+            while objects moving on their own can stay in it, until one rotation no longer
+            explains the third of the tracks the rotation test needs. 0 = never.
     """
 
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
@@ -140,6 +147,7 @@ class SelectorConfig:
     verify: VerifyConfig = field(default_factory=VerifyConfig)
     rotation_recheck_frames: int = 3
     bit_depth: int = 0
+    rotation_rereference_share: float = 0.7
 
     def __post_init__(self) -> None:
         if self.mode not in tuple(Mode):
@@ -152,6 +160,11 @@ class SelectorConfig:
             raise ConfigError('rotation_recheck_frames must be 0 (never) or more')
         if isinstance(self.bit_depth, bool) or self.bit_depth not in (0, *range(8, 17)):
             raise ConfigError(f'bit_depth must be 0 or 8 to 16, got {self.bit_depth!r}')
+        if not 0.0 <= self.rotation_rereference_share <= 1.0:
+            raise ConfigError(
+                'rotation_rereference_share must be within 0 (never) and 1, got '
+                f'{self.rotation_rereference_share!r}'
+            )
 
 
 @dataclass(frozen=True)
@@ -503,10 +516,35 @@ class Selector:
             self.tracker.reset(gray)
             self._reference_stamp_ns = stamp_ns
             result = replace(result, new_reference=True)
+        elif self._candidate is None and self._rotated_away(result):
+            left, had = self.tracker.n_tracks, self.tracker.reference_tracks
+            self.tracker.reset(gray)
+            self._reference_stamp_ns = stamp_ns
+            detail = (
+                f"{result.decision.detail}; {left} of the reference's {had} tracks are left and "
+                'the camera only rotated: this frame is the new reference (no baseline lost)'
+            )
+            result = replace(
+                result, new_reference=True, decision=replace(result.decision, detail=detail)
+            )
         elif self._candidate is None and self.config.rotation_recheck_frames > 0:
             due = self._schedule.next_run(self.config.rotation_recheck_frames)
             result = replace(result, fire_path_due_in=max(due - since, 0))
         return result
+
+    def _rotated_away(self, result: FrameResult) -> bool:
+        """This frame's fire-path run found a rotation at the noise level, and the view has
+        turned away from the reference: at most ``rotation_rereference_share`` of its tracks
+        are left (see :class:`SelectorConfig`)."""
+        share = self.config.rotation_rereference_share
+        test = result.rotation
+        return (
+            share > 0.0
+            and result.decision.reason is Reason.ROTATION
+            and test is not None
+            and test.statistic <= 0.5 * self.config.policy.min_rotation_residual_sigma
+            and self.tracker.n_tracks <= share * self.tracker.reference_tracks
+        )
 
     def _recheck_rotation(self, decision: Decision, since: int) -> bool:
         """Is this a frame on which the rotation test re-checks model R's veto?

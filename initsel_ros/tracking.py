@@ -178,6 +178,8 @@ class KltTracker:
         self._cur = np.zeros((0, 2), np.float32)
         self._ids = np.zeros(0, np.int64)
         self.frames_since_reference = 0
+        #: features detected in the reference frame (the tracks it started with)
+        self.reference_tracks = 0
         #: gain and bias mapping the last frame onto the reference brightness (gain_bias)
         self.last_gain_bias = (1.0, 0.0)
         self._gain_bias = (1.0, 0.0)
@@ -208,6 +210,7 @@ class KltTracker:
         self._ref = self._cur = np.zeros((0, 2), np.float32)
         self._ids = np.zeros(0, np.int64)
         self.frames_since_reference = 0
+        self.reference_tracks = 0
 
     def reset(self, gray: np.ndarray) -> int:
         """Make ``gray`` ((H, W) uint8) the reference frame; returns the features found."""
@@ -220,6 +223,7 @@ class KltTracker:
         self._cur = pts.copy()
         self._ids = np.arange(len(pts), dtype=np.int64)
         self.frames_since_reference = 0
+        self.reference_tracks = len(pts)
         return len(pts)
 
     def tracks(self) -> Tracks:

@@ -37,6 +37,7 @@ CORE_DEFAULTS = {
     'min_points': PolicyConfig().min_points,
     'min_parallax_deg': PolicyConfig().min_parallax_deg,
     'max_frames_since_reference': SelectorConfig().max_frames_since_reference,
+    'rotation_rereference_share': SelectorConfig().rotation_rereference_share,
     'mode': SelectorConfig().mode.value,
     'r_veto': [m for m in POSE_METHODS if m in PolicyConfig().r_veto],
     'refine': SelectorConfig().refine,

@@ -329,6 +329,15 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0, 1_000_000, integer=True),
     ),
     ParameterSpec(
+        'rotation_rereference_share',
+        _SELECTOR.rotation_rereference_share,
+        'when the rotation test finds a rotation at the noise level (at most half '
+        "min_rotation_residual_sigma) and at most this share of the reference frame's tracks "
+        "is left, the frame becomes the reference: a rotation loses no baseline, and a pan's "
+        'background leaves the image while objects moving on their own stay (0 = never)',
+        Number(0.0, 1.0),
+    ),
+    ParameterSpec(
         'mode',
         _SELECTOR.mode.value,
         "'once': initialize once until ~/reset; 'continuous': start over after each",
@@ -472,6 +481,7 @@ class NodeSettings:
     max_translation_sigma_deg: float
     max_frames_since_reference: int
     rotation_recheck_frames: int
+    rotation_rereference_share: float
     mode: Mode
     refine: bool
     snap_to_plane: bool
@@ -572,6 +582,7 @@ class NodeSettings:
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
             rotation_recheck_frames=self.rotation_recheck_frames,
+            rotation_rereference_share=self.rotation_rereference_share,
             refine=self.refine,
             snap_to_plane=self.snap_to_plane,
             verify=VerifyConfig(
