@@ -114,3 +114,22 @@ def _config():
     from initsel_ros.selector import SelectorConfig
 
     return SelectorConfig()
+
+
+def test_planar_arc_with_orbslam3_and_no_venv_is_a_clear_error(tmp_path, capsys):
+    from initsel_ros.cli import main
+
+    code = main(
+        [
+            'planar_arc',
+            str(tmp_path / 'rotation_pan_n0_s0'),
+            '--out-dir',
+            str(tmp_path / 'out'),
+            '--orbslam3',
+            '--orbslam3-venv',
+            str(tmp_path / 'no-venv'),
+        ]
+    )
+    assert code == 2
+    assert 'setup_orbslam3.sh' in capsys.readouterr().err
+    assert not (tmp_path / 'out' / 'planar_arc.md').exists()
