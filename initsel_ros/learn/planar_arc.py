@@ -34,7 +34,6 @@ from initsel_ros.geometry import (
 )
 from initsel_ros.learn.seedmap import (
     NO_BASELINE_MARKERS,
-    ORBSLAM3_REAL,
     _Batch,
     _run_selector,
     run_orbslam3_batch,
@@ -152,38 +151,26 @@ def evaluate_arc(
     sequence = open_sequence(path)
     batch = _Batch(sequence, 0, len(sequence))
     no_baseline = any(m in batch.name.lower() for m in NO_BASELINE_MARKERS)
-    selector = _run_selector(batch, ModelSet.load(model_path), config, 0.05)
     oracle = math.nan if no_baseline else oracle_frame(batch, config)
-    outcomes = [
+    runs = [_run_selector(batch, ModelSet.load(model_path), config, 0.05)]
+    if orbslam3 is not None:
+        runs.append(run_orbslam3_batch(batch, orbslam3))
+    return [
         ArcOutcome(
             batch.name,
             no_baseline,
-            selector.initialized,
-            selector.method,
-            selector.frames_to_publish,
-            selector.e_t,
-            selector.rotation_deg,
+            run.initialized,
+            run.method,
+            run.frames_to_publish,
+            run.e_t,
+            run.rotation_deg,
             oracle,
+            run.system,
+            run.failed,
+            run.detail,
         )
+        for run in runs
     ]
-    if orbslam3 is not None:
-        orb = run_orbslam3_batch(batch, orbslam3)
-        outcomes.append(
-            ArcOutcome(
-                batch.name,
-                no_baseline,
-                orb.initialized,
-                orb.method,
-                orb.frames_to_publish,
-                orb.e_t,
-                orb.rotation_deg,
-                oracle,
-                ORBSLAM3_REAL,
-                orb.failed,
-                orb.detail,
-            )
-        )
-    return outcomes
 
 
 def evaluate_arcs(
