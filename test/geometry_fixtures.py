@@ -42,6 +42,22 @@ def two_view(
     return p0, p1, R, t / np.linalg.norm(t), X / np.linalg.norm(t)
 
 
+def pan(
+    n: int = 200, seed: int = 3, noise_px: float = 0.2, both_views: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Correspondences of a camera turning 2 degrees on the spot (any depths), with
+    ``noise_px`` of tracking noise in the second view (in both with ``both_views``)."""
+    rng = np.random.default_rng(seed)
+    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
+    R = cv2.Rodrigues(np.array([0.0, np.radians(2.0), 0.0]))[0]
+    rays = np.column_stack([p0, np.ones(n)]) @ np.linalg.inv(K).T
+    proj = rays @ (K @ R).T
+    p1 = proj[:, :2] / proj[:, 2:3]
+    if both_views:
+        p0 = p0 + rng.normal(0, noise_px, (n, 2))
+    return p0, p1 + rng.normal(0, noise_px, (n, 2))
+
+
 def poster_off_centre(
     baseline: float = 0.02, n: int = 300, noise_px: float = 0.15, seed: int = 4
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -290,18 +290,8 @@ def test_a_decomposition_whose_plane_leaves_its_points_behind_a_camera_is_no_riv
     assert part.alternative is not None
 
 
-def _pan_pixels(seed: int, noise_px: float, n: int = 250) -> tuple[np.ndarray, np.ndarray]:
-    """A camera turning 2 degrees on the spot, ``noise_px`` of tracking noise in each view."""
-    rng = np.random.default_rng(seed)
-    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
-    R = cv2.Rodrigues(np.array([0.0, np.radians(2.0), 0.0]))[0]
-    proj = (np.column_stack([p0, np.ones(n)]) @ np.linalg.inv(K).T) @ (K @ R).T
-    p1 = proj[:, :2] / proj[:, 2:3]
-    return p0 + rng.normal(0, noise_px, (n, 2)), p1 + rng.normal(0, noise_px, (n, 2))
-
-
 def test_the_tracking_noise_holds_on_planes_and_pans_where_f_is_degenerate():
-    from geometry_fixtures import two_view
+    from geometry_fixtures import pan, two_view
 
     from initsel_ros.geometry import _fundamental_noise_px, tracking_noise_px
 
@@ -310,7 +300,7 @@ def test_the_tracking_noise_holds_on_planes_and_pans_where_f_is_degenerate():
     # high (0.28-0.45 px); a homography fits both, and the estimate stays within 15 %.
     sigma = 0.3
     draws = [two_view(planar=True, baseline=0.03, noise_px=sigma, seed=s)[:2] for s in range(30)]
-    draws += [_pan_pixels(s, sigma) for s in range(30)]
+    draws += [pan(250, s, sigma, both_views=True) for s in range(30)]
     from_f = np.array([_fundamental_noise_px(a, b) for a, b in draws])
     noise = np.array([tracking_noise_px(a, b) for a, b in draws])
     assert from_f.max() > 1.3 * sigma
@@ -320,6 +310,6 @@ def test_the_tracking_noise_holds_on_planes_and_pans_where_f_is_degenerate():
         a, b, *_ = two_view(planar=False, noise_px=sigma, seed=seed)
         assert tracking_noise_px(a, b) == _fundamental_noise_px(a, b)
     # The floor, and no estimate at all where no model is found.
-    a, b = _pan_pixels(0, 0.0)
+    a, b = pan(250, 0, 0.0, both_views=True)
     assert tracking_noise_px(a, b, min_noise_px=0.1) == 0.1
     assert np.isnan(tracking_noise_px(a[:3], b[:3]))

@@ -7,7 +7,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 import pytest
-from geometry_fixtures import K, two_view
+from geometry_fixtures import K, pan, two_view
 
 from initsel_ros.geometry import Method, rotation_only_residual_px
 from initsel_ros.initialize import FireConfig, fire_methods, initialize_pair
@@ -15,19 +15,8 @@ from initsel_ros.metrics import translation_chordal_error
 from initsel_ros.policy import Decision, PolicyConfig, Reason
 
 
-def _pan(n: int = 200, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """Correspondences of a camera turning 2 degrees on the spot (any depths)."""
-    rng = np.random.default_rng(seed)
-    p0 = np.column_stack([rng.uniform(20, 620, n), rng.uniform(20, 460, n)])
-    R = cv2.Rodrigues(np.array([0.0, np.radians(2.0), 0.0]))[0]
-    rays = np.column_stack([p0, np.ones(n)]) @ np.linalg.inv(K).T
-    proj = rays @ (K @ R).T
-    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 0.2, (n, 2))
-    return p0, p1
-
-
 def test_a_rotation_stops_the_path_before_any_estimate():
-    p0, p1 = _pan()
+    p0, p1 = pan()
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H))
     assert fire.reason is Reason.ROTATION
     assert fire.estimates == () and fire.seed is None
@@ -204,7 +193,7 @@ def test_an_ambiguous_h_waits_while_its_runner_up_has_no_seed_map_to_follow(monk
 
 def test_a_pan_is_a_rotation_when_boards_moving_on_their_own_hold_more_than_half_the_tracks():
     # Textured boards attract many corners: here 55 % of the tracks move with them.
-    p0, p1 = _pan(n=300)
+    p0, p1 = pan(n=300)
     board = np.arange(300) < 165
     rng = np.random.default_rng(8)
     p1[board] = p0[board] + np.array([9.0, -4.0]) + 0.02 * (p0[board] - 320) @ [[0, 1], [-1, 0]]
@@ -241,7 +230,7 @@ def _board_scene(camera: str, n: int, share: float, seed: int):
     if camera == 'still':
         background = p0 + rng.normal(0, 0.2, (n, 2))
     else:
-        p0, background = _pan(n=n, seed=seed)
+        p0, background = pan(n=n, seed=seed)
     p1, board = _board_in_front_of(p0, background, share, seed=seed + 1)
     return p0, p1, board
 
