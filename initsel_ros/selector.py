@@ -509,28 +509,27 @@ class Selector:
         if result.initialization is not None:
             self.initialized = self.config.mode is Mode.ONCE
             if self.config.mode is Mode.CONTINUOUS:  # re-anchor on the initializing frame
-                self.tracker.reset(gray)
-                self._reference_stamp_ns = stamp_ns
-                result = replace(result, new_reference=True)
+                result = self._reanchor(result, gray, stamp_ns)
         elif since >= self.config.max_frames_since_reference and self._candidate is None:
-            self.tracker.reset(gray)
-            self._reference_stamp_ns = stamp_ns
-            result = replace(result, new_reference=True)
+            result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and self._rotated_away(result):
-            left, had = self.tracker.n_tracks, self.tracker.reference_tracks
-            self.tracker.reset(gray)
-            self._reference_stamp_ns = stamp_ns
             detail = (
-                f"{result.decision.detail}; {left} of the reference's {had} tracks are left and "
-                'the camera only rotated: this frame is the new reference (no baseline lost)'
+                f"{result.decision.detail}; {self.tracker.n_tracks} of the reference's "
+                f'{self.tracker.reference_tracks} tracks are left and the camera only rotated: '
+                'this frame is the new reference (no baseline lost)'
             )
-            result = replace(
-                result, new_reference=True, decision=replace(result.decision, detail=detail)
-            )
+            result = replace(result, decision=replace(result.decision, detail=detail))
+            result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and self.config.rotation_recheck_frames > 0:
             due = self._schedule.next_run(self.config.rotation_recheck_frames)
             result = replace(result, fire_path_due_in=max(due - since, 0))
         return result
+
+    def _reanchor(self, result: FrameResult, gray: np.ndarray, stamp_ns: int) -> FrameResult:
+        """Make this frame, already decided on, the reference; ``result`` says so."""
+        self.tracker.reset(gray)
+        self._reference_stamp_ns = stamp_ns
+        return replace(result, new_reference=True)
 
     def _rotated_away(self, result: FrameResult) -> bool:
         """This frame's fire-path run found a rotation at the noise level, and the view has
