@@ -13,7 +13,7 @@
 # Renders are kept in DATA_DIR (default /tmp/initsel-planar-arc) and reused; OUT_DIR (default
 # DATA_DIR/out/SET) gets planar_arc.md and planar_arc.csv. About 10 minutes per set here.
 # Options after OUT_DIR go to initsel planar_arc: --orbslam3 adds the real ORB-SLAM3's rows
-# (its venv and vocabulary are set up first when absent; about 5 s more per sequence).
+# (its venv and vocabulary are set up first when absent; about 2 s more per 70-frame sequence here).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
