@@ -2,12 +2,13 @@
 # The planar-arc family of issue 20: planes seen from sideways arcs and slides, and the pans,
 # moving boards and miscalibrated pans that must not initialize; render, evaluate, write
 # the table (docs/initialization.md, "Planes from a sideways arc").
-#   scripts/planar_arc.sh tune|accept|holdout|movers [DATA_DIR] [OUT_DIR] [initsel planar_arc options]
+#   scripts/planar_arc.sh tune|accept|holdout|holdout2|movers [DATA_DIR] [OUT_DIR] [initsel planar_arc options]
 #   scripts/planar_arc.sh render-tune|render-holdout [DATA_DIR]     (renders only)
 # tune renders seeds 0-4 (what the rotation test was tuned on, and what the distilled models
 # of scripts/train_models.sh imitate their teacher on), accept seeds 5-9 (held out; issue 20's
 # acceptance set), holdout seeds 10-14 (a second held-out set, added on 2026-12-05 after the
-# acceptance seeds had been read in failure traces: evaluated, never traced); movers renders
+# acceptance seeds had been read in failure traces: evaluated, never traced), holdout2 seeds
+# 45-49 (a third, added on 2026-12-05 after holdout seed 12's pan had been traced); movers renders
 # only the pans and still cameras with two moving boards, seeds 15-44 (a stress set of its own:
 # 30 of each kind, where the other sets hold 5).
 # Renders are kept in DATA_DIR (default /tmp/initsel-planar-arc) and reused; OUT_DIR (default
@@ -19,7 +20,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
     exec "$root/scripts/run.sh" bash "$root/scripts/planar_arc.sh" "$@"
 fi
-set_name=${1:?usage: scripts/planar_arc.sh tune|accept|holdout|movers [DATA_DIR] [OUT_DIR]}
+set_name=${1:?usage: scripts/planar_arc.sh tune|accept|holdout|holdout2|movers [DATA_DIR] [OUT_DIR]}
 render_only=0
 movers_only=0
 case "$set_name" in
@@ -27,9 +28,10 @@ case "$set_name" in
     render-tune) seeds="0 1 2 3 4"; render_only=1 ;;
     accept) seeds="5 6 7 8 9" ;;
     holdout) seeds="10 11 12 13 14" ;;
+    holdout2) seeds="45 46 47 48 49" ;;
     render-holdout) seeds="10 11 12 13 14"; render_only=1 ;;
     movers) seeds=$(seq 15 44); movers_only=1 ;;
-    *) echo "unknown set $set_name: tune, accept, holdout, movers, render-tune or render-holdout" >&2
+    *) echo "unknown set $set_name: tune, accept, holdout, holdout2, movers, render-tune or render-holdout" >&2
         exit 2 ;;
 esac
 D=${2:-/tmp/initsel-planar-arc}
