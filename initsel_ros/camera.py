@@ -1,8 +1,15 @@
-"""Pinhole camera intrinsics (with optional distortion) and their file form."""
+"""Pinhole camera intrinsics (with optional distortion) and their file form.
+
+Two lens models, named as ROS's ``sensor_msgs/CameraInfo`` names them:
+
+* ``plumb_bob`` / ``rational_polynomial``: OpenCV's standard model (k1 k2 p1 p2 [k3 ...]);
+* ``equidistant``: the fisheye (Kannala-Brandt) model of ``cv2.fisheye``, k1 k2 k3 k4.
+"""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,11 +28,24 @@ TUM_FR3 = {'fx': 535.4, 'fy': 539.2, 'cx': 320.1, 'cy': 247.6, 'width': 640, 'he
 #: Numbers of distortion coefficients OpenCV accepts (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4
 #: [tx ty]]]]); 0 = none. Any other length makes ``cv2.undistortPoints`` fail on every frame.
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
+#: The fisheye (equidistant) model's coefficients: k1 k2 k3 k4.
+FISHEYE_LENGTH = 4
+#: ``CameraInfo.distortion_model`` names of the standard model and of the fisheye one.
+STANDARD_MODELS = ('plumb_bob', 'rational_polynomial')
+FISHEYE_MODEL = 'equidistant'
+#: Past this angle off the optical axis a track's undistorted (pinhole) pixel lies more than
+#: 5.7 focal lengths from the centre, and at 90 degrees at infinity: tracks there carry little
+#: geometry and, beyond 90 degrees, none (a fisheye's undistortion returns nonsense).
+MAX_FIELD_ANGLE_DEG = 80.0
 
 
 @dataclass(frozen=True)
 class Intrinsics:
-    """Pinhole intrinsics in pixels, image size in pixels, OpenCV distortion coefficients."""
+    """Pinhole intrinsics in pixels, image size in pixels, OpenCV distortion coefficients.
+
+    ``fisheye``: ``distortion`` holds the k1 k2 k3 k4 of the equidistant (Kannala-Brandt)
+    model (``cv2.fisheye``; ROS ``equidistant``) instead of OpenCV's standard model.
+    """
 
     fx: float
     fy: float
@@ -34,6 +54,7 @@ class Intrinsics:
     width: int
     height: int
     distortion: tuple[float, ...] = field(default=())
+    fisheye: bool = False
 
     def __post_init__(self) -> None:
         values = (self.fx, self.fy, self.cx, self.cy, *self.distortion)
@@ -43,7 +64,7 @@ class Intrinsics:
             raise ConfigError(f'focal lengths must be positive, got fx={self.fx} fy={self.fy}')
         if self.width <= 0 or self.height <= 0:
             raise ConfigError(f'image size must be positive, got {self.width}x{self.height}')
-        check_distortion(self.distortion)
+        check_distortion(self.distortion, self.fisheye)
         for name, c, size in (('cx', self.cx, self.width), ('cy', self.cy, self.height)):
             if not 0 <= c <= size:
                 raise ConfigError(
@@ -68,7 +89,7 @@ class Intrinsics:
             other.cy,
             other.width,
             other.height,
-        ) and _effective(self.distortion) == _effective(other.distortion)
+        ) and _effective(self) == _effective(other)
 
     @classmethod
     def tum_fr3(cls) -> Intrinsics:
@@ -77,7 +98,12 @@ class Intrinsics:
 
     @classmethod
     def from_matrix(
-        cls, K: np.ndarray, width: int, height: int, distortion: tuple[float, ...] = ()
+        cls,
+        K: np.ndarray,
+        width: int,
+        height: int,
+        distortion: tuple[float, ...] = (),
+        fisheye: bool = False,
     ) -> Intrinsics:
         """Build from a (3, 3) camera matrix."""
         K = np.asarray(K, dtype=float).reshape(3, 3)
@@ -89,7 +115,29 @@ class Intrinsics:
             int(width),
             int(height),
             tuple(float(d) for d in distortion),
+            bool(fisheye),
         )
+
+    @classmethod
+    def from_camera_info(
+        cls, K: np.ndarray, width: int, height: int, d: Sequence[float], distortion_model: str
+    ) -> Intrinsics:
+        """Build from the fields of a ``sensor_msgs/CameraInfo`` (ROS 1 or 2): K, size, D and
+        the distortion model's name (see :func:`lens_from_camera_info`).
+
+        Raises:
+            ConfigError: bad intrinsics, or a distortion model or D this package cannot use.
+        """
+        distortion, fisheye = lens_from_camera_info(distortion_model, d)
+        return cls.from_matrix(K, width, height, distortion, fisheye)
+
+    @property
+    def distortion_model(self) -> str:
+        """The ``CameraInfo.distortion_model`` name of this lens: ``equidistant`` for a
+        fisheye, else ``plumb_bob`` (up to 5 coefficients) or ``rational_polynomial``."""
+        if self.fisheye:
+            return FISHEYE_MODEL
+        return STANDARD_MODELS[len(self.distortion) > 5]
 
     @property
     def pinhole(self) -> tuple[float, float, float, float]:
@@ -103,8 +151,8 @@ class Intrinsics:
 
     @property
     def has_distortion(self) -> bool:
-        """True when any distortion coefficient is non-zero."""
-        return any(d != 0.0 for d in self.distortion)
+        """True for a fisheye lens and when any coefficient is non-zero."""
+        return self.fisheye or any(d != 0.0 for d in self.distortion)
 
     def undistort_pixels(self, pixels: np.ndarray) -> np.ndarray:
         """(N, 2) float32 pixels with this camera's lens distortion removed (same K).
@@ -117,21 +165,73 @@ class Intrinsics:
         import cv2
 
         K = self.K
-        out = cv2.undistortPoints(
-            pts.reshape(-1, 1, 2), K, np.asarray(self.distortion, dtype=np.float64), P=K
-        )
+        undistort = cv2.fisheye.undistortPoints if self.fisheye else cv2.undistortPoints
+        out = undistort(pts.reshape(-1, 1, 2), K, self.lens_coefficients, P=K)
         return out.reshape(-1, 2).astype(np.float32)
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """(N, 2) float64 pixels of camera-frame points (N, 3), through this lens (the inverse
+        of :meth:`undistort_pixels` on their pinhole pixels; z must be positive)."""
+        import cv2
+
+        X = np.asarray(points, dtype=np.float64).reshape(-1, 1, 3)
+        if len(X) == 0:
+            return np.zeros((0, 2))
+        coefficients = self.lens_coefficients
+        project = cv2.fisheye.projectPoints if self.fisheye else cv2.projectPoints
+        pixels, _ = project(X, np.zeros(3), np.zeros(3), self.K, coefficients)
+        return pixels.reshape(-1, 2)
+
+    @property
+    def corner_field_angle_deg(self) -> float:
+        """The largest angle off the optical axis of the image corners' rays, degrees (90 when
+        a corner lies at or beyond the pinhole's horizon, as past a fisheye's 180 degrees)."""
+        corners = np.array(
+            [[0.0, 0.0], [self.width, 0.0], [0.0, self.height], [self.width, self.height]]
+        )
+        if self.fisheye:  # the inverse of theta_d = theta (1 + k1 theta^2 + ...), monotone
+            theta_d = np.hypot(
+                (corners[:, 0] - self.cx) / self.fx, (corners[:, 1] - self.cy) / self.fy
+            )
+            k = (*self.distortion, 0.0, 0.0, 0.0, 0.0)[:FISHEYE_LENGTH]
+            theta = np.linspace(0.0, math.pi / 2, 9001)
+            along = theta * (1 + sum(c * theta ** (2 * i + 2) for i, c in enumerate(k)))
+            reached = along[-1] >= theta_d.max()
+            if not reached or not np.all(np.diff(along) > 0):
+                return 90.0
+            return float(np.degrees(np.interp(theta_d.max(), along, theta)))
+        ideal = self.undistort_pixels(corners).astype(np.float64)
+        r = np.hypot((ideal[:, 0] - self.cx) / self.fx, (ideal[:, 1] - self.cy) / self.fy)
+        return float(np.degrees(np.arctan(r.max()))) if np.all(np.isfinite(r)) else 90.0
+
+    @property
+    def lens_coefficients(self) -> np.ndarray | None:
+        """The coefficients as OpenCV's functions of this lens take them: (4,) for a fisheye
+        (zeros when none are given), else the standard model's, or None without distortion."""
+        if self.fisheye:
+            return np.asarray(self.distortion or (0.0,) * FISHEYE_LENGTH, dtype=np.float64)
+        return np.asarray(self.distortion, dtype=np.float64) if self.has_distortion else None
 
     def scaled(self, width: int, height: int) -> Intrinsics:
         """The same camera for an image resized to ``width`` x ``height``."""
         sx, sy = width / self.width, height / self.height
         return Intrinsics(
-            self.fx * sx, self.fy * sy, self.cx * sx, self.cy * sy, width, height, self.distortion
+            self.fx * sx,
+            self.fy * sy,
+            self.cx * sx,
+            self.cy * sy,
+            width,
+            height,
+            self.distortion,
+            self.fisheye,
         )
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-data form (for YAML/JSON)."""
-        return asdict(self) | {'distortion': list(self.distortion)}
+        """Plain-data form (for YAML/JSON); ``fisheye`` only when set."""
+        data = asdict(self) | {'distortion': list(self.distortion)}
+        if not self.fisheye:
+            del data['fisheye']
+        return data
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = '<dict>') -> Intrinsics:
@@ -145,11 +245,12 @@ class Intrinsics:
                 int(data['width']),
                 int(data['height']),
                 tuple(float(d) for d in data.get('distortion', []) or []),
+                _flag(data.get('fisheye', False)),
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise ConfigError(
                 f'{source}: intrinsics need fx, fy, cx, cy, width, height '
-                f'(and optional distortion): {exc}'
+                f'(and optional distortion, fisheye: true|false): {exc}'
             ) from exc
 
     def save_yaml(self, path: Path) -> None:
@@ -173,11 +274,18 @@ class Intrinsics:
         return cls.from_dict(data, source=str(path))
 
 
-def check_distortion(distortion: tuple[float, ...] | list[float]) -> None:
-    """Raise ConfigError unless OpenCV accepts this many coefficients (or all are zero).
-
-    All-zero vectors of any length mean "no distortion" and pass.
+def check_distortion(distortion: tuple[float, ...] | list[float], fisheye: bool = False) -> None:
+    """Raise ConfigError unless OpenCV accepts this many coefficients: 0, 4, 5, 8, 12 or 14
+    for the standard model (all-zero vectors of any length mean "no distortion" and pass),
+    0 or 4 for the fisheye one (0: k1 to k4 all zero, a pure f-theta lens).
     """
+    if fisheye:
+        if len(distortion) not in (0, FISHEYE_LENGTH):
+            raise ConfigError(
+                f'{len(distortion)} distortion coefficients {list(distortion)}: the fisheye '
+                f'(equidistant) model takes {FISHEYE_LENGTH} (k1 k2 k3 k4)'
+            )
+        return
     if len(distortion) not in DISTORTION_LENGTHS and any(d != 0.0 for d in distortion):
         raise ConfigError(
             f'{len(distortion)} distortion coefficients {list(distortion)}: OpenCV needs '
@@ -185,9 +293,50 @@ def check_distortion(distortion: tuple[float, ...] | list[float]) -> None:
         )
 
 
-def _effective(distortion: tuple[float, ...]) -> tuple[float, ...]:
-    """Distortion without trailing zeros (so (), (0, 0, 0, 0, 0) and (k1, 0, 0, 0) compare)."""
-    values = list(distortion)
+def lens_from_camera_info(
+    distortion_model: str, d: Sequence[float]
+) -> tuple[tuple[float, ...], bool]:
+    """(coefficients, fisheye) of a ``CameraInfo``'s ``distortion_model`` and ``D``.
+
+    ``plumb_bob`` and ``rational_polynomial`` (and an empty name) are OpenCV's standard
+    model, where an all-zero or empty ``D`` means no distortion. ``equidistant`` is its
+    fisheye model, a lens even with k1 to k4 all zero (f-theta, not a pinhole). Another
+    name passes only with an all-zero ``D``.
+
+    Raises:
+        ConfigError: non-finite coefficients, a count the model cannot take, or another
+            model name with non-zero coefficients (they would be misread).
+    """
+    distortion = tuple(float(v) for v in d)
+    if not all(math.isfinite(v) for v in distortion):
+        raise ConfigError(f'non-finite distortion {list(distortion)}')
+    model = str(distortion_model)
+    if model == FISHEYE_MODEL:
+        distortion = distortion if any(distortion) else (0.0,) * FISHEYE_LENGTH
+        check_distortion(distortion, fisheye=True)
+        return distortion, True
+    if not any(distortion):
+        return (), False
+    if model not in (*STANDARD_MODELS, ''):
+        raise ConfigError(
+            f'distortion model {model!r} is not supported '
+            f'({", ".join((*STANDARD_MODELS, FISHEYE_MODEL))})'
+        )
+    check_distortion(distortion)
+    return distortion, False
+
+
+def _flag(value: Any) -> bool:
+    """A YAML/JSON boolean (true/false), not any truthy value."""
+    if not isinstance(value, bool):
+        raise ValueError(f'fisheye must be true or false, got {value!r}')
+    return value
+
+
+def _effective(camera: Intrinsics) -> tuple[bool, tuple[float, ...]]:
+    """The lens with its coefficients' trailing zeros dropped (so (), (0, 0, 0, 0, 0) and
+    (k1, 0, 0, 0) compare)."""
+    values = list(camera.distortion)
     while values and values[-1] == 0.0:
         values.pop()
-    return tuple(values)
+    return (camera.fisheye, tuple(values))

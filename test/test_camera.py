@@ -1,11 +1,15 @@
-"""Tests for initsel_ros.camera: undistorting pixels."""
+"""Tests for initsel_ros.camera: undistorting pixels, the standard and the fisheye lens."""
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
+import pytest
 
-from initsel_ros.camera import Intrinsics
+from initsel_ros.camera import Intrinsics, lens_from_camera_info
+from initsel_ros.errors import ConfigError
 
 
 def test_undistort_pixels_inverts_the_opencv_distortion_model():
@@ -22,3 +26,89 @@ def test_undistort_pixels_inverts_the_opencv_distortion_model():
     plain = Intrinsics.tum_fr3()
     assert np.array_equal(plain.undistort_pixels(ideal), ideal.astype(np.float32))
     assert camera.undistort_pixels(np.zeros((0, 2))).shape == (0, 2)
+
+
+def _fisheye(distortion=(0.05, -0.01, 0.004, -0.001)) -> Intrinsics:
+    """A 640x480 fisheye whose image corners see 60 degrees off the axis (f-theta)."""
+    f = 400.0 / math.radians(60.0)
+    return Intrinsics(f, f, 320.0, 240.0, 640, 480, distortion, fisheye=True)
+
+
+def test_undistort_pixels_inverts_the_fisheye_model():
+    camera = _fisheye()
+    rng = np.random.default_rng(1)
+    rays = np.column_stack([rng.uniform(-1.2, 1.2, (200, 2)), np.ones(200)])
+    distorted, _ = cv2.fisheye.projectPoints(
+        rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), camera.K, np.array(camera.distortion)
+    )
+    ideal = rays[:, :2] @ np.diag([camera.fx, camera.fy]) + [camera.cx, camera.cy]
+    out = camera.undistort_pixels(distorted.reshape(-1, 2))
+    assert out.dtype == np.float32 and out.shape == (200, 2)
+    assert np.max(np.abs(out - ideal)) < 0.05
+    # read as OpenCV's standard model, the same four numbers give other pixels
+    standard = Intrinsics(*camera.pinhole, 640, 480, camera.distortion)
+    assert np.max(np.abs(standard.undistort_pixels(distorted.reshape(-1, 2)) - ideal)) > 20
+
+
+def test_a_fisheye_with_zero_coefficients_is_an_f_theta_lens_not_a_pinhole():
+    camera = _fisheye(())
+    assert camera.has_distortion and camera.distortion_model == 'equidistant'
+    theta = math.radians(45.0)
+    corner = np.array([[camera.cx + camera.fx * theta, camera.cy]])  # f-theta: r = f theta
+    expected = camera.cx + camera.fx * math.tan(theta)  # pinhole: r = f tan(theta)
+    assert abs(camera.undistort_pixels(corner)[0, 0] - expected) < 0.01
+
+
+@pytest.mark.parametrize(
+    ('model', 'd', 'expected'),
+    [
+        ('plumb_bob', [0.0] * 5, ((), False)),
+        ('', [], ((), False)),
+        ('plumb_bob', [0.1, 0.0, 0.0, 0.0, 0.0], ((0.1, 0.0, 0.0, 0.0, 0.0), False)),
+        ('rational_polynomial', [0.1] * 8, ((0.1,) * 8, False)),
+        ('equidistant', [0.1, 0.0, 0.0, 0.0], ((0.1, 0.0, 0.0, 0.0), True)),
+        ('equidistant', [0.0] * 4, ((0.0,) * 4, True)),
+        ('equidistant', [], ((0.0,) * 4, True)),
+        ('fov', [0.0], ((), False)),  # no coefficients to misread
+    ],
+)
+def test_lens_from_camera_info(model, d, expected):
+    assert lens_from_camera_info(model, d) == expected
+
+
+@pytest.mark.parametrize(
+    ('model', 'd', 'match'),
+    [
+        ('fov', [0.9], "model 'fov' is not supported"),
+        ('equidistant', [0.1, 0.0, 0.0, 0.0, 0.0], r'fisheye .equidistant. model takes 4'),
+        ('plumb_bob', [0.1, 0.0, 0.0], 'OpenCV needs 4, 5, 8, 12, 14'),
+        ('plumb_bob', [math.nan, 0, 0, 0], 'non-finite'),
+    ],
+)
+def test_lens_from_camera_info_refuses_what_it_would_misread(model, d, match):
+    with pytest.raises(ConfigError, match=match):
+        lens_from_camera_info(model, d)
+
+
+def test_fisheye_intrinsics_round_trip_through_their_file_form(tmp_path):
+    camera = _fisheye()
+    camera.save_yaml(tmp_path / 'intrinsics.yaml')
+    assert 'fisheye: true' in (tmp_path / 'intrinsics.yaml').read_text()
+    assert Intrinsics.load_yaml(tmp_path / 'intrinsics.yaml') == camera
+    assert 'fisheye' not in Intrinsics.tum_fr3().to_dict()  # older readers see no new key
+    assert camera.scaled(320, 240).fisheye
+    standard = Intrinsics(*camera.pinhole, 640, 480, camera.distortion)
+    assert not camera.same_camera(standard) and camera.same_camera(camera.scaled(640, 480))
+    with pytest.raises(ConfigError, match='fisheye must be true or false'):
+        Intrinsics.from_dict({**camera.to_dict(), 'fisheye': 'yes'})
+    with pytest.raises(ConfigError, match=r'fisheye .equidistant. model takes 4'):
+        Intrinsics(*camera.pinhole, 640, 480, (0.1, 0.0, 0.0, 0.0, 0.0), fisheye=True)
+
+
+def test_the_corner_field_angle_tells_a_lens_past_its_pinhole_horizon():
+    assert Intrinsics.tum_fr3().corner_field_angle_deg == pytest.approx(37.0, abs=0.1)
+    assert _fisheye(()).corner_field_angle_deg == pytest.approx(60.0, abs=0.01)
+    wide = Intrinsics(200.0, 200.0, 320.0, 240.0, 640, 480, (), fisheye=True)  # 115 degrees
+    assert wide.corner_field_angle_deg == 90.0
+    barrel = Intrinsics(535.4, 539.2, 320.1, 247.6, 640, 480, (-0.15, 0.05, 5e-4, -5e-4))
+    assert barrel.corner_field_angle_deg > Intrinsics.tum_fr3().corner_field_angle_deg

@@ -156,6 +156,18 @@ def test_camera_info_round_trips_intrinsics_and_distortion():
     assert conv.camera_info_to_intrinsics(msg) == rational
 
 
+def test_camera_info_round_trips_a_fisheye_lens_as_equidistant():
+    fisheye = Intrinsics(380.0, 380.0, 320.0, 240.0, 640, 480, (0.05, -0.01, 0.0, 0.0), True)
+    msg = conv.intrinsics_to_camera_info(fisheye)
+    assert msg.distortion_model == 'equidistant' and list(msg.d) == [0.05, -0.01, 0.0, 0.0]
+    assert conv.camera_info_to_intrinsics(msg) == fisheye
+    msg.d = [0.0] * 4  # still a fisheye (f-theta), not a pinhole
+    assert conv.camera_info_to_intrinsics(msg).fisheye
+    msg.d = [0.05, -0.01, 0.0, 0.0, 0.0]
+    with pytest.raises(ConfigError, match=r'equidistant. model takes 4'):
+        conv.camera_info_to_intrinsics(msg)
+
+
 @pytest.mark.parametrize(
     ('k', 'size', 'model', 'match'),
     [
@@ -165,7 +177,7 @@ def test_camera_info_round_trips_intrinsics_and_distortion():
         ([500, 0, 320, 0, 500, 240, 0, 0, 0], (640, 480), 'plumb_bob', 'invalid K'),
         ([1e307, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'plumb_bob', 'implausible'),
         ([500, 0, 320, 0, 500, 240, 0, 0, 1], (0, 0), 'plumb_bob', 'zero image size'),
-        ([500, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'equidistant', 'not supported'),
+        ([500, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'fov', 'not supported'),
     ],
 )
 def test_invalid_camera_info_raises_config_error(k, size, model, match):
@@ -370,7 +382,7 @@ def test_numpy_to_compressed_refuses_unknown_formats():
 def test_camera_info_with_a_distortion_length_opencv_rejects_is_a_config_error(n):
     msg = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
     msg.d = [0.01] * n
-    with pytest.raises(ConfigError, match=f'camera_info D has {n} distortion coefficients'):
+    with pytest.raises(ConfigError, match=f'camera_info: {n} distortion coefficients'):
         conv.camera_info_to_intrinsics(msg)
 
 

@@ -524,6 +524,46 @@ def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
     assert capfd.readouterr().err.count('camera_info changed the intrinsics') == 2
 
 
+def test_an_equidistant_camera_info_is_a_fisheye_lens_and_another_model_is_refused(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(14)
+    fisheye = Intrinsics(380.0, 380.0, 320.0, 240.0, 640, 480, (0.05, -0.01, 0.0, 0.0), True)
+    h.send_camera_info(fisheye)
+    status = h.send_array(img, 1.0)
+    assert status.intrinsics['fisheye'] is True and h.node._selector.intrinsics == fisheye
+    unknown = conv.intrinsics_to_camera_info(fisheye)
+    unknown.distortion_model = 'fov'
+    h.send_camera_info(unknown)
+    after = h.send_array(shifted(img, 1, 0.0), 1.033)
+    assert after.frames_since_reference == 1 and h.node._selector.intrinsics == fisheye
+    assert "ignoring camera_info: camera_info: distortion model 'fov' is not supported" in (
+        capfd.readouterr().err
+    )
+
+
+def test_camera_parameters_can_describe_a_fisheye(harness_factory, tmp_path):
+    h = harness_factory(
+        model_file=double_model_file(tmp_path),
+        camera__fx=380.0,
+        camera__fy=380.0,
+        camera__cx=320.0,
+        camera__cy=240.0,
+        camera__distortion=[0.05, -0.01, 0.0, 0.0],
+        camera__distortion_model='equidistant',
+    )
+    status = h.send_array(texture(14), 1.0)
+    assert status.intrinsics['fisheye'] is True and status.intrinsics_source == 'parameters'
+
+
+def test_a_lens_wider_than_the_pinhole_horizon_is_warned_about(harness_factory, tmp_path, capfd):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_camera_info(Intrinsics(200.0, 200.0, 320.0, 240.0, 640, 480, (), True))
+    h.send_array(texture(14), 1.0)
+    assert 'the image corners are 90 degrees off the optical axis' in capfd.readouterr().err
+
+
 def test_a_principal_point_outside_the_image_is_refused_and_the_intrinsics_are_kept(
     harness_factory, tmp_path, capfd
 ):
@@ -586,9 +626,7 @@ def test_camera_info_with_a_distortion_length_opencv_rejects_is_ignored(
     statuses = [h.send_array(shifted(img, k, 0.5), 1.0 + k / 30) for k in range(1, 4)]
     assert [s.reason for s in statuses] == ['no model fired'] * 3
     assert h.node._selector.intrinsics == good
-    assert f'camera_info D has {len(coefficients)} distortion coefficients' in (
-        capfd.readouterr().err
-    )
+    assert f'camera_info: {len(coefficients)} distortion coefficients' in (capfd.readouterr().err)
 
 
 def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(context, tmp_path):

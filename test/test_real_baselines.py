@@ -170,6 +170,15 @@ def test_settings_write_every_real_as_a_real():
             assert re.fullmatch(r'-?\d+\.\d+(e-?\d+)?', value), (key, value)
     assert values['Camera1.fx'] == '500.0' and values['Camera1.k2'] == '0.0'
     assert values['Camera1.k1'] == '0.1' and 'Camera1.k3' not in values
+    assert values['Camera.type'] == '"PinHole"' and values['Camera1.p1'] == '0.0'
+
+
+def test_settings_give_orbslam3_a_fisheye_as_kannala_brandt():
+    fisheye = Intrinsics(380, 380, 320, 240, 640, 480, (0.05, -0.01, 0.004, -0.001), True)
+    values = dict(line.split(': ', 1) for line in settings_yaml(fisheye, 30.0).splitlines()[1:])
+    assert values['Camera.type'] == '"KannalaBrandt8"'
+    ks = [float(values[f'Camera1.k{i}']) for i in (1, 2, 3, 4)]
+    assert ks == [0.05, -0.01, 0.004, -0.001] and 'Camera1.p1' not in values
 
 
 def test_parse_result_gives_the_keyframes_relative_pose_and_reference_frame_points():

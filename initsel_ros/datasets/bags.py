@@ -28,7 +28,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from initsel_ros.camera import Intrinsics
+from initsel_ros.camera import FISHEYE_LENGTH, Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
 from initsel_ros.datasets.sequence import Sequence, paired_frames
 from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
@@ -297,11 +297,12 @@ class BagSequence(Sequence):
                 d = np.asarray(getattr(msg, 'd', None) if hasattr(msg, 'd') else msg.D, float)
                 if k.size == 9 and k[0] > 0:
                     try:
-                        info = Intrinsics.from_matrix(
+                        info = Intrinsics.from_camera_info(
                             k.reshape(3, 3),
                             int(msg.width),
                             int(msg.height),
-                            tuple(d.tolist()) if d.any() else (),
+                            d.tolist(),
+                            msg.distortion_model,
                         )
                     except ConfigError as exc:
                         raise DatasetError(f'bad CameraInfo: {exc}') from exc
@@ -449,10 +450,8 @@ def write_bag(
     cam = sequence.intrinsics
     K = cam.K.reshape(-1)
     P = np.array([[cam.fx, 0, cam.cx, 0], [0, cam.fy, cam.cy, 0], [0, 0, 1, 0]]).reshape(-1)
-    dist = np.array(cam.distortion, dtype=np.float64)
-    model = 'plumb_bob' if len(dist) in (0, 5) else 'rational_polynomial'
-    if len(dist) == 0:
-        dist = np.zeros(5)
+    model = cam.distortion_model
+    dist = np.array(cam.distortion or [0.0] * (FISHEYE_LENGTH if cam.fisheye else 5), float)
     try:
         writer.open()
         if compressed is None:

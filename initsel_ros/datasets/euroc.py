@@ -6,8 +6,10 @@ Layout read (the folder holding ``mav0``, or ``mav0`` itself)::
     mav0/cam0/data.csv                        #timestamp [ns],filename
     mav0/cam0/sensor.yaml                     T_BS, resolution, rate_hz, camera_model pinhole,
                                               intrinsics [fu, fv, cu, cv],
-                                              distortion_model radial-tangential,
-                                              distortion_coefficients [k1, k2, p1, p2]
+                                              distortion_model radial-tangential
+                                              ([k1, k2, p1, p2]) or equidistant
+                                              (fisheye, [k1, k2, k3, k4]),
+                                              distortion_coefficients
     mav0/state_groundtruth_estimate0/data.csv #timestamp [ns], p_RS_R x y z [m],
                                               q_RS w x y z [], (velocity and biases ignored)
 
@@ -38,6 +40,9 @@ from initsel_ros.transforms import matrix_to_pose, pose_matrix
 _LOG = logging.getLogger(__name__)
 
 GROUNDTRUTH_DIR = 'state_groundtruth_estimate0'
+#: Kalibr's names of OpenCV's standard model (the first is written) and of the fisheye one.
+RADTAN_NAMES = ('radial-tangential', 'radtan', 'plumb_bob')
+EQUIDISTANT = 'equidistant'
 IMAGE_LISTING_FORMAT = '#timestamp [ns],filename'
 GROUNDTRUTH_FORMAT = (
     '#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], '
@@ -125,12 +130,12 @@ def _matrix(node: Any, source: Path, key: str) -> np.ndarray:
 
 
 def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
-    """``cam0/sensor.yaml`` -> (intrinsics with radial-tangential distortion, T_BS (4, 4),
-    rate in Hz or None).
+    """``cam0/sensor.yaml`` -> (intrinsics with radial-tangential or equidistant (fisheye)
+    distortion, T_BS (4, 4), rate in Hz or None).
 
     Raises:
         DatasetError: missing keys, a camera model other than pinhole, or a distortion model
-            other than radial-tangential (equidistant needs a fisheye model, not supported).
+            other than radial-tangential and equidistant (Kalibr's names).
     """
     import yaml
 
@@ -150,10 +155,10 @@ def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
     if model != 'pinhole':
         raise DatasetError(f'{path}: camera_model {model!r} is not supported (pinhole only)')
     distortion_model = str(data.get('distortion_model', 'radial-tangential'))
-    if distortion_model not in ('radial-tangential', 'radtan', 'plumb_bob', 'none'):
+    if distortion_model not in (*RADTAN_NAMES, EQUIDISTANT, 'none'):
         raise DatasetError(
             f'{path}: distortion_model {distortion_model!r} is not supported '
-            '(radial-tangential only)'
+            f'(radial-tangential or {EQUIDISTANT})'
         )
     try:
         fu, fv, cu, cv = (float(v) for v in data['intrinsics'])
@@ -163,17 +168,18 @@ def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
         raise DatasetError(
             f'{path}: needs intrinsics [fu, fv, cu, cv] and resolution [width, height]: {exc}'
         ) from exc
+    fisheye = distortion_model == EQUIDISTANT
     if distortion_model == 'none':
         coeffs = ()
-    if len(coeffs) not in (0, 4, 5):
-        raise DatasetError(
-            f'{path}: radial-tangential distortion needs 4 coefficients '
-            f'k1 k2 p1 p2, got {len(coeffs)}'
-        )
+    if len(coeffs) not in ((4,) if fisheye else (0, 4, 5)):
+        kind = 'equidistant distortion needs 4 coefficients k1 k2 k3 k4'
+        if not fisheye:
+            kind = 'radial-tangential distortion needs 4 coefficients k1 k2 p1 p2'
+        raise DatasetError(f'{path}: {kind}, got {len(coeffs)}')
+    if not fisheye and not any(c != 0.0 for c in coeffs):
+        coeffs = ()
     try:
-        intrinsics = Intrinsics(
-            fu, fv, cu, cv, width, height, coeffs if any(c != 0.0 for c in coeffs) else ()
-        )
+        intrinsics = Intrinsics(fu, fv, cu, cv, width, height, coeffs, fisheye)
     except ConfigError as exc:
         raise DatasetError(f'{path}: {exc}') from exc
     if 'T_BS' in data:
@@ -267,6 +273,7 @@ def _sensor_yaml(intrinsics: Intrinsics, T_BS: np.ndarray, rate_hz: float) -> st
     coeffs = list(intrinsics.distortion[:4]) + [0.0] * max(0, 4 - len(intrinsics.distortion))
     if len(intrinsics.distortion) > 4 and any(intrinsics.distortion[4:]):
         raise ConfigError('EuRoC radial-tangential distortion holds k1 k2 p1 p2 only')
+    distortion_model = EQUIDISTANT if intrinsics.fisheye else RADTAN_NAMES[0]
     data = ', '.join(repr(float(v)) for v in np.asarray(T_BS, dtype=np.float64).reshape(-1))
     return (
         '# General sensor definitions.\n'
@@ -280,7 +287,7 @@ def _sensor_yaml(intrinsics: Intrinsics, T_BS: np.ndarray, rate_hz: float) -> st
         'camera_model: pinhole\n'
         f'intrinsics: [{intrinsics.fx!r}, {intrinsics.fy!r}, {intrinsics.cx!r}, '
         f'{intrinsics.cy!r}] #fu, fv, cu, cv\n'
-        'distortion_model: radial-tangential\n'
+        f'distortion_model: {distortion_model}\n'
         f'distortion_coefficients: [{", ".join(repr(float(c)) for c in coeffs)}]\n'
     )
 

@@ -18,7 +18,7 @@ from geometry_msgs.msg import PoseStamped, TransformStamped
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2, PointField
 from std_msgs.msg import Header
 
-from initsel_ros.camera import Intrinsics, check_distortion
+from initsel_ros.camera import FISHEYE_LENGTH, Intrinsics, lens_from_camera_info
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.image import (
     ENCODINGS,
@@ -202,14 +202,16 @@ def numpy_to_image(
 def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
     """Intrinsics (and OpenCV distortion) from a CameraInfo message.
 
-    ``plumb_bob`` and ``rational_polynomial`` coefficients pass through to OpenCV; an empty
-    model or all-zero ``d`` means no distortion. ``binning`` and ``roi`` are ignored.
+    ``plumb_bob`` and ``rational_polynomial`` coefficients pass through to OpenCV's standard
+    model, ``equidistant`` ones to its fisheye model; an empty model or all-zero ``d`` means
+    no distortion, except for ``equidistant`` (an f-theta lens). ``binning`` and ``roi`` are
+    ignored.
 
     Raises:
         ConfigError: K not finite, not of the form [fx 0 cx; 0 fy cy; 0 0 1], with focal
             lengths implausible for the image size, zero image size, a D of a length OpenCV
-            does not take (4, 5, 8, 12, 14; all-zero D of any length = none), or an
-            unsupported distortion model with non-zero coefficients.
+            does not take (4, 5, 8, 12, 14; 4 for ``equidistant``; all-zero D of any length
+            = none), or an unsupported distortion model with non-zero coefficients.
     """
     K = np.asarray(msg.k, dtype=float).reshape(3, 3)
     if (
@@ -222,23 +224,13 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
         or K[1, 0] != 0
     ):
         raise ConfigError(f'camera_info has an invalid K {K.ravel().tolist()}')
-    distortion = tuple(float(d) for d in msg.d)
-    if not all(math.isfinite(d) for d in distortion):
-        raise ConfigError(f'camera_info has non-finite distortion {list(distortion)}')
     try:
-        check_distortion(distortion)
+        distortion, fisheye = lens_from_camera_info(msg.distortion_model, msg.d)
     except ConfigError as exc:
-        raise ConfigError(f'camera_info D has {exc}') from exc
-    if not any(distortion):
-        distortion = ()
-    elif msg.distortion_model not in ('plumb_bob', 'rational_polynomial', ''):
-        raise ConfigError(
-            f'camera_info distortion model {msg.distortion_model!r} is not supported '
-            '(plumb_bob, rational_polynomial)'
-        )
+        raise ConfigError(f'camera_info: {exc}') from exc
     if msg.width <= 0 or msg.height <= 0:
         raise ConfigError(f'camera_info has zero image size ({msg.width}x{msg.height})')
-    return Intrinsics.from_matrix(K, int(msg.width), int(msg.height), distortion)
+    return Intrinsics.from_matrix(K, int(msg.width), int(msg.height), distortion, fisheye)
 
 
 def intrinsics_to_camera_info(
@@ -246,14 +238,15 @@ def intrinsics_to_camera_info(
 ) -> CameraInfo:
     """A CameraInfo message (identity R, P = [K | 0]) for ``intrinsics``.
 
-    The distortion model is ``plumb_bob`` for up to 5 coefficients, else
-    ``rational_polynomial``.
+    The distortion model is ``equidistant`` for a fisheye lens, ``plumb_bob`` for up to 5
+    coefficients, else ``rational_polynomial`` (:attr:`Intrinsics.distortion_model`).
     """
     msg = CameraInfo()
     msg.header = Header(stamp=stamp or Time(), frame_id=frame_id)
     msg.width, msg.height = int(intrinsics.width), int(intrinsics.height)
-    msg.distortion_model = 'rational_polynomial' if len(intrinsics.distortion) > 5 else 'plumb_bob'
-    distortion = list(intrinsics.distortion) + [0.0] * max(0, 5 - len(intrinsics.distortion))
+    msg.distortion_model = intrinsics.distortion_model
+    length = FISHEYE_LENGTH if intrinsics.fisheye else 5
+    distortion = list(intrinsics.distortion) + [0.0] * max(0, length - len(intrinsics.distortion))
     msg.d = [float(d) for d in distortion]
     K = intrinsics.K
     msg.k = K.ravel().tolist()

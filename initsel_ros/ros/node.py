@@ -42,7 +42,7 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2
 from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
-from initsel_ros.camera import Intrinsics
+from initsel_ros.camera import MAX_FIELD_ANGLE_DEG, Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
 from initsel_ros.image import HOT_PIXEL_FRACTION, compressed_to_cv, raw_to_cv
 from initsel_ros.models import ModelSet
@@ -560,6 +560,14 @@ class SelectorNode(Node):
                 ) from exc
         if not wanted.same_camera(self._selector.intrinsics):
             self._selector.set_intrinsics(wanted)
+            angle = wanted.corner_field_angle_deg
+            if angle > MAX_FIELD_ANGLE_DEG:
+                self.get_logger().warning(
+                    f'the image corners are {angle:.0f} degrees off the optical axis (over '
+                    f'{MAX_FIELD_ANGLE_DEG:.0f}): tracks out there carry little geometry, and '
+                    'past 90 degrees none; crop the image to the lens circle or use a '
+                    'narrower field of view'
+                )
 
     def _publish_debug_image(
         self, image: np.ndarray, result: FrameResult, msg: Image | CompressedImage

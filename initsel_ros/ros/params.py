@@ -22,7 +22,13 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from initsel_ros.camera import TUM_FR3, Intrinsics, check_distortion
+from initsel_ros.camera import (
+    FISHEYE_MODEL,
+    STANDARD_MODELS,
+    TUM_FR3,
+    Intrinsics,
+    check_distortion,
+)
 from initsel_ros.errors import ConfigError
 from initsel_ros.image import MAX_DECODED_PIXELS
 from initsel_ros.names import MODEL_NAMES, POSE_METHODS, Mode
@@ -448,8 +454,16 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         'camera.distortion',
         [0.0, 0.0, 0.0, 0.0, 0.0],
-        'OpenCV distortion k1 k2 p1 p2 [k3 ...] (0, 4, 5, 8, 12 or 14 values); all zero = none',
+        'OpenCV distortion k1 k2 p1 p2 [k3 ...] (0, 4, 5, 8, 12 or 14 values; all zero = '
+        'none), or k1 k2 k3 k4 with camera.distortion_model equidistant',
         Distortion(),
+    ),
+    ParameterSpec(
+        'camera.distortion_model',
+        STANDARD_MODELS[0],
+        "the lens model of camera.distortion, as CameraInfo names it: 'plumb_bob' or "
+        "'rational_polynomial' (OpenCV's standard model) or 'equidistant' (fisheye)",
+        Choice((*STANDARD_MODELS, FISHEYE_MODEL)),
     ),
 )
 
@@ -529,6 +543,7 @@ class NodeSettings:
                 v['camera.width'],
                 v['camera.height'],
                 v['camera.distortion'],
+                v['camera.distortion_model'] == FISHEYE_MODEL,
             )
         except ConfigError as exc:
             raise ConfigError(f'camera.* parameters: {exc}') from exc

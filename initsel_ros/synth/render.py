@@ -142,7 +142,8 @@ def _draw_plane(
 
 
 class Distorter:
-    """Lens distortion (OpenCV model) of ideal pinhole renders, by remapping.
+    """Lens distortion (OpenCV's standard or fisheye model) of ideal pinhole renders, by
+    remapping.
 
     Each output (sensor) pixel takes the ideal pixel that its undistorted ray falls on; colour
     is interpolated bilinearly, depth by nearest neighbour (kept exact). The ideal render is
@@ -162,17 +163,22 @@ class Distorter:
     def __init__(self, camera: Intrinsics) -> None:
         W, H = camera.width, camera.height
         K = camera.K
-        dist = np.array(camera.distortion, np.float64)
         grid = np.mgrid[0:H, 0:W][::-1].reshape(2, -1).T.astype(np.float64)
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
-        und = cv2.undistortPoints(
-            grid.reshape(-1, 1, 2), K, dist, None, None, K, criteria
-        ).reshape(-1, 2)
+        dist = camera.lens_coefficients
+        # (camera.undistort_pixels, to 1e-10 rather than OpenCV's default precision)
+        if camera.fisheye:
+            und = cv2.fisheye.undistortPoints(
+                grid.reshape(-1, 1, 2), K, dist, R=np.eye(3), P=K, criteria=criteria
+            ).reshape(-1, 2)
+        else:
+            und = cv2.undistortPoints(
+                grid.reshape(-1, 1, 2), K, dist, None, None, K, criteria
+            ).reshape(-1, 2)
         rays = np.column_stack(
             [(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy], np.ones(len(und))]
         )
-        back, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
-        err = np.linalg.norm(back.reshape(-1, 2) - grid, axis=1)
+        err = np.linalg.norm(camera.project(rays) - grid, axis=1)
         if not np.all(np.isfinite(und)) or np.max(err) > 0.05:
             raise ConfigError(
                 f'distortion {camera.distortion} does not map the {W}x{H} image one-to-one '

@@ -105,26 +105,31 @@ def _real(value: float) -> str:
 
 
 def settings_yaml(intrinsics: Intrinsics, fps: float, n_features: int = 1000) -> str:
-    """ORB-SLAM3 v1.0 settings for a monocular pinhole camera.
+    """ORB-SLAM3 v1.0 settings for a monocular camera: ``PinHole`` (k1 k2 p1 p2 [k3]) or, for
+    a fisheye lens, ``KannalaBrandt8`` (k1 k2 k3 k4, the same model as ``cv2.fisheye``).
 
     Every real-valued setting is written as a real (``0.0``, not ``0``): ORB-SLAM3's reader
     aborts on an integer where it expects a real. Integers (size, fps, features, levels, FAST
     thresholds) stay integers.
     """
-    d = tuple(intrinsics.distortion) + (0.0,) * (5 - len(intrinsics.distortion))
     reals = {
         'Camera1.fx': intrinsics.fx,
         'Camera1.fy': intrinsics.fy,
         'Camera1.cx': intrinsics.cx,
         'Camera1.cy': intrinsics.cy,
-        'Camera1.k1': d[0],
-        'Camera1.k2': d[1],
-        'Camera1.p1': d[2],
-        'Camera1.p2': d[3],
     }
-    if d[4] != 0.0:
-        reals['Camera1.k3'] = d[4]
-    lines = ['%YAML:1.0', 'File.version: "1.0"', 'Camera.type: "PinHole"']
+    if intrinsics.fisheye:
+        camera_type = 'KannalaBrandt8'
+        k = [float(v) for v in intrinsics.lens_coefficients]  # type: ignore[union-attr]
+        reals.update({f'Camera1.k{i + 1}': k[i] for i in range(4)})
+    else:
+        camera_type = 'PinHole'
+        d = tuple(intrinsics.distortion) + (0.0,) * (5 - len(intrinsics.distortion))
+        names = ('Camera1.k1', 'Camera1.k2', 'Camera1.p1', 'Camera1.p2')
+        reals.update(zip(names, d[:4], strict=True))
+        if d[4] != 0.0:
+            reals['Camera1.k3'] = d[4]
+    lines = ['%YAML:1.0', 'File.version: "1.0"', f'Camera.type: "{camera_type}"']
     lines += [f'{k}: {_real(v)}' for k, v in reals.items()]
     lines += [
         f'Camera.width: {int(intrinsics.width)}',

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
@@ -95,9 +94,10 @@ def true_positions(
     X = rays * z[:, None]
     R, t = relative_pose(T_ref, T_cur)
     Xc = X @ R.T + t
-    dist = np.array(camera.distortion) if camera.has_distortion else None
-    proj, _ = cv2.projectPoints(Xc.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), camera.K, dist)
-    return proj.reshape(-1, 2), X, (z > 0) & (Xc[:, 2] > 0.05)
+    in_front = (z > 0) & (Xc[:, 2] > 0.05)
+    pixels = np.full((len(Xc), 2), np.nan)
+    pixels[in_front] = camera.project(Xc[in_front])
+    return pixels, X, in_front
 
 
 @dataclass(frozen=True)
