@@ -389,6 +389,27 @@ def test_cli_named_effects_render_the_levels_of_the_table(tmp_path, capsys):
     capsys.readouterr()
 
 
+def test_cli_renders_through_a_fisheye_lens_and_says_so(tmp_path, capsys):
+    from initsel_ros.cli import main
+
+    small = ['--frames', '2', '--width', '320', '--height', '240', '--no-progress', '--hfov', '90']
+    out = tmp_path / 'fisheye'
+    argv = ['synth', '--out', str(out), '--fisheye', '--distortion', '0.05,-0.01,0.004,-0.001']
+    assert main([*argv, '--realism', *small]) == 0
+    assert '(fisheye)' in capsys.readouterr().out
+    camera = open_sequence(out).intrinsics
+    assert camera.fisheye and camera.distortion == (0.05, -0.01, 0.004, -0.001)
+    assert yaml.safe_load((out / 'effects.yaml').read_text())['fisheye'] is True
+    # with --realism and no --distortion, the drawn (standard-model) lens is not reused
+    assert (
+        main(['synth', '--out', str(tmp_path / 'ftheta'), '--fisheye', '--realism', *small]) == 0
+    )
+    assert open_sequence(tmp_path / 'ftheta').intrinsics.distortion == ()
+    five = ['--distortion', '0.05,-0.01,0.004,-0.001,0.0']
+    assert main(['synth', '--out', str(tmp_path / 'bad'), '--fisheye', *five, *small]) == 1
+    assert 'fisheye (equidistant) model takes 4' in capsys.readouterr().err
+
+
 def test_bad_effect_values_are_rejected():
     with pytest.raises(ConfigError, match='line_delay'):
         Effects(line_delay=-1e-5)

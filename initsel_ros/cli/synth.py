@@ -180,7 +180,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '--distortion',
         type=_coefficients,
         default=(),
-        help='lens distortion k1,k2,p1,p2[,k3] (OpenCV model)',
+        help='lens distortion k1,k2,p1,p2[,k3] (OpenCV model), or k1,k2,k3,k4 with --fisheye',
+    )
+    effects.add_argument(
+        '--fisheye',
+        action='store_true',
+        help='render through a fisheye (equidistant) lens: --distortion gives its k1,k2,k3,k4 '
+        '(none: an f-theta lens); intrinsics.yaml and CameraInfo say so',
     )
     parser.add_argument(
         '--png-compression',
@@ -213,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     if args.realism:
         drawn = draw_realism(args.seed)
         effects = dataclasses.replace(drawn.effects, **given)
-        distortion = distortion or drawn.distortion
+        distortion = distortion or (() if args.fisheye else drawn.distortion)
     else:
         effects = Effects(**given)
     arc_options = {name: getattr(args, f'arc_{name}') for name in ARC_OPTIONS}
@@ -243,12 +249,14 @@ def run(args: argparse.Namespace) -> int:
         arc=arc,
         focal_error=args.focal_error,
         hfov_deg=args.hfov,
+        fisheye=args.fisheye,
     )
     changed = {k: v for k, v in result.effects.to_dict().items() if v != Effects().to_dict()[k]}
     print(
         'effects: '
         + (', '.join(f'{k}={v}' for k, v in changed.items()) or 'none')
         + (f', distortion={list(result.distortion)}' if result.distortion else '')
+        + (' (fisheye)' if args.fisheye else '')
     )
     print(
         f'{result.path}: {result.frames} frames, {result.seconds:.1f} s, '

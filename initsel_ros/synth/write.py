@@ -63,6 +63,7 @@ def _camera(
     intrinsics: Intrinsics | None,
     distortion: tuple[float, ...],
     hfov_deg: float | None = None,
+    fisheye: bool = False,
 ) -> Intrinsics:
     cam = intrinsics or Intrinsics.tum_fr3()
     if width or height:
@@ -74,7 +75,9 @@ def _camera(
             raise ConfigError(f'hfov_deg must be in [10, 150] degrees, got {hfov_deg}')
         f = cam.width / 2 / math.tan(math.radians(hfov_deg) / 2)
         cam = replace(cam, fx=f, fy=f * cam.fy / cam.fx)
-    if distortion:
+    if fisheye:  # the coefficients given (or none: f-theta) are the fisheye model's
+        cam = replace(cam, distortion=tuple(float(d) for d in distortion), fisheye=True)
+    elif distortion:
         cam = replace(cam, distortion=tuple(float(d) for d in distortion))
     return cam
 
@@ -100,6 +103,7 @@ def render(
     arc: ArcPath | None = None,
     focal_error: float = 0.0,
     hfov_deg: float | None = None,
+    fisheye: bool = False,
 ) -> SynthResult:
     """Render a sequence as a TUM folder with exact ground truth.
 
@@ -129,6 +133,9 @@ def render(
             miscalibrated one.
         hfov_deg: horizontal field of view, degrees (the focal lengths follow, their ratio
             and the principal point kept); None keeps the camera's.
+        fisheye: render through a fisheye (equidistant) lens whose k1 k2 k3 k4 are
+            ``distortion`` (none: an f-theta lens); with ``hfov_deg`` the focal length is the
+            pinhole's of that field of view, so the fisheye image sees more.
 
     Returns:
         A :class:`SynthResult`.
@@ -139,14 +146,15 @@ def render(
 
         drawn = draw_realism(seed)
         effects = drawn.effects if effects is None else effects
-        distortion = distortion or drawn.distortion
+        # (a drawn lens is the standard model's: a fisheye keeps only what is given)
+        distortion = distortion or (() if fisheye else drawn.distortion)
     effects = Effects() if effects is None else effects
     for b in bags:
         if b not in ('ros1', 'ros2'):
             raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {b!r}")
     if not -0.5 < focal_error < 1.0:
         raise ConfigError(f'focal_error must be in (-0.5, 1), got {focal_error}')
-    cam = _camera(width, height, intrinsics, distortion, hfov_deg)
+    cam = _camera(width, height, intrinsics, distortion, hfov_deg, fisheye)
     world = build_scene(scene, seed)
     stamps, poses = make_trajectory(
         trajectory,
@@ -220,7 +228,9 @@ def render(
         scale = 1.0 + focal_error
         calibration = replace(cam, fx=cam.fx * scale, fy=cam.fy * scale)
     calibration.save_yaml(out / 'intrinsics.yaml')
-    _save_effects(out / 'effects.yaml', effects, cam.distortion, realism, seed, len(movers))
+    _save_effects(
+        out / 'effects.yaml', effects, cam.distortion, realism, seed, len(movers), cam.fisheye
+    )
 
     written: list[Path] = []
     if bags:
@@ -250,6 +260,7 @@ def _save_effects(
     realism: bool,
     seed: int,
     movers: int,
+    fisheye: bool = False,
 ) -> None:
     """Write the rendered effects next to the frames (provenance)."""
     import yaml
@@ -257,6 +268,7 @@ def _save_effects(
     data = {
         'effects': effects.to_dict(),
         'distortion': list(distortion),
+        'fisheye': bool(fisheye),
         'realism': bool(realism),
         'seed': int(seed),
         'movers': movers,
