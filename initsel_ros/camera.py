@@ -189,20 +189,37 @@ class Intrinsics:
         corners = np.array(
             [[0.0, 0.0], [self.width, 0.0], [0.0, self.height], [self.width, self.height]]
         )
-        if self.fisheye:  # the inverse of theta_d = theta (1 + k1 theta^2 + ...), monotone
+        return float(self._field_angles_deg(corners).max())
+
+    def field_mask(self, max_angle_deg: float = MAX_FIELD_ANGLE_DEG) -> np.ndarray | None:
+        """(height, width) bool: the pixels whose rays lie within ``max_angle_deg`` of the
+        optical axis; None when every pixel does (every pinhole camera short of that field of
+        view). The trackers keep to it (:class:`tracking.KltTracker`'s ``region``)."""
+        if self.corner_field_angle_deg <= max_angle_deg:
+            return None
+        y, x = np.mgrid[0 : self.height, 0 : self.width]
+        pixels = np.column_stack([x.ravel(), y.ravel()]).astype(np.float64)
+        angles = self._field_angles_deg(pixels).reshape(self.height, self.width)
+        return angles <= max_angle_deg
+
+    def _field_angles_deg(self, pixels: np.ndarray) -> np.ndarray:
+        """(N,) angles off the optical axis of the rays of (N, 2) pixels, degrees (90 at or
+        beyond the pinhole's horizon)."""
+        if self.fisheye:  # invert theta_d = theta (1 + k1 theta^2 + ...) where it is monotone
             theta_d = np.hypot(
-                (corners[:, 0] - self.cx) / self.fx, (corners[:, 1] - self.cy) / self.fy
+                (pixels[:, 0] - self.cx) / self.fx, (pixels[:, 1] - self.cy) / self.fy
             )
             k = (*self.distortion, 0.0, 0.0, 0.0, 0.0)[:FISHEYE_LENGTH]
             theta = np.linspace(0.0, math.pi / 2, 9001)
             along = theta * (1 + sum(c * theta ** (2 * i + 2) for i, c in enumerate(k)))
-            reached = along[-1] >= theta_d.max()
-            if not reached or not np.all(np.diff(along) > 0):
-                return 90.0
-            return float(np.degrees(np.interp(theta_d.max(), along, theta)))
-        ideal = self.undistort_pixels(corners).astype(np.float64)
+            rising = np.flatnonzero(np.diff(along) <= 0)
+            top = int(rising[0]) + 1 if len(rising) else len(theta)
+            angles = np.interp(theta_d, along[:top], theta[:top], right=math.pi / 2)
+            angles[theta_d >= along[top - 1]] = math.pi / 2
+            return np.degrees(angles)
+        ideal = self.undistort_pixels(pixels).astype(np.float64)
         r = np.hypot((ideal[:, 0] - self.cx) / self.fx, (ideal[:, 1] - self.cy) / self.fy)
-        return float(np.degrees(np.arctan(r.max()))) if np.all(np.isfinite(r)) else 90.0
+        return np.where(np.isfinite(r), np.degrees(np.arctan(r)), 90.0)
 
     @property
     def lens_coefficients(self) -> np.ndarray | None:

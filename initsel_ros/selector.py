@@ -352,7 +352,7 @@ class Selector:
         self.config = config or SelectorConfig()
         self.intrinsics = intrinsics
         self.thresholds = effective_thresholds(models.thresholds, self.config.policy)
-        self.tracker = KltTracker(self.config.tracker)
+        self.tracker = KltTracker(self.config.tracker, intrinsics.field_mask())
         #: How 16-bit frames become 8-bit on this stream.
         self.bit_depth = BitDepth(self.config.bit_depth)
         self.initialized = False
@@ -375,6 +375,7 @@ class Selector:
         self.intrinsics = intrinsics
         if changed:
             self.tracker.clear()
+            self.tracker.region = intrinsics.field_mask()
             self._reference_stamp_ns = None
         return changed
 
@@ -388,7 +389,7 @@ class Selector:
         self.config = config
         self.thresholds = effective_thresholds(self.models.thresholds, config.policy)
         if config.tracker != old_tracker:
-            self.tracker = KltTracker(config.tracker)
+            self.tracker = KltTracker(config.tracker, self.intrinsics.field_mask())
             self._reference_stamp_ns = None
         if config.bit_depth != self.bit_depth.fixed:
             self.bit_depth = BitDepth(config.bit_depth)

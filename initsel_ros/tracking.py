@@ -115,7 +115,9 @@ class Tracks:
         return int(self.ids.shape[0])
 
 
-def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -> np.ndarray:
+def detect_features(
+    gray: np.ndarray, config: TrackerConfig = TrackerConfig(), region: np.ndarray | None = None
+) -> np.ndarray:
     """Shi-Tomasi corners spread over a grid, strongest first within each cell.
 
     Each grid cell keeps at most ``ceil(max_features / cells)`` corners; any budget left
@@ -124,6 +126,7 @@ def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -
     Args:
         gray: (H, W) uint8 image.
         config: detection settings.
+        region: (H, W) bool, where corners may lie (None: anywhere).
 
     Returns:
         (N, 2) float32 pixel coordinates, N <= ``config.max_features``.
@@ -138,6 +141,7 @@ def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -
         maxCorners=2 * config.max_features,
         qualityLevel=config.quality_level,
         minDistance=config.min_distance_px,
+        mask=None if region is None else region.astype(np.uint8),
         blockSize=config.block_size,
     )
     if corners is None:
@@ -163,10 +167,19 @@ def detect_features(gray: np.ndarray, config: TrackerConfig = TrackerConfig()) -
 
 
 class KltTracker:
-    """Tracks features from a reference frame through the following frames."""
+    """Tracks features from a reference frame through the following frames.
 
-    def __init__(self, config: TrackerConfig = TrackerConfig()) -> None:
+    ``region`` ((H, W) bool, or None for the whole image): where features are detected and
+    kept; a track that leaves it is dropped as if it had left the image (a lens's usable
+    field, :meth:`Intrinsics.field_mask`). A region of another size than the frames is
+    refused at :meth:`reset`.
+    """
+
+    def __init__(
+        self, config: TrackerConfig = TrackerConfig(), region: np.ndarray | None = None
+    ) -> None:
         self.config = config
+        self.region = None if region is None else np.asarray(region, dtype=bool)
         self._criteria = (
             cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT,
             config.lk_iterations,
@@ -214,7 +227,11 @@ class KltTracker:
 
     def reset(self, gray: np.ndarray) -> int:
         """Make ``gray`` ((H, W) uint8) the reference frame; returns the features found."""
-        pts = detect_features(gray, self.config)
+        if self.region is not None and self.region.shape != gray.shape[:2]:
+            raise ImageConversionError(
+                f'tracking region {self.region.shape} differs from the frame {gray.shape[:2]}'
+            )
+        pts = detect_features(gray, self.config, self.region)
         self._prev = _zncc(gray, self.config.window_px) if self._zncc else gray
         self._reference = self._prev
         self._gain_bias = (1.0, 0.0)
@@ -284,8 +301,25 @@ class KltTracker:
             gray = _zncc(gray, self.config.window_px)
         if len(self._ids):
             gray = self._step(gray)
+            if self.region is not None:
+                self._keep_in_region()
         self._prev = gray
         return self.tracks()
+
+    def _keep_in_region(self) -> None:
+        """Drop the tracks whose current point left :attr:`region`."""
+        assert self.region is not None
+        h, w = self.region.shape
+        x = np.clip(np.rint(self._cur[:, 0]).astype(np.int64), 0, w - 1)
+        y = np.clip(np.rint(self._cur[:, 1]).astype(np.int64), 0, h - 1)
+        inside = self.region[y, x]
+        if not inside.all():
+            self._ref, self._cur, self._ids = (
+                self._ref[inside],
+                self._cur[inside],
+                self._ids[inside],
+            )
+            self._prev_patches = None  # (read at the points before the drop)
 
     @property
     def _zncc(self) -> bool:

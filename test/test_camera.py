@@ -112,3 +112,13 @@ def test_the_corner_field_angle_tells_a_lens_past_its_pinhole_horizon():
     assert wide.corner_field_angle_deg == 90.0
     barrel = Intrinsics(535.4, 539.2, 320.1, 247.6, 640, 480, (-0.15, 0.05, 5e-4, -5e-4))
     assert barrel.corner_field_angle_deg > Intrinsics.tum_fr3().corner_field_angle_deg
+
+
+def test_the_field_mask_keeps_the_rays_within_80_degrees_of_the_axis():
+    assert Intrinsics.tum_fr3().field_mask() is None
+    assert _fisheye().field_mask() is None  # corners at 60 degrees: nothing to leave out
+    wide = Intrinsics(200.0, 200.0, 320.0, 240.0, 640, 480, (), fisheye=True)  # f-theta
+    mask = wide.field_mask()
+    assert mask.shape == (480, 640) and mask[240, 320] and not mask[0, 0]
+    radius = 200.0 * math.radians(80.0)  # r = f theta
+    assert mask[240, 320 + int(radius) - 2] and not mask[240, 320 + int(radius) + 2]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -874,3 +875,20 @@ def test_a_held_frame_names_the_test_that_stopped_the_run(monkeypatch):
         'E/H fired, but the rotation test 1 frame(s) ago found the tracks the winner left out '
         'at 1.5 x the noise; the fire path runs again in 2 frame(s)'
     )
+
+
+def test_a_lens_wider_than_80_degrees_tracks_only_inside_its_field():
+    wide = Intrinsics(200.0, 200.0, 320.0, 240.0, 640, 480, (), fisheye=True)  # f-theta
+    sel = Selector(constant_models(), wide)
+    assert sel.tracker.region is not None and not sel.tracker.region[0, 0]
+    result = sel.process(texture(7), 0)
+    corners = sel.tracker.tracks().ref
+    assert result.new_reference and len(corners) > 50
+    assert np.all(np.hypot(corners[:, 0] - 320.0, corners[:, 1] - 240.0) < 200.0 * 1.4)
+    sel.set_intrinsics(CAMERA)
+    assert sel.tracker.region is None
+    sel.set_intrinsics(wide)
+    assert sel.tracker.region is not None
+    config = SelectorConfig(tracker=dataclasses.replace(sel.config.tracker, max_features=200))
+    sel.update_config(config)  # a rebuilt tracker keeps the lens's field
+    assert sel.tracker.region is not None

@@ -237,3 +237,24 @@ def test_an_anchored_point_that_lands_far_from_the_chained_one_keeps_the_chained
     moved.track(shifted(img, 2.3, -1.1))
     assert not np.array_equal(moved.anchored().cur, moved.tracks().cur)  # it does re-measure
     assert np.array_equal(tracker.anchored().cur, tracks.cur)  # ... but no move is allowed
+
+
+@pytest.mark.parametrize('photometric', ['none', 'gain_bias'])
+def test_a_region_bounds_where_features_are_found_and_kept(photometric):
+    """Corners only inside the region; a track that moves out of it is dropped, one that
+    stays is kept (the gain-bias mode's cached patch means follow the drop)."""
+    img = texture(5)
+    region = np.zeros(img.shape, bool)
+    region[:, :400] = True
+    tracker = KltTracker(TrackerConfig(photometric=photometric), region)
+    tracker.reset(img)
+    start = tracker.tracks().ref
+    assert len(start) > 100 and start[:, 0].max() < 400
+    for k in range(1, 6):
+        tracks = tracker.track(shifted(img, 8.0 * k, 0.0))
+    assert np.all(tracks.cur[:, 0] < 400)
+    kept = start[:, 0] + 40.0 < 399
+    assert len(tracks) == pytest.approx(kept.sum(), abs=3)
+    np.testing.assert_allclose(tracks.cur - tracks.ref, [[40.0, 0.0]] * len(tracks), atol=0.1)
+    with pytest.raises(ImageConversionError, match='tracking region'):
+        KltTracker(TrackerConfig(), region[:100]).reset(img)

@@ -45,7 +45,7 @@ class Pair:
 
 def klt_pairs(sequence: Any, frames: Sequence[int], config: TrackerConfig) -> Iterator[Pair]:
     """Pair every frame of ``frames`` with ``frames[0]`` through KLT tracks."""
-    tracker = KltTracker(config)
+    tracker = KltTracker(config, sequence.intrinsics.field_mask())
     tracker.reset(sequence.gray(frames[0]))
     for index in frames[1:]:
         tracks = tracker.track(sequence.gray(index))

@@ -120,7 +120,7 @@ def _homography_e_t(p0: np.ndarray, p1: np.ndarray, K: np.ndarray, t_gt: np.ndar
 
 def oracle_frame(batch: _Batch, config: SelectorConfig) -> float:
     """The first frame of ``batch`` whose homography estimate has E_t < 0.1 (NaN: none)."""
-    tracker = KltTracker(config.tracker)
+    tracker = KltTracker(config.tracker, batch.intrinsics.field_mask())
     tracker.reset(batch.gray(0))
     K = batch.intrinsics.K
     for k in range(1, len(batch.images)):

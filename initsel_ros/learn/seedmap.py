@@ -349,7 +349,7 @@ def _run_selector(
 
 
 def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
-    tracker = KltTracker(config.tracker)
+    tracker = KltTracker(config.tracker, batch.intrinsics.field_mask())
     tracker.reset(batch.gray(ref - batch.start))
     for k in range(ref - batch.start + 1, cur - batch.start + 1):
         tracker.track(batch.gray(k))
@@ -445,7 +445,7 @@ def _run_track_baselines(
     if not attempts:
         return []
     found: dict[str, BatchOutcome] = {}
-    tracker = KltTracker(config.tracker)
+    tracker = KltTracker(config.tracker, batch.intrinsics.field_mask())
     tracker.reset(batch.gray(0))
     K = batch.intrinsics.K
     for k in range(1, len(batch.images)):

@@ -563,10 +563,9 @@ class SelectorNode(Node):
             angle = wanted.corner_field_angle_deg
             if angle > MAX_FIELD_ANGLE_DEG:
                 self.get_logger().warning(
-                    f'the image corners are {angle:.0f} degrees off the optical axis (over '
-                    f'{MAX_FIELD_ANGLE_DEG:.0f}): tracks out there carry little geometry, and '
-                    'past 90 degrees none; crop the image to the lens circle or use a '
-                    'narrower field of view'
+                    f'the image corners are {angle:.0f} degrees off the optical axis: features '
+                    f'are tracked only within {MAX_FIELD_ANGLE_DEG:.0f} degrees of it (further '
+                    'out they carry little geometry, and past 90 degrees none)'
                 )
 
     def _publish_debug_image(

@@ -159,7 +159,7 @@ def track_sequence(
     out = []
     remaps = 0
     for b0 in range(0, len(sequence) - batch + 1, batch):
-        tracker = KltTracker(config)
+        tracker = KltTracker(config, camera.field_mask())
         tracker.reset(sequence.gray(b0))
         depth = sequence.depth(b0)
         T_ref = sequence.frames[b0].pose
