@@ -173,6 +173,15 @@ def test_settings_write_every_real_as_a_real():
     assert values['Camera.type'] == '"PinHole"' and values['Camera1.p1'] == '0.0'
 
 
+def test_settings_say_which_coefficients_orbslam3_cannot_take(caplog):
+    coefficients = (0.1, 0.0, 0.0, 0.0, 0.01, 0.2, 0.0, 0.0)
+    rational = Intrinsics(500, 500, 320, 240, 640, 480, coefficients)
+    values = dict(line.split(': ', 1) for line in settings_yaml(rational, 30.0).splitlines()[1:])
+    assert values['Camera1.k3'] == '0.01'
+    assert "ORB-SLAM3's PinHole model takes k1 k2 p1 p2 k3" in caplog.text
+    assert '[0.2, 0.0, 0.0]' in caplog.text
+
+
 def test_settings_give_orbslam3_a_fisheye_as_kannala_brandt():
     fisheye = Intrinsics(380, 380, 320, 240, 640, 480, (0.05, -0.01, 0.004, -0.001), True)
     values = dict(line.split(': ', 1) for line in settings_yaml(fisheye, 30.0).splitlines()[1:])

@@ -20,6 +20,7 @@ initialization is not judged.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import subprocess
@@ -31,6 +32,8 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError
+
+_LOG = logging.getLogger(__name__)
 
 #: Environment variable naming the ORB-SLAM3 venv.
 VENV_ENV = 'INITSEL_ORBSLAM3_VENV'
@@ -129,6 +132,12 @@ def settings_yaml(intrinsics: Intrinsics, fps: float, n_features: int = 1000) ->
         reals.update(zip(names, d[:4], strict=True))
         if d[4] != 0.0:
             reals['Camera1.k3'] = d[4]
+        if any(d[5:]):
+            _LOG.warning(
+                "ORB-SLAM3's PinHole model takes k1 k2 p1 p2 k3: the camera's coefficients %s "
+                'are left out, so ORB-SLAM3 undistorts with a lens that is not quite this one',
+                list(d[5:]),
+            )
     lines = ['%YAML:1.0', 'File.version: "1.0"', f'Camera.type: "{camera_type}"']
     lines += [f'{k}: {_real(v)}' for k, v in reals.items()]
     lines += [
