@@ -33,6 +33,7 @@ from initsel_ros.geometry import (
     estimate_pose,
 )
 from initsel_ros.learn.seedmap import (
+    INITSEL,
     NO_BASELINE_MARKERS,
     _Batch,
     _run_selector,
@@ -50,10 +51,6 @@ if TYPE_CHECKING:
 ORACLE_E_T = 0.1
 #: A published initialization must be within this many frames of the oracle frame.
 FRAMES_AFTER_ORACLE = 10
-
-
-#: The system name of the selector's rows.
-INITSEL = 'initsel'
 
 
 @dataclass(frozen=True)

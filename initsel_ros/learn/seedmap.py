@@ -81,11 +81,13 @@ ORB3_RULE = 'ORB-SLAM3 rule (re-implemented)'
 VINS_RULE = 'VINS-Mono rule (re-implemented)'
 BUTT_RULE = 'Butt 2020 rule (re-implemented)'
 RULE_SYSTEMS = (ORB2_RULE, ORB3_RULE, VINS_RULE, BUTT_RULE)
+#: The selector's rows.
+INITSEL = 'initsel'
 #: The real systems' rows.
 ORBSLAM3_REAL = 'ORB-SLAM3 (real)'
 COLMAP_REAL = 'COLMAP (real)'
 #: Names of the systems compared, in table order.
-SYSTEMS = ('initsel', ORBSLAM3_REAL, COLMAP_REAL, *RULE_SYSTEMS)
+SYSTEMS = (INITSEL, ORBSLAM3_REAL, COLMAP_REAL, *RULE_SYSTEMS)
 #: Baseline families ``evaluate_sequences`` can run.
 BASELINES = ('rules', 'orbslam3', 'colmap')
 #: Table groups, in table order.
@@ -328,7 +330,7 @@ def _run_selector(
         # the selector may re-reference inside the batch: judge its pair
         batch_for_pair = batch.sub(ref, cur + 1) if ref != batch.start else batch
         out = batch_for_pair.outcome(
-            'initsel',
+            INITSEL,
             cur,
             init.method.value,
             init.R,
@@ -345,7 +347,7 @@ def _run_selector(
             reference_offset=float(ref - batch.start),
         )
         return _compare_methods(batch_for_pair, ref, cur, out, config, tolerance)
-    return batch.missed('initsel')
+    return batch.missed(INITSEL)
 
 
 def _tracks_until(batch: _Batch, config: SelectorConfig, ref: int, cur: int):
@@ -639,7 +641,7 @@ def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
                     _median([o.depth_error for o in done]),
                     float(np.mean([o.e_t < 0.1 for o in done])) if done else math.nan,
                     float(np.mean([o.chosen_ok for o in done]))
-                    if done and system == 'initsel'
+                    if done and system == INITSEL
                     else math.nan,
                     _median([o.frames_to_init for o in done]),
                     _median([o.frames_to_publish for o in done]),
@@ -691,6 +693,7 @@ __all__ = [
     'BASELINES',
     'COLMAP_REAL',
     'GROUPS',
+    'INITSEL',
     'ORBSLAM3_REAL',
     'RULE_SYSTEMS',
     'SYSTEMS',
