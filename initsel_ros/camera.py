@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -194,13 +195,9 @@ class Intrinsics:
     def field_mask(self, max_angle_deg: float = MAX_FIELD_ANGLE_DEG) -> np.ndarray | None:
         """(height, width) bool: the pixels whose rays lie within ``max_angle_deg`` of the
         optical axis; None when every pixel does (every pinhole camera short of that field of
-        view). The trackers keep to it (:class:`tracking.KltTracker`'s ``region``)."""
-        if self.corner_field_angle_deg <= max_angle_deg:
-            return None
-        y, x = np.mgrid[0 : self.height, 0 : self.width]
-        pixels = np.column_stack([x.ravel(), y.ravel()]).astype(np.float64)
-        angles = self._field_angles_deg(pixels).reshape(self.height, self.width)
-        return angles <= max_angle_deg
+        view). The trackers keep to it (:class:`tracking.KltTracker`'s ``region``). Made once
+        per camera and angle (the offline tools build a tracker per batch): read-only."""
+        return _field_mask(self, float(max_angle_deg))
 
     def _field_angles_deg(self, pixels: np.ndarray) -> np.ndarray:
         """(N,) angles off the optical axis of the rays of (N, 2) pixels, degrees (90 at or
@@ -289,6 +286,19 @@ class Intrinsics:
         if not isinstance(data, dict):
             raise ConfigError(f'{path}: expected a mapping of intrinsics')
         return cls.from_dict(data, source=str(path))
+
+
+@lru_cache(maxsize=16)
+def _field_mask(camera: Intrinsics, max_angle_deg: float) -> np.ndarray | None:
+    """:meth:`Intrinsics.field_mask`, computed."""
+    if camera.corner_field_angle_deg <= max_angle_deg:
+        return None
+    y, x = np.mgrid[0 : camera.height, 0 : camera.width]
+    pixels = np.column_stack([x.ravel(), y.ravel()]).astype(np.float64)
+    angles = camera._field_angles_deg(pixels).reshape(camera.height, camera.width)
+    mask = angles <= max_angle_deg
+    mask.flags.writeable = False
+    return mask
 
 
 def check_distortion(distortion: tuple[float, ...] | list[float], fisheye: bool = False) -> None:

@@ -120,5 +120,6 @@ def test_the_field_mask_keeps_the_rays_within_80_degrees_of_the_axis():
     wide = Intrinsics(200.0, 200.0, 320.0, 240.0, 640, 480, (), fisheye=True)  # f-theta
     mask = wide.field_mask()
     assert mask.shape == (480, 640) and mask[240, 320] and not mask[0, 0]
+    assert wide.field_mask() is mask and not mask.flags.writeable  # made once, shared
     radius = 200.0 * math.radians(80.0)  # r = f theta
     assert mask[240, 320 + int(radius) - 2] and not mask[240, 320 + int(radius) + 2]
