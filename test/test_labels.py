@@ -289,3 +289,28 @@ def test_an_unknown_method_label_or_a_negative_margin_is_refused():
         LabelConfig(method_label='chosen')
     with pytest.raises(ConfigError, match='best_margin'):
         LabelConfig(method_label='best', best_margin=-0.1)
+
+
+def test_the_static_share_counts_the_tracks_the_ground_truth_explains():
+    """A pan whose tracks on a moving board drift off the rotation's flow: the share is
+    that of the tracks on the background; a static scene's is 1 despite tracking noise."""
+    from initsel_ros.learn.labels import STATIC_TOLERANCE_PX, ground_truth_static_share
+
+    rng = np.random.default_rng(7)
+    depth = _blocky_depth(rng)
+    T_cur = _pose(_rot_y(0.05), np.zeros(3))  # a pan: no baseline
+    p0, p1 = _correspondences(rng, depth, T_cur, noise=0.5)
+    labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur)
+    assert labels.r_label == 1 and labels.static_share == 1.0
+    moved = p1.copy()
+    board = np.arange(len(p1)) < len(p1) // 5  # a fifth of the tracks move with a board
+    moved[board] += (3.0 * STATIC_TOLERANCE_PX, 0.0)
+    labels = label_pair(p0, moved, K, depth, np.eye(4), T_cur)
+    assert labels.static_share == pytest.approx(1.0 - board.mean())
+    assert labels.r_label == 1  # the R label is the camera's: it did not move
+    # points behind the current camera do not count as explained; no depth gives NaN
+    X, valid = backproject(p0, depth, K)
+    behind = ground_truth_static_share(p1, K, X, valid, np.diag([-1.0, 1.0, -1.0]), np.zeros(3))
+    assert behind == 0.0
+    assert math.isnan(label_pair(p0, p1, K, None, np.eye(4), T_cur).static_share)
+    assert math.isnan(ground_truth_static_share(p1, K, X, ~valid, np.eye(3), np.zeros(3)))

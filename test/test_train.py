@@ -237,3 +237,49 @@ def test_the_model_file_records_the_threshold_prior_and_the_r_label_rule(tmp_pat
     with pytest.raises(ConfigError, match="unknown model 'X'"):
         TrainConfig(threshold_priors={'X': 0.2})
     assert main([*args, '--threshold-prior', 'R=lots']) == 1
+
+
+def test_r_can_leave_out_the_rotations_with_objects_moving_on_their_own(tmp_path, caplog):
+    """--rotation-min-static-share: R learns without the R-positive pairs whose tracks the
+    ground truth explains as a static scene for less than the share; negatives, pairs
+    without depth (NaN) and the other models keep every pair."""
+    import logging
+
+    from initsel_ros.learn.table import PairTable
+    from initsel_ros.learn.train import rotation_training_rows
+
+    table = synthetic_table(n=180)
+    columns = dict(table.columns)
+    share = np.ones(len(table))
+    share[::3] = 0.8  # a third with a board moving on its own
+    share[1::9] = np.nan  # no depth
+    columns['gt_static_share'] = share
+    table = PairTable(columns)
+    r = np.asarray(table['R_label']).astype(bool)
+    config = TrainConfig(family=Family.LOGISTIC, folds=3, rotation_min_static_share=0.9)
+    keep = rotation_training_rows(table, config)
+    assert np.array_equal(keep, ~(r & (share < 0.9)))
+    assert keep[1::9].all() and (~keep).sum() > 10
+    assert rotation_training_rows(table, TrainConfig(family=Family.LOGISTIC)).all()
+    with caplog.at_level(logging.INFO):
+        report = train_models(table, config)
+    assert report.positives['R'] == int(r.sum()) - int((~keep).sum())
+    assert report.positives['E'] == int(np.asarray(table['E_label']).sum())
+    training = report.models.metadata['training']
+    assert training['rotation_min_static_share'] == 0.9
+    assert training['rotation_pairs_left_out'] == int((~keep).sum())
+    assert (
+        'rotation_min_static_share'
+        not in train_models(table, TrainConfig(family=Family.LOGISTIC, folds=3)).models.metadata[
+            'training'
+        ]
+    )
+    for bad in (0.0, 1.5, math.nan):
+        with pytest.raises(ConfigError, match='rotation_min_static_share'):
+            TrainConfig(rotation_min_static_share=bad)
+    path = tmp_path / 'pairs.csv'
+    write_table(table, path)
+    out = tmp_path / 'models.json'
+    args = ['train', str(path), '--out', str(out), '--family', 'logistic', '--folds', '3']
+    assert main([*args, '--rotation-min-static-share', '0.9']) == 0
+    assert ModelSet.load(out).metadata['training']['rotation_pairs_left_out'] == (~keep).sum()

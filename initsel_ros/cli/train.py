@@ -116,6 +116,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '(default: all), so that one large family does not set the class balance',
     )
     parser.add_argument(
+        '--rotation-min-static-share',
+        type=float,
+        default=None,
+        metavar='SHARE',
+        help="leave out of R's training the R-positive pairs whose tracks the ground truth "
+        'explains as a static scene for less than this share of them (objects moving on '
+        'their own; the gt_static_share column; default: R learns from every pair)',
+    )
+    parser.add_argument(
         '--final-test',
         action='store_true',
         help="with --leave-family-out: score the file's reserved family instead, once, with "
@@ -293,6 +302,7 @@ def run(args: argparse.Namespace) -> int:
         family=family,
         families=families,
         trees=TreeConfig(args.trees, args.tree_depth, args.learning_rate),
+        rotation_min_static_share=args.rotation_min_static_share,
         **({'extra': tuple(args.extra_features)} if args.extra_features else {}),
         **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )

@@ -149,6 +149,7 @@ def pair_row(
         'gt_baseline_m': labels.baseline_m,
         'gt_rotation_deg': labels.rotation_deg,
         'gt_parallax_deg': labels.parallax_deg,
+        'gt_static_share': labels.static_share,
         'R_label': labels.r_label,
         'scale_rule': labels.scale_rule,
     }

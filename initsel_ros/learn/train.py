@@ -138,6 +138,13 @@ class TrainConfig:
         paper: the paper's 23 features a ``+extra`` family reads (default all of them; the
             plain families read all 23, as the paper's models).
         trees: gradient boosting settings of the tree families.
+        rotation_min_static_share: None (default): R learns from every pair; a share s in
+            (0, 1]: R leaves out of its training the R-positive pairs (the camera only
+            rotated) whose tracks the ground truth explains as a static scene for less than
+            s of them (``gt_static_share``; pairs without depth are kept). The pair features
+            are least-squares sums, so a few tracks on an object that moves on its own put a
+            pan's residuals where a translating camera's are; the live node's rotation test
+            is robust to them (least-median), R's features are not (docs/learning.md).
     """
 
     scaling: Scaling = Scaling.RESOLUTION_FREE
@@ -157,6 +164,7 @@ class TrainConfig:
     extra: tuple[str, ...] = EXTRA_FEATURE_NAMES
     paper: tuple[str, ...] = FEATURE_NAMES
     trees: TreeConfig = field(default_factory=TreeConfig)
+    rotation_min_static_share: float | None = None
 
     def __post_init__(self) -> None:
         unknown = [n for n in self.extra if n not in EXTRA_FEATURE_NAMES]
@@ -179,6 +187,9 @@ class TrainConfig:
         bad = [m for m in self.families if m not in METHODS]
         if bad:
             raise ConfigError(f'unknown models {bad} (models: {", ".join(METHODS)})')
+        share = self.rotation_min_static_share
+        if share is not None and not (math.isfinite(share) and 0.0 < share <= 1.0):
+            raise ConfigError(f'rotation_min_static_share must be in (0, 1], got {share}')
 
     def prior_of(self, model: str) -> float | None:
         """The threshold prior of ``model`` (None: the training mix's own share)."""
@@ -201,6 +212,19 @@ def feature_columns(scaling: Scaling) -> tuple[str, ...]:
     if Scaling(scaling) is Scaling.PAPER:
         return paper_feature_columns()
     return free_feature_columns()
+
+
+def rotation_training_rows(table: PairTable, config: TrainConfig) -> np.ndarray:
+    """(N,) bool: the pairs R learns from (every pair unless
+    ``config.rotation_min_static_share`` leaves out R positives with moving objects)."""
+    keep = np.ones(len(table), dtype=bool)
+    if config.rotation_min_static_share is None:
+        return keep
+    share = np.asarray(table['gt_static_share'], dtype=float)
+    positive = np.asarray(table[label_column('R')]).astype(bool)
+    with np.errstate(invalid='ignore'):
+        keep &= ~(positive & (share < config.rotation_min_static_share))
+    return keep
 
 
 def label_column(model: str) -> str:
@@ -518,6 +542,7 @@ def train_models(
     models: dict[str, Model] = {}
     choices: dict[str, ThresholdChoice] = {}
     positives: dict[str, int] = {}
+    left_out: dict[str, int] = {}
     degenerate = check_classes(table, config.allow_degenerate)
     for name in METHODS:
         family = config.family_of(name)
@@ -525,6 +550,16 @@ def train_models(
         check_camera_features(table, features)
         X = impute(table.matrix(input_columns(features, config.scaling)))
         y = np.asarray(table[label_column(name)]).astype(int)
+        model_groups = groups
+        if name == 'R' and config.rotation_min_static_share is not None:
+            keep = rotation_training_rows(table, config)
+            X, y, model_groups = X[keep], y[keep], groups[keep]
+            left_out[name] = int((~keep).sum())
+            LOG.info(
+                'model R: %d positive pairs whose tracks are under %.2f static left out',
+                left_out[name],
+                config.rotation_min_static_share,
+            )
         positives[name] = int(y.sum())
         if name in degenerate:
             LOG.warning(
@@ -547,7 +582,7 @@ def train_models(
             choice = choose_threshold(y, np.full(len(y), float(always)), 0.5)
         else:
             scores = out_of_fold_scores(
-                X, y, groups, _scorer(family, features, config), config.folds, config.seed
+                X, y, model_groups, _scorer(family, features, config), config.folds, config.seed
             )
             choice = choose_threshold(
                 y, scores, config.target_precision, config.min_predicted, config.prior_of(name)
@@ -626,6 +661,14 @@ def train_models(
             'validation': f'grouped {config.folds}-fold cross-validation over '
             f'{config.group_by}s, out-of-fold probabilities; final fit on all pairs',
             'seed': config.seed,
+            **(
+                {
+                    'rotation_min_static_share': config.rotation_min_static_share,
+                    'rotation_pairs_left_out': left_out.get('R', 0),
+                }
+                if config.rotation_min_static_share is not None
+                else {}
+            ),
             'degenerate_models': degenerate,
             'families': {m: config.family_of(m).value for m in METHODS},
             'extra_features': [n for n in EXTRA_FEATURE_NAMES if n in config.extra],
@@ -673,5 +716,6 @@ __all__ = [
     'label_column',
     'out_of_fold_scores',
     'prepare',
+    'rotation_training_rows',
     'train_models',
 ]
