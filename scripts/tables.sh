@@ -82,6 +82,7 @@ case "$table" in
         initsel train "$D/train.csv" "$D/distill_twins.csv" "$D/distill_arcs.csv" \
             "$D/storeroom.csv" --family trees+extra --trees 40 --folds 3 \
             --threshold-prior 0.25 --threshold-prior R=0.15 --family-cap 1000 \
+            --rotation-min-static-share 0.95 \
             --leave-family-out "$root/config/families.yaml" \
             --out "$OUT/generalization/generalization.md" "$@" >/dev/null
         echo "wrote $OUT/generalization/generalization.md" >&2

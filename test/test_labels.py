@@ -292,13 +292,15 @@ def test_an_unknown_method_label_or_a_negative_margin_is_refused():
 
 
 def test_the_static_share_counts_the_tracks_the_ground_truth_explains():
-    """A pan whose tracks on a moving board drift off the rotation's flow: the share is
-    that of the tracks on the background; a static scene's is 1 despite tracking noise."""
+    """A pan whose tracks on a moving board leave the rotation's flow: the share is that of
+    the tracks on the background; a static scene's is 1 despite tracking noise, and so is a
+    pan seen through a focal length 10 % off (every track moves together: not an object
+    moving on its own)."""
     from initsel_ros.learn.labels import STATIC_TOLERANCE_PX, ground_truth_static_share
 
     rng = np.random.default_rng(7)
     depth = _blocky_depth(rng)
-    T_cur = _pose(_rot_y(0.05), np.zeros(3))  # a pan: no baseline
+    T_cur = _pose(_rot_y(0.25), np.zeros(3))  # a pan of 14 degrees: no baseline
     p0, p1 = _correspondences(rng, depth, T_cur, noise=0.5)
     labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur)
     assert labels.r_label == 1 and labels.static_share == 1.0
@@ -308,9 +310,20 @@ def test_the_static_share_counts_the_tracks_the_ground_truth_explains():
     labels = label_pair(p0, moved, K, depth, np.eye(4), T_cur)
     assert labels.static_share == pytest.approx(1.0 - board.mean())
     assert labels.r_label == 1  # the R label is the camera's: it did not move
-    # points behind the current camera do not count as explained; no depth gives NaN
+    # the same pan through a lens whose focal length is 10 % longer than K says
+    wrong = K.copy()
+    wrong[0, 0] *= 1.1
+    wrong[1, 1] *= 1.1
+    H = wrong @ _rot_y(0.25).T @ np.linalg.inv(wrong)  # the camera turned by R_y(0.25)
+    q = np.column_stack((p0, np.ones(len(p0)))) @ H.T
+    miscalibrated = q[:, :2] / q[:, 2:3]
     X, valid = backproject(p0, depth, K)
+    R_cur = _rot_y(0.25).T
+    shift = np.hypot(*(miscalibrated - p1).T)
+    assert np.median(shift) > 2 * STATIC_TOLERANCE_PX  # off the ground truth's flow
+    assert ground_truth_static_share(miscalibrated, K, X, valid, R_cur, np.zeros(3)) == 1.0
+    # too few points in front of the current camera, or no depth: NaN
     behind = ground_truth_static_share(p1, K, X, valid, np.diag([-1.0, 1.0, -1.0]), np.zeros(3))
-    assert behind == 0.0
+    assert math.isnan(behind)
     assert math.isnan(label_pair(p0, p1, K, None, np.eye(4), T_cur).static_share)
     assert math.isnan(ground_truth_static_share(p1, K, X, ~valid, np.eye(3), np.zeros(3)))
