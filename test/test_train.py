@@ -268,6 +268,10 @@ def test_r_can_leave_out_the_rotations_with_objects_moving_on_their_own(tmp_path
     training = report.models.metadata['training']
     assert training['rotation_min_static_share'] == 0.9
     assert training['rotation_pairs_left_out'] == int((~keep).sum())
+    unknown = int(np.sum(r[1::9]))  # the pairs without depth are kept, and said so
+    assert (
+        f'model R: {unknown} of {int(r.sum())} positive pairs have no static share' in caplog.text
+    )
     assert (
         'rotation_min_static_share'
         not in train_models(table, TrainConfig(family=Family.LOGISTIC, folds=3)).models.metadata[

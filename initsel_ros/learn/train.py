@@ -222,6 +222,14 @@ def rotation_training_rows(table: PairTable, config: TrainConfig) -> np.ndarray:
         return keep
     share = np.asarray(table['gt_static_share'], dtype=float)
     positive = np.asarray(table[label_column('R')]).astype(bool)
+    unknown = int(np.sum(positive & ~np.isfinite(share)))
+    if unknown:
+        LOG.warning(
+            'model R: %d of %d positive pairs have no static share (no depth, or a table '
+            'written before gt_static_share): kept',
+            unknown,
+            int(positive.sum()),
+        )
     with np.errstate(invalid='ignore'):
         keep &= ~(positive & (share < config.rotation_min_static_share))
     return keep
