@@ -84,23 +84,23 @@ def test_a_nul_byte_csv_is_one_line_too(tmp_path, capsys):
     assert 'pairs.csv' in capsys.readouterr().err
 
 
-def test_an_older_table_without_the_parallax_column_reads_it_as_nan(tmp_path, caplog):
+@pytest.mark.parametrize('column', ['gt_parallax_deg', 'gt_static_share'])
+def test_an_older_table_without_an_added_column_reads_it_as_nan(tmp_path, caplog, column):
     import csv
 
     from table_fixtures import synthetic_table
 
-    from initsel_ros.learn.table import read_table, write_table
-
     path = tmp_path / 'old.csv'
     write_table(synthetic_table(n=12), path)
+    assert np.isfinite(read_table(path)[column]).all()
     with path.open(newline='') as handle:
         rows = list(csv.reader(handle))
-    j = rows[0].index('gt_parallax_deg')
+    j = rows[0].index(column)
     with path.open('w', newline='') as handle:
         csv.writer(handle).writerows([r[:j] + r[j + 1 :] for r in rows])
     table = read_table(path)
-    assert np.isnan(table['gt_parallax_deg']).all() and len(table) == 12
-    assert 'an older pair table without gt_parallax_deg: read as NaN' in caplog.text
+    assert np.isnan(table[column]).all() and len(table) == 12
+    assert f'an older pair table without {column}: read as NaN' in caplog.text
 
 
 def test_a_camera_feature_missing_from_an_older_table_is_a_clear_error(tmp_path, caplog):
@@ -135,23 +135,3 @@ def test_a_camera_feature_missing_from_an_older_table_is_a_clear_error(tmp_path,
     reading = train_models(table, TrainConfig(folds=2)).models
     with pytest.raises(DatasetError, match='rebuild them'):
         table_probabilities(reading, old)
-
-
-def test_an_older_table_without_the_static_share_reads_it_as_nan(tmp_path, caplog):
-    import csv
-
-    from table_fixtures import synthetic_table
-
-    from initsel_ros.learn.table import read_table, write_table
-
-    path = tmp_path / 'old.csv'
-    write_table(synthetic_table(n=12), path)
-    assert np.isfinite(read_table(path)['gt_static_share']).all()
-    with path.open(newline='') as handle:
-        rows = list(csv.reader(handle))
-    j = rows[0].index('gt_static_share')
-    with path.open('w', newline='') as handle:
-        csv.writer(handle).writerows([r[:j] + r[j + 1 :] for r in rows])
-    table = read_table(path)
-    assert np.isnan(table['gt_static_share']).all() and len(table) == 12
-    assert 'an older pair table without gt_static_share: read as NaN' in caplog.text
