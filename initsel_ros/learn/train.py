@@ -550,7 +550,7 @@ def train_models(
     models: dict[str, Model] = {}
     choices: dict[str, ThresholdChoice] = {}
     positives: dict[str, int] = {}
-    left_out: dict[str, int] = {}
+    rotation_left_out = 0  # R positives the static-share rule left out
     degenerate = check_classes(table, config.allow_degenerate)
     for name in METHODS:
         family = config.family_of(name)
@@ -562,10 +562,10 @@ def train_models(
         if name == 'R' and config.rotation_min_static_share is not None:
             keep = rotation_training_rows(table, config)
             X, y, model_groups = X[keep], y[keep], groups[keep]
-            left_out[name] = int((~keep).sum())
+            rotation_left_out = int((~keep).sum())
             LOG.info(
                 'model R: %d positive pairs whose tracks are under %.2f static left out',
-                left_out[name],
+                rotation_left_out,
                 config.rotation_min_static_share,
             )
         positives[name] = int(y.sum())
@@ -672,7 +672,7 @@ def train_models(
             **(
                 {
                     'rotation_min_static_share': config.rotation_min_static_share,
-                    'rotation_pairs_left_out': left_out.get('R', 0),
+                    'rotation_pairs_left_out': rotation_left_out,
                 }
                 if config.rotation_min_static_share is not None
                 else {}
