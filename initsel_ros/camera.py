@@ -124,11 +124,29 @@ class Intrinsics:
         cls, K: np.ndarray, width: int, height: int, d: Sequence[float], distortion_model: str
     ) -> Intrinsics:
         """Build from the fields of a ``sensor_msgs/CameraInfo`` (ROS 1 or 2): K, size, D and
-        the distortion model's name (see :func:`lens_from_camera_info`).
+        the distortion model's name (see :func:`lens_from_camera_info`). The one reader of a
+        CameraInfo: the node's messages and the bags' both come here.
 
         Raises:
-            ConfigError: bad intrinsics, or a distortion model or D this package cannot use.
+            ConfigError: K not finite or not of the form [fx 0 cx; 0 fy cy; 0 0 1] (a skew
+                would be dropped silently), bad intrinsics (:class:`Intrinsics`), or a
+                distortion model or D this package cannot use.
         """
+        K = np.asarray(K, dtype=float)
+        if K.size != 9:
+            raise ConfigError(f'invalid K {K.ravel().tolist()}: expected 9 values')
+        K = K.reshape(3, 3)
+        if not (
+            np.all(np.isfinite(K))
+            and K[0, 1] == 0.0
+            and K[1, 0] == 0.0
+            and K[2, 0] == 0.0
+            and K[2, 1] == 0.0
+            and math.isclose(K[2, 2], 1.0)
+        ):
+            raise ConfigError(
+                f'invalid K {K.ravel().tolist()}: expected [fx 0 cx; 0 fy cy; 0 0 1], finite'
+            )
         distortion, fisheye = lens_from_camera_info(distortion_model, d)
         return cls.from_matrix(K, width, height, distortion, fisheye)
 

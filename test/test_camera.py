@@ -90,6 +90,26 @@ def test_lens_from_camera_info_refuses_what_it_would_misread(model, d, match):
         lens_from_camera_info(model, d)
 
 
+@pytest.mark.parametrize(
+    'k',
+    [
+        [500.0, 3.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0, 1.0],  # skew: would be dropped
+        [500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0, 2.0],  # not normalized
+        [500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.1, 0.0, 1.0],
+        [500.0, 0.0, math.nan, 0.0, 500.0, 240.0, 0.0, 0.0, 1.0],
+        [500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0],  # 8 values
+    ],
+)
+def test_a_camera_info_k_that_is_not_a_pinhole_matrix_is_refused_not_misread(k):
+    # the bag readers and the node read CameraInfo here: neither may drop a skew silently
+    with pytest.raises(ConfigError, match='invalid K'):
+        Intrinsics.from_camera_info(k, 640, 480, [], 'plumb_bob')
+    good = [500.0, 0.0, 320.0, 0.0, 500.0, 240.0, 0.0, 0.0, 1.0]
+    assert Intrinsics.from_camera_info(good, 640, 480, [], 'plumb_bob') == Intrinsics(
+        500.0, 500.0, 320.0, 240.0, 640, 480
+    )
+
+
 def test_fisheye_intrinsics_round_trip_through_their_file_form(tmp_path):
     camera = _fisheye()
     camera.save_yaml(tmp_path / 'intrinsics.yaml')

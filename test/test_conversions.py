@@ -176,7 +176,7 @@ def test_camera_info_round_trips_a_fisheye_lens_as_equidistant():
         ([500, 3, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'plumb_bob', 'invalid K'),  # skew
         ([500, 0, 320, 0, 500, 240, 0, 0, 0], (640, 480), 'plumb_bob', 'invalid K'),
         ([1e307, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'plumb_bob', 'implausible'),
-        ([500, 0, 320, 0, 500, 240, 0, 0, 1], (0, 0), 'plumb_bob', 'zero image size'),
+        ([500, 0, 320, 0, 500, 240, 0, 0, 1], (0, 0), 'plumb_bob', 'image size must be positive'),
         ([500, 0, 320, 0, 500, 240, 0, 0, 1], (640, 480), 'fov', 'not supported'),
     ],
 )
@@ -382,7 +382,7 @@ def test_numpy_to_compressed_refuses_unknown_formats():
 def test_camera_info_with_a_distortion_length_opencv_rejects_is_a_config_error(n):
     msg = conv.intrinsics_to_camera_info(Intrinsics.tum_fr3())
     msg.d = [0.01] * n
-    with pytest.raises(ConfigError, match=f'camera_info: {n} distortion coefficients'):
+    with pytest.raises(ConfigError, match=f'^{n} distortion coefficients'):
         conv.camera_info_to_intrinsics(msg)
 
 

@@ -538,7 +538,7 @@ def test_an_equidistant_camera_info_is_a_fisheye_lens_and_another_model_is_refus
     h.send_camera_info(unknown)
     after = h.send_array(shifted(img, 1, 0.0), 1.033)
     assert after.frames_since_reference == 1 and h.node._selector.intrinsics == fisheye
-    assert "ignoring camera_info: camera_info: distortion model 'fov' is not supported" in (
+    assert "ignoring camera_info: distortion model 'fov' is not supported" in (
         capfd.readouterr().err
     )
 
@@ -626,7 +626,9 @@ def test_camera_info_with_a_distortion_length_opencv_rejects_is_ignored(
     statuses = [h.send_array(shifted(img, k, 0.5), 1.0 + k / 30) for k in range(1, 4)]
     assert [s.reason for s in statuses] == ['no model fired'] * 3
     assert h.node._selector.intrinsics == good
-    assert f'camera_info: {len(coefficients)} distortion coefficients' in (capfd.readouterr().err)
+    assert f'ignoring camera_info: {len(coefficients)} distortion coefficients' in (
+        capfd.readouterr().err
+    )
 
 
 def test_a_camera_distortion_parameter_of_a_bad_length_is_refused_at_start_up(context, tmp_path):

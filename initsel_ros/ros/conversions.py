@@ -9,7 +9,6 @@ Poses follow OpenCV's two-view convention ``x_cur = R @ x_ref + t``.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -18,8 +17,8 @@ from geometry_msgs.msg import PoseStamped, TransformStamped
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2, PointField
 from std_msgs.msg import Header
 
-from initsel_ros.camera import FISHEYE_LENGTH, Intrinsics, lens_from_camera_info
-from initsel_ros.errors import ConfigError, ImageConversionError
+from initsel_ros.camera import FISHEYE_LENGTH, Intrinsics
+from initsel_ros.errors import ImageConversionError
 from initsel_ros.image import (
     ENCODINGS,
     MAX_DECODED_PIXELS,
@@ -200,7 +199,8 @@ def numpy_to_image(
 
 # -------------------------------------------------------------------------------- camera info
 def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
-    """Intrinsics (and OpenCV distortion) from a CameraInfo message.
+    """Intrinsics (and OpenCV distortion) from a CameraInfo message
+    (:meth:`Intrinsics.from_camera_info`, which the bag readers use too).
 
     ``plumb_bob`` and ``rational_polynomial`` coefficients pass through to OpenCV's standard
     model, ``equidistant`` ones to its fisheye model; an empty model or all-zero ``d`` means
@@ -213,24 +213,9 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
             does not take (4, 5, 8, 12, 14; 4 for ``equidistant``; all-zero D of any length
             = none), or an unsupported distortion model with non-zero coefficients.
     """
-    K = np.asarray(msg.k, dtype=float).reshape(3, 3)
-    if (
-        not np.all(np.isfinite(K))
-        or K[0, 0] <= 0
-        or K[1, 1] <= 0
-        or not math.isclose(K[2, 2], 1.0)
-        or np.any(K[2, :2] != 0)
-        or K[0, 1] != 0
-        or K[1, 0] != 0
-    ):
-        raise ConfigError(f'camera_info has an invalid K {K.ravel().tolist()}')
-    try:
-        distortion, fisheye = lens_from_camera_info(msg.distortion_model, msg.d)
-    except ConfigError as exc:
-        raise ConfigError(f'camera_info: {exc}') from exc
-    if msg.width <= 0 or msg.height <= 0:
-        raise ConfigError(f'camera_info has zero image size ({msg.width}x{msg.height})')
-    return Intrinsics.from_matrix(K, int(msg.width), int(msg.height), distortion, fisheye)
+    return Intrinsics.from_camera_info(
+        msg.k, int(msg.width), int(msg.height), msg.d, msg.distortion_model
+    )
 
 
 def intrinsics_to_camera_info(
