@@ -93,22 +93,21 @@ def rotation_error_deg(R_gt: np.ndarray, R_est: np.ndarray) -> float:
     return rotation_angle_deg(np.asarray(R_gt, dtype=np.float64).T @ np.asarray(R_est))
 
 
-def depth_error(points: np.ndarray, pixels_ref: np.ndarray, depth: np.ndarray | None) -> float:
-    """Median relative depth error of map points after one scale, against a depth map.
+def depth_error(points: np.ndarray, true_depth: np.ndarray) -> float:
+    """Median relative depth error of map points after one scale.
 
     Args:
         points: (M, 3) map points, reference camera frame (any scale).
-        pixels_ref: (M, 2) their pixels in the reference image.
-        depth: (H, W) reference depth, metres (0 or NaN = unknown); None gives NaN.
+        true_depth: (M,) their true depths, metres (NaN or <= 0 = unknown; see
+            ``learn.labels.true_depths`` for reading them off a depth map).
     """
-    if depth is None or len(points) == 0:
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    z_gt = np.asarray(true_depth, dtype=np.float64).reshape(-1)
+    if len(points) == 0 or len(z_gt) != len(points):
         return math.nan
-    h, w = depth.shape
-    u = np.clip(np.rint(pixels_ref[:, 0]).astype(int), 0, w - 1)
-    v = np.clip(np.rint(pixels_ref[:, 1]).astype(int), 0, h - 1)
-    z_gt = depth[v, u].astype(np.float64)
     z = points[:, 2]
-    ok = np.isfinite(z_gt) & (z_gt > 0) & (z > 0)
+    with np.errstate(invalid='ignore'):
+        ok = np.isfinite(z_gt) & (z_gt > 0) & (z > 0)
     if ok.sum() < 3:
         return math.nan
     s = float(np.median(z_gt[ok] / z[ok]))

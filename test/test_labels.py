@@ -327,3 +327,26 @@ def test_the_static_share_counts_the_tracks_the_ground_truth_explains():
     assert math.isnan(behind)
     assert math.isnan(label_pair(p0, p1, K, None, np.eye(4), T_cur).static_share)
     assert math.isnan(ground_truth_static_share(p1, K, X, ~valid, np.eye(3), np.zeros(3)))
+
+
+def test_true_depths_of_undistorted_pixels_are_read_where_the_lens_puts_them():
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.learn.labels import true_depths
+
+    lens = Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480, (-0.3, 0.1, 0.0, 0.0, 0.0))
+    u = np.arange(640, dtype=np.float32)
+    depth = np.tile(1.0 + u / 100.0, (480, 1)).astype(np.float32)  # depth grows with column
+    pinhole = np.array([[600.0, 400.0], [40.0, 60.0], [320.0, 240.0]])
+    rays = np.column_stack(((pinhole - [320.0, 240.0]) / 500.0, np.ones(3)))
+    where = np.rint(lens.project(rays))  # the pixels on the (distorted) depth map's grid
+    assert np.abs(where - pinhole).max() > 20  # a lens that moves them far
+    np.testing.assert_allclose(true_depths(pinhole, lens, depth), 1.0 + where[:, 0] / 100.0)
+    # without a lens the pixel itself; without depth, or outside the image, unknown
+    np.testing.assert_allclose(
+        true_depths(pinhole, Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480), depth),
+        1.0 + pinhole[:, 0] / 100.0,
+    )
+    assert np.isnan(true_depths(pinhole, lens, None)).all()
+    assert np.isnan(
+        true_depths([[-50.0, 10.0]], lens.__class__(500.0, 500.0, 320.0, 240.0, 640, 480), depth)
+    ).all()

@@ -67,13 +67,12 @@ def test_rotation_error_is_the_angle_between_truth_and_estimate():
 
 
 def test_depth_error_is_scale_free_and_measures_relative_error():
-    depth = np.full((10, 10), 2.0)
-    depth[:, 5:] = 4.0
-    pixels = np.array([[1.0, 1.0], [2.0, 3.0], [7.0, 4.0], [8.0, 8.0]])
-    exact = np.array([[0, 0, 2.0], [0, 0, 2.0], [0, 0, 4.0], [0, 0, 4.0]]) * 0.37
-    assert depth_error(exact, pixels, depth) == pytest.approx(0.0)
+    true = np.array([2.0, 2.0, 4.0, 4.0])
+    exact = np.column_stack((np.zeros((4, 2)), true)) * 0.37
+    assert depth_error(exact, true) == pytest.approx(0.0)
     off = exact.copy()
     off[2:, 2] *= 1.1  # the far points 10 % too far
-    assert 0.0 < depth_error(off, pixels, depth) <= 0.1
-    assert math.isnan(depth_error(exact, pixels, None))
-    assert math.isnan(depth_error(exact, pixels, np.zeros((10, 10))))
+    assert 0.0 < depth_error(off, true) <= 0.1
+    assert math.isnan(depth_error(exact, np.full(4, np.nan)))
+    assert math.isnan(depth_error(exact, np.zeros(4)))
+    assert math.isnan(depth_error(exact, true[:3]))  # not one depth per point

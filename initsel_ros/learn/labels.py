@@ -37,6 +37,7 @@ import cv2
 import numpy as np
 
 from initsel_ros import geometry
+from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, GeometryError, InitselError
 from initsel_ros.initialize import FireConfig, initialize_pair
 from initsel_ros.metrics import (
@@ -383,6 +384,20 @@ def ground_truth_points(
     return gt_points, gt_valid
 
 
+def true_depths(
+    pixels: np.ndarray, intrinsics: Intrinsics, depth: np.ndarray | None
+) -> np.ndarray:
+    """(N,) true depths, metres (NaN where unknown), of the undistorted reference pixels
+    ``pixels`` of a camera with lens ``intrinsics``: read on the depth map's own (distorted)
+    grid, where the lens puts each pixel's ray (:func:`ground_truth_points`)."""
+    pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+    lookup = None
+    if intrinsics.has_distortion and len(pixels):
+        f, c = np.array([intrinsics.fx, intrinsics.fy]), np.array([intrinsics.cx, intrinsics.cy])
+        lookup = intrinsics.project(np.column_stack(((pixels - c) / f, np.ones(len(pixels)))))
+    return ground_truth_points(pixels, intrinsics.K, depth, lookup)[0][:, 2]
+
+
 def label_pair_points(
     p0: np.ndarray,
     p1: np.ndarray,
@@ -599,4 +614,5 @@ __all__ = [
     'label_pair_points',
     'method_outcome',
     'relabel',
+    'true_depths',
 ]

@@ -61,6 +61,7 @@ from initsel_ros.learn.baselines import (
     orbslam_scores,
     vins_relative_pose,
 )
+from initsel_ros.learn.labels import true_depths
 from initsel_ros.metrics import (
     depth_error,
     relative_pose,
@@ -286,7 +287,9 @@ class _Batch:
             baseline,
             e_t,
             rot,
-            depth_error(points, pixels_ref, self.sequence.depth(ref)),
+            depth_error(
+                points, true_depths(pixels_ref, self.intrinsics, self.sequence.depth(ref))
+            ),
             len(points),
             group=self.group,
             reference_offset=0.0,

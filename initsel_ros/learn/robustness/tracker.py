@@ -24,6 +24,7 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.initialize import FireConfig, initialize_pair
+from initsel_ros.learn.labels import ground_truth_points
 from initsel_ros.learn.robustness.models import slug
 from initsel_ros.metrics import relative_pose, rotation_error_deg, translation_chordal_error
 from initsel_ros.tracking import KltTracker, Photometric, TrackerConfig
@@ -84,17 +85,11 @@ def true_positions(
         ``(pixels (N, 2), points (N, 3) in the reference camera frame, valid (N,) bool)``;
         invalid where the reference depth is missing.
     """
-    h, w = depth.shape
-    xy = np.rint(p0).astype(np.int64)
-    z = depth[np.clip(xy[:, 1], 0, h - 1), np.clip(xy[:, 0], 0, w - 1)].astype(np.float64)
     und = camera.undistort_pixels(p0).astype(np.float64)
-    rays = np.column_stack(
-        [(und - [camera.cx, camera.cy]) / [camera.fx, camera.fy], np.ones(len(und))]
-    )
-    X = rays * z[:, None]
+    X, known = ground_truth_points(und, camera.K, depth, depth_pixels=p0)  # NaN where unknown
     R, t = relative_pose(T_ref, T_cur)
     Xc = X @ R.T + t
-    in_front = (z > 0) & (Xc[:, 2] > 0.05)
+    in_front = known & (np.nan_to_num(Xc[:, 2]) > 0.05)
     pixels = np.full((len(Xc), 2), np.nan)
     pixels[in_front] = camera.project(Xc[in_front])
     return pixels, X, in_front
