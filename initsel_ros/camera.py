@@ -121,11 +121,24 @@ class Intrinsics:
 
     @classmethod
     def from_camera_info(
-        cls, K: np.ndarray, width: int, height: int, d: Sequence[float], distortion_model: str
+        cls,
+        K: np.ndarray,
+        width: int,
+        height: int,
+        d: Sequence[float],
+        distortion_model: str,
+        binning: tuple[int, int] = (0, 0),
+        roi: tuple[int, int, int, int] = (0, 0, 0, 0),
     ) -> Intrinsics:
         """Build from the fields of a ``sensor_msgs/CameraInfo`` (ROS 1 or 2): K, size, D and
-        the distortion model's name (see :func:`lens_from_camera_info`). The one reader of a
+        the distortion model's name (see :func:`lens_from_camera_info`), and its ``binning``
+        (x, y) and ``roi`` (x_offset, y_offset, width, height). The one reader of a
         CameraInfo: the node's messages and the bags' both come here.
+
+        As REP 104 defines them, K and the size are the full sensor's, the ROI is in its
+        (unbinned) pixels, and the images are the ROI binned: fx / bx, (cx - x_offset) / bx,
+        size roi / binning (binning 0 = 1; an all-zero ROI = the full sensor). The lens
+        coefficients act on normalized coordinates, which this leaves unchanged.
 
         Raises:
             ConfigError: K not finite or not of the form [fx 0 cx; 0 fy cy; 0 0 1] (a skew
@@ -148,6 +161,7 @@ class Intrinsics:
                 f'invalid K {K.ravel().tolist()}: expected [fx 0 cx; 0 fy cy; 0 0 1], finite'
             )
         distortion, fisheye = lens_from_camera_info(distortion_model, d)
+        K, width, height = _binned_roi(K, int(width), int(height), binning, roi)
         return cls.from_matrix(K, width, height, distortion, fisheye)
 
     @property
@@ -336,6 +350,33 @@ def check_distortion(distortion: tuple[float, ...] | list[float], fisheye: bool 
             f'{len(distortion)} distortion coefficients {list(distortion)}: OpenCV needs '
             f'{", ".join(map(str, DISTORTION_LENGTHS[1:]))} (k1 k2 p1 p2 [k3 ...]) or none'
         )
+
+
+def _binned_roi(
+    K: np.ndarray,
+    width: int,
+    height: int,
+    binning: tuple[int, int],
+    roi: tuple[int, int, int, int],
+) -> tuple[np.ndarray, int, int]:
+    """K and image size of the images a CameraInfo describes (REP 104's binning and ROI)."""
+    bx, by = (max(1, int(b)) for b in binning)
+    x0, y0, w, h = (int(v) for v in roi)
+    if (x0, y0, w, h) == (0, 0, 0, 0):
+        x0, y0, w, h = 0, 0, width, height
+    elif w <= 0 or h <= 0 or x0 < 0 or y0 < 0 or x0 + w > width or y0 + h > height:
+        raise ConfigError(
+            f'roi x_offset={x0} y_offset={y0} width={w} height={h} does not lie within the '
+            f'{width}x{height} sensor'
+        )
+    if (bx, by, x0, y0, w, h) == (1, 1, 0, 0, width, height):
+        return K, width, height
+    K = K.copy()
+    K[0, 0] /= bx
+    K[1, 1] /= by
+    K[0, 2] = (K[0, 2] - x0) / bx
+    K[1, 2] = (K[1, 2] - y0) / by
+    return K, w // bx, h // by
 
 
 def lens_from_camera_info(

@@ -400,3 +400,41 @@ def test_an_all_zero_distortion_of_any_length_means_none():
     assert conv.camera_info_to_intrinsics(msg).distortion == ()
     with pytest.raises(ConfigError, match='3 distortion coefficients'):
         Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480, (0.1, 0.0, 0.0))
+
+
+# ------------------------------------------------------------------------ binning and ROI
+def _full_sensor_info(**fields) -> CameraInfo:
+    msg = conv.intrinsics_to_camera_info(Intrinsics(800.0, 790.0, 752.0, 480.0, 1504, 960))
+    for name, value in fields.items():
+        setattr(msg, name, value)
+    return msg
+
+
+def test_camera_info_binning_and_roi_give_the_k_of_the_images_they_describe():
+    from sensor_msgs.msg import RegionOfInterest
+
+    binned = conv.camera_info_to_intrinsics(_full_sensor_info(binning_x=2, binning_y=2))
+    assert binned == Intrinsics(400.0, 395.0, 376.0, 240.0, 752, 480)
+    roi = RegionOfInterest(x_offset=200, y_offset=120, width=1000, height=600)
+    crop = conv.camera_info_to_intrinsics(_full_sensor_info(roi=roi))
+    assert crop == Intrinsics(800.0, 790.0, 552.0, 360.0, 1000, 600)  # focal lengths kept
+    both = conv.camera_info_to_intrinsics(_full_sensor_info(roi=roi, binning_x=2, binning_y=2))
+    assert both == Intrinsics(400.0, 395.0, 276.0, 180.0, 500, 300)
+    # binning 0 is 1 (REP 104), an all-zero ROI the full sensor
+    assert conv.camera_info_to_intrinsics(_full_sensor_info()).width == 1504
+
+
+@pytest.mark.parametrize(
+    'roi', [(1000, 0, 600, 480), (0, 0, 0, 480), (-1, 0, 10, 10), (0, 500, 100, 500)]
+)
+def test_a_camera_info_roi_beyond_the_sensor_is_refused(roi):
+    from sensor_msgs.msg import RegionOfInterest
+
+    x, y, w, h = roi
+    msg = _full_sensor_info()
+    try:
+        msg.roi = RegionOfInterest(x_offset=x, y_offset=y, width=w, height=h)
+    except AssertionError:  # a negative offset cannot even be set on the uint32 field
+        return
+    with pytest.raises(ConfigError, match='does not lie within the 1504x960 sensor'):
+        conv.camera_info_to_intrinsics(msg)

@@ -678,3 +678,23 @@ def test_a_failed_publication_is_never_reported_as_an_initialization(
     ]
     assert any(s.method for s in rest) and rest[-1].initialized
     h.wait_until(lambda: h.poses, what='init/pose after the failure')
+
+
+def test_a_binned_camera_s_compressed_frames_and_an_roi_crop_get_their_own_k(
+    harness_factory, tmp_path
+):
+    from sensor_msgs.msg import RegionOfInterest
+
+    # REP 104: K and size of the full sensor; the images are the ROI, binned
+    full = conv.intrinsics_to_camera_info(Intrinsics(1000.0, 1000.0, 640.0, 480.0, 1280, 960))
+    full.binning_x = full.binning_y = 2
+    h = harness_factory(model_file=double_model_file(tmp_path), image_transport='compressed')
+    h.send_camera_info(full)
+    status = h.send_array(texture(21), 1.0)  # 640x480 JPEG: before, refused for its size
+    assert status.reason == 'new reference'
+    assert h.node._selector.intrinsics == Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480)
+    full.roi = RegionOfInterest(x_offset=200, y_offset=100, width=1000, height=600)
+    h.send_camera_info(full)
+    h.send_array(texture(21, shape=(300, 500)), 1.1)
+    # the crop's principal point moves; before, the full K was scaled to 500x300
+    assert h.node._selector.intrinsics == Intrinsics(500.0, 500.0, 220.0, 190.0, 500, 300)

@@ -297,12 +297,15 @@ class BagSequence(Sequence):
                 d = np.asarray(getattr(msg, 'd', None) if hasattr(msg, 'd') else msg.D, float)
                 if k.size == 9 and k[0] > 0:
                     try:
+                        roi = msg.roi
                         info = Intrinsics.from_camera_info(
                             k.reshape(3, 3),
                             int(msg.width),
                             int(msg.height),
                             d.tolist(),
                             msg.distortion_model,
+                            (msg.binning_x, msg.binning_y),
+                            (roi.x_offset, roi.y_offset, roi.width, roi.height),
                         )
                     except ConfigError as exc:
                         raise DatasetError(f'bad CameraInfo: {exc}') from exc

@@ -204,17 +204,25 @@ def camera_info_to_intrinsics(msg: CameraInfo) -> Intrinsics:
 
     ``plumb_bob`` and ``rational_polynomial`` coefficients pass through to OpenCV's standard
     model, ``equidistant`` ones to its fisheye model; an empty model or all-zero ``d`` means
-    no distortion, except for ``equidistant`` (an f-theta lens). ``binning`` and ``roi`` are
-    ignored.
+    no distortion, except for ``equidistant`` (an f-theta lens). ``binning`` and ``roi`` give
+    the K and size of the images they describe (REP 104).
 
     Raises:
         ConfigError: K not finite, not of the form [fx 0 cx; 0 fy cy; 0 0 1], with focal
             lengths implausible for the image size, zero image size, a D of a length OpenCV
             does not take (4, 5, 8, 12, 14; 4 for ``equidistant``; all-zero D of any length
-            = none), or an unsupported distortion model with non-zero coefficients.
+            = none), an unsupported distortion model with non-zero coefficients, or an ROI
+            beyond the sensor.
     """
+    roi = msg.roi
     return Intrinsics.from_camera_info(
-        msg.k, int(msg.width), int(msg.height), msg.d, msg.distortion_model
+        msg.k,
+        int(msg.width),
+        int(msg.height),
+        msg.d,
+        msg.distortion_model,
+        (msg.binning_x, msg.binning_y),
+        (roi.x_offset, roi.y_offset, roi.width, roi.height),
     )
 
 
