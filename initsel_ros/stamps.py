@@ -4,7 +4,9 @@ Time going back by at most a tolerance (:data:`DEFAULT_RESTART_TOLERANCE_NS`, th
 ``restart_tolerance_s``) is jitter: the frame is *out of order* and skipped, and the stream's
 latest stamp stays what it was. A jump back by more is a *restart* (a bag replayed from the
 start, a clock reset). Negative, zero and repeated stamps never stop a frame: the selector
-carries any stamp through unchanged. The node logs each kind the first time it appears and
+carries any stamp through unchanged. A zero stamp is a frame its publisher did not stamp: it is
+neither compared with the latest stamp nor remembered as it, so one unstamped frame in a
+stamped stream is not a restart. The node logs each kind the first time it appears and
 counts them in ``~/status``.
 """
 
@@ -85,14 +87,16 @@ class StampMonitor:
         if stamp_ns == 0:
             issues.append(StampIssue.ZERO)
         back_ns = 0
-        if self._last_ns is not None:
+        if stamp_ns == 0:  # not stamped: no time to compare, and none to remember
+            pass
+        elif self._last_ns is not None:
             if stamp_ns == self._last_ns and stamp_ns != 0:
                 issues.append(StampIssue.DUPLICATE)
             elif stamp_ns < self._last_ns:
                 back_ns = self._last_ns - stamp_ns
                 late = back_ns <= self.restart_tolerance_ns
                 issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
-        if StampIssue.OUT_OF_ORDER not in issues:
+        if stamp_ns != 0 and StampIssue.OUT_OF_ORDER not in issues:
             self._last_ns = stamp_ns
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
         for issue in issues:

@@ -57,6 +57,18 @@ def test_jitter_within_the_tolerance_is_out_of_order_and_keeps_the_latest_stamp(
     assert monitor.check(8 * SECOND + 33_000_000).issues == ()
 
 
+def test_an_unstamped_frame_in_a_stamped_stream_is_not_a_restart():
+    # a driver that leaves one frame unstamped: before, 0 counted as time going back 1.7e9 s
+    monitor = StampMonitor()
+    t0 = 1_700_000_000 * SECOND
+    assert monitor.check(t0).issues == ()
+    zero = monitor.check(0)
+    assert zero.issues == (StampIssue.ZERO,) and not zero.restart and zero.back_ns == 0
+    assert monitor.check(t0 + 33_333_333).issues == ()  # compared with t0, not with 0
+    assert monitor.check(t0 + 66_666_666).issues == ()
+    assert monitor.counts['restart'] == 0
+
+
 def test_forgetting_the_last_stamp_accepts_any_next_one():
     monitor = StampMonitor()
     monitor.check(10 * SECOND)
