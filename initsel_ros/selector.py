@@ -383,9 +383,16 @@ class Selector:
         """Use new settings from the next frame on (live parameter changes).
 
         The thresholds are recomputed; the tracker is rebuilt (dropping the reference) only
-        when its own settings changed.
+        when its own settings changed. Switching to mode continuous once initialized in mode
+        once starts over (:meth:`reset`'s reference and state, the bit depth kept): the old
+        reference has been tracked past, and its initialization already published.
         """
         old_tracker = self.config.tracker
+        if self.initialized and config.mode is not Mode.ONCE:
+            self.tracker.clear()
+            self.initialized = False
+            self._reference_stamp_ns = None
+            self._candidate = None
         self.config = config
         self.thresholds = effective_thresholds(self.models.thresholds, config.policy)
         if config.tracker != old_tracker:

@@ -207,6 +207,29 @@ def test_continuous_mode_reanchors_on_each_initializing_frame(near_sequence):
             assert results[i + 1].reference_stamp_ns == seq.stamps_ns[i]
 
 
+def test_switching_to_continuous_after_a_once_initialization_starts_over(near_sequence):
+    from dataclasses import replace
+
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import default_model_path
+
+    seq = open_sequence(near_sequence)
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, SelectorConfig())
+    stamps = [int(t) for t in seq.stamps_ns]
+    first = next(
+        i for i in range(len(stamps)) if sel.process(seq.image(i), stamps[i]).initialization
+    )
+    done = sel.process(seq.image(first + 1), stamps[first + 1])
+    assert done.decision.reason is Reason.DONE and sel.initialized
+    sel.update_config(replace(sel.config, mode='continuous'))
+    # before: the once-mode reference, tracked past, went on and initialized from it again
+    assert not sel.initialized
+    restart = sel.process(seq.image(first + 12), stamps[first + 12])
+    assert restart.new_reference and restart.reference_stamp_ns == stamps[first + 12]
+    after = sel.process(seq.image(first + 13), stamps[first + 13])
+    assert after.frames_since_reference == 1 and after.reference_stamp_ns == stamps[first + 12]
+
+
 def _first_init(path, config):
     from initsel_ros.datasets import open_sequence
     from initsel_ros.models import default_model_path
