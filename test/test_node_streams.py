@@ -700,3 +700,27 @@ def test_a_binned_camera_s_compressed_frames_and_an_roi_crop_get_their_own_k(
     h.send_array(texture(21, shape=(300, 500)), 1.1)
     # the crop's principal point moves; before, the full K was scaled to 500x300
     assert h.node._selector.intrinsics == Intrinsics(500.0, 500.0, 220.0, 190.0, 500, 300)
+
+
+def test_no_tf_from_a_frame_to_itself_and_a_warning_says_why(
+    harness_factory, tmp_path, monkeypatch, capfd
+):
+    from initsel_ros.names import Method
+    from initsel_ros.selector import Initialization
+
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    monkeypatch.setattr(node_module, 'TFMessage', lambda transforms: list(transforms))
+    tf = _FakeTfPublisher()
+    h.node._tf_pub = tf
+    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.0], [0.0, 0.1, 1.0]])
+    pixels = np.zeros((3, 2), np.float32)
+    init = Initialization(
+        Method.E, np.eye(3), np.array([1.0, 0.0, 0.0]), points, pixels, pixels, 1, 2, 1, {}, 2.0
+    )
+    stamp = conv.ns_to_stamp(2)
+    h.node._publish_initialization(init, stamp, 'initsel_reference_optical')
+    h.node._publish_initialization(init, stamp, 'initsel_reference_optical')
+    assert tf.messages == []  # the images' frame id is the reference's: no TF to itself
+    assert capfd.readouterr().err.count('no /tf for this initialization') == 1
+    h.node._publish_initialization(init, stamp, 'camera_optical')
+    assert len(tf.messages) == 1 and tf.messages[0][0].child_frame_id == 'camera_optical'

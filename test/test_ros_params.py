@@ -136,6 +136,13 @@ NAN = float('nan')
         ({'bit_depth': 17}, 'bit_depth must be 0'),
         ({'publish_tf': 1}, 'publish_tf must be true or false'),
         ({'reference_frame_id': ''}, 'reference_frame_id must not be empty'),
+        ({'reference_frame_id': '/map'}, "reference_frame_id must not start with '/'"),
+        ({'camera_frame_id': '/camera'}, "camera_frame_id must not start with '/'"),
+        ({'camera_frame_id': 'my camera'}, 'camera_frame_id must not contain white space'),
+        (
+            {'camera_frame_id': 'initsel_reference_optical'},
+            'camera_frame_id is reference_frame_id .* a frame to itself',
+        ),
         ({'model_file': 3}, 'model_file must be a string'),
         ({'no_such_thing': 1}, 'unknown selector parameters: no_such_thing'),
     ],

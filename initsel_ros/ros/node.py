@@ -144,6 +144,7 @@ class SelectorNode(Node):
         self._initializations = 0
         self._intrinsics_warning = ''
         self._guess_logged = False
+        self._tf_self_logged = False
 
         self._method_pub = self.create_publisher(String, 'init/method', LATCHED_QOS)
         self._pose_pub = self.create_publisher(PoseStamped, 'init/pose', LATCHED_QOS)
@@ -646,6 +647,13 @@ class SelectorNode(Node):
         if tf_pub is not None and child != frame_id:
             tf_pub.publish(
                 TFMessage(transforms=[conv.make_transform(init.R, init.t, current, child)])
+            )
+        elif tf_pub is not None and not self._tf_self_logged:
+            self._tf_self_logged = True
+            self.get_logger().warning(
+                f"no /tf for this initialization: the images' frame id is reference_frame_id "
+                f'({frame_id!r}), a transform from a frame to itself; set camera_frame_id '
+                '(logged once)'
             )
         self._initializations += 1
         _, position = conv.camera_pose_in_reference(init.R, init.t)

@@ -128,6 +128,25 @@ class Text:
 
 
 @dataclass(frozen=True)
+class FrameId(Text):
+    """A TF frame id: a string without a leading '/' (tf2 refuses those), optionally
+    non-empty."""
+
+    def __call__(self, name: str, value: Any) -> str:
+        value = super().__call__(name, value)
+        if value.startswith('/'):
+            raise ConfigError(
+                f"{name} must not start with '/' (tf2 refuses such frame ids), got {value!r}"
+            )
+        if value != value.strip() or any(c.isspace() for c in value):
+            raise ConfigError(f'{name} must not contain white space, got {value!r}')
+        return value
+
+    def __str__(self) -> str:
+        return f"{super().__str__()} without a leading '/' or white space"
+
+
+@dataclass(frozen=True)
 class Flag:
     """A boolean."""
 
@@ -384,12 +403,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         'reference_frame_id',
         'initsel_reference_optical',
         'frame id of the reference camera (optical frame) for init/pose, init/points, TF',
-        Text(non_empty=True),
+        FrameId(non_empty=True),
     ),
     ParameterSpec(
         'camera_frame_id',
         '',
-        "TF child frame (the current camera); '' = the image's frame id",
+        "TF child frame (the current camera); '' = the image's frame id; not reference_frame_id",
+        FrameId(),
     ),
     ParameterSpec(
         'publish_tf', True, 'broadcast the pose on /tf (when tf2_msgs is installed)', Flag()
@@ -528,6 +548,11 @@ class NodeSettings:
             raise ConfigError(f'unknown selector parameters: {", ".join(unknown)}')
         raw.update(values)
         v = {name: SPECS[name].check(name, value) for name, value in raw.items()}
+        if v['camera_frame_id'] and v['camera_frame_id'] == v['reference_frame_id']:
+            raise ConfigError(
+                f'camera_frame_id is reference_frame_id ({v["reference_frame_id"]!r}): the TF '
+                'of the pose would be a frame to itself'
+            )
         for name in ('min_tracks', 'min_points'):
             if v[name] > v['max_features']:
                 raise ConfigError(
