@@ -458,22 +458,34 @@ def encode_compressed(
     fmt: str = 'jpeg',
     quality: int = 95,
 ) -> tuple[bytes, str]:
-    """Encode (H, W) grey or (H, W, 3) BGR pixels (uint8; uint16 for PNG) as JPEG or PNG.
+    """Encode (H, W) grey or (H, W, 3) BGR pixels (uint8 or uint16) as JPEG or PNG, as
+    compressed_image_transport does: the one encoder of the node's tools and the bag writers.
+
+    JPEG holds 8 bits only, so 16-bit pixels are always PNG (the ``format`` says so); PNG is
+    written at compression level 1 (fast; lossless either way).
 
     Returns:
         The bytes and the image_transport ``format``, e.g. ``'bgr8; jpeg compressed bgr8'``.
 
     Raises:
-        ImageConversionError: unknown ``fmt`` or pixels OpenCV cannot encode that way.
+        ImageConversionError: unknown ``fmt``, a quality outside 0-100, or pixels OpenCV
+            cannot encode that way.
     """
     pixels = np.asarray(pixels)
     if fmt not in ('jpeg', 'png'):
         raise ImageConversionError(f"compressed format must be 'jpeg' or 'png', got {fmt!r}")
+    if not 0 <= int(quality) <= 100:
+        raise ImageConversionError(f'jpeg quality must be in 0-100, got {quality}')
     depth = 16 if pixels.dtype == np.uint16 else 8
+    if depth == 16:
+        fmt = 'png'
     encoding = f'{"mono" if pixels.ndim == 2 else "bgr"}{depth}'
-    params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if fmt == 'jpeg' else []
+    if fmt == 'jpeg':
+        extension, params = '.jpg', [cv2.IMWRITE_JPEG_QUALITY, int(quality)]
+    else:
+        extension, params = '.png', [cv2.IMWRITE_PNG_COMPRESSION, 1]
     try:
-        ok, buffer = cv2.imencode(f'.{"jpg" if fmt == "jpeg" else "png"}', pixels, params)
+        ok, buffer = cv2.imencode(extension, pixels, params)
     except cv2.error as exc:
         raise ImageConversionError(f'cannot encode {encoding} as {fmt}: {exc}') from exc
     if not ok:

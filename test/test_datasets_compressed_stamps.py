@@ -113,16 +113,17 @@ def test_compressed_image_bags_read_back_like_the_folder(static_sequence, tmp_pa
 
 
 def test_16bit_grey_images_go_through_png_unchanged(tmp_path):
-    from initsel_ros.datasets.bags import compressed_format, encode_image, image_from_compressed
+    from initsel_ros.datasets.bags import image_from_compressed
+    from initsel_ros.image import encode_compressed
 
     img = (np.arange(48 * 64, dtype=np.uint16).reshape(48, 64) * 13) % 4096  # 12-bit data
-    data = encode_image(img, 'jpeg')  # jpeg cannot hold 16 bits: png is used
-    assert compressed_format(img, 'jpeg') == 'mono16; png compressed mono16'
+    data, fmt = encode_compressed(img, 'jpeg')  # jpeg cannot hold 16 bits: png is used
+    assert fmt == 'mono16; png compressed mono16'
 
     class Msg:
-        format = 'mono16; png compressed mono16'
+        format = fmt
 
-    Msg.data = data
+    Msg.data = np.frombuffer(data, np.uint8)
     out = image_from_compressed(Msg)
     assert out.dtype == np.uint16 and np.array_equal(out, img)
 

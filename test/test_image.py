@@ -62,6 +62,16 @@ def test_to_gray_and_to_bgr():
         image.to_gray(np.zeros((0, 3), np.uint8))
 
 
+def test_16_bit_pixels_asked_for_as_jpeg_are_png_not_cut_to_8_bits():
+    grey = (np.arange(48, dtype=np.uint16).reshape(6, 8) * 853) % 40951  # up to 40,950
+    data, fmt = image.encode_compressed(grey, 'jpeg')
+    # before: OpenCV wrote 8-bit JPEG (maximum 255) under the label 'jpeg compressed mono16'
+    assert fmt == 'mono16; png compressed mono16'
+    assert np.array_equal(image.decode_compressed(data, fmt), grey)
+    with pytest.raises(ImageConversionError, match='quality must be in 0-100'):
+        image.encode_compressed(np.zeros((4, 4), np.uint8), 'jpeg', 101)
+
+
 def test_compressed_round_trip_and_checks():
     grey = np.arange(48, dtype=np.uint16).reshape(6, 8) * 1000
     data, fmt = image.encode_compressed(grey, 'png')

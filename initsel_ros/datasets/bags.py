@@ -34,7 +34,7 @@ from initsel_ros.datasets.sequence import Sequence, paired_frames
 from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
 from initsel_ros.errors import ConfigError, DatasetError, ImageConversionError
-from initsel_ros.image import decode_compressed, decode_raw, to_cv
+from initsel_ros.image import decode_compressed, decode_raw, encode_compressed, to_cv
 from initsel_ros.transforms import matrix_to_pose
 
 _LOG = logging.getLogger(__name__)
@@ -416,6 +416,8 @@ def write_bag(
         raise ConfigError(f"bag format must be 'ros1' or 'ros2', got {fmt!r}")
     if compressed not in (None, 'jpeg', 'png'):
         raise ConfigError(f"compressed must be None, 'jpeg' or 'png', got {compressed!r}")
+    if not 0 <= int(jpeg_quality) <= 100:
+        raise ConfigError(f'jpeg quality must be in 0-100, got {jpeg_quality}')
     if path.exists():
         raise DatasetError(f'{path}: already exists')
     if fmt == 'ros1':
@@ -485,11 +487,8 @@ def write_bag(
             else:
                 native = sequence.native_image(f.index)
                 h, w = native.shape[:2]
-                cmsg = Compressed(
-                    header=hd,
-                    format=compressed_format(native, compressed),
-                    data=encode_image(native, compressed, jpeg_quality),
-                )
+                data, fmt = encode_compressed(native, compressed, jpeg_quality)
+                cmsg = Compressed(header=hd, format=fmt, data=np.frombuffer(data, np.uint8))
                 writer.write(c_img, t_ns, serialize(cmsg, Compressed.__msgtype__))
             roi = Roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
             mats = {
@@ -535,44 +534,8 @@ def write_bag(
     return path
 
 
-def encode_image(image: np.ndarray, fmt: str, jpeg_quality: int = 90) -> np.ndarray:
-    """Encode a grey or BGR image as 'jpeg' or 'png' bytes (uint8 array) with ``cv2.imencode``.
-
-    16-bit images are always png (jpeg is 8-bit only).
-
-    Raises:
-        ConfigError: unknown format or quality outside 0-100.
-        DatasetError: OpenCV could not encode the image.
-    """
-    if fmt not in ('jpeg', 'png'):
-        raise ConfigError(f"image compression must be 'jpeg' or 'png', got {fmt!r}")
-    if not 0 <= int(jpeg_quality) <= 100:
-        raise ConfigError(f'jpeg quality must be in 0-100, got {jpeg_quality}')
-    if image.dtype == np.uint16:
-        fmt = 'png'
-    if fmt == 'jpeg':
-        ok, data = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
-    else:
-        ok, data = cv2.imencode('.png', image, [cv2.IMWRITE_PNG_COMPRESSION, 1])
-    if not ok:
-        raise DatasetError(f'cannot encode a {image.shape} {image.dtype} image as {fmt}')
-    return np.asarray(data, dtype=np.uint8).reshape(-1)
-
-
-def compressed_format(image: np.ndarray, fmt: str) -> str:
-    """The ``CompressedImage.format`` string of compressed_image_transport, e.g.
-    ``'bgr8; jpeg compressed bgr8'`` or ``'mono16; png compressed mono16'``."""
-    if image.dtype == np.uint16:
-        fmt = 'png'
-    bits = 16 if image.dtype == np.uint16 else 8
-    encoding = f'mono{bits}' if image.ndim == 2 else f'bgr{bits}'
-    return f'{encoding}; {fmt} compressed {encoding}'
-
-
 __all__ = [
     'BagSequence',
-    'compressed_format',
-    'encode_image',
     'image_from_compressed',
     'image_from_msg',
     'is_compressed_type',

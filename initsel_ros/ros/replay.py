@@ -159,7 +159,7 @@ def open_source(options: ReplayOptions) -> object:
 
 def run(options: ReplayOptions) -> int:
     """Publish the sequence; prints the number of frames published. 0 on success."""
-    from initsel_ros.datasets.bags import compressed_format, encode_image
+    from initsel_ros.image import encode_compressed
 
     if not 0 <= options.jpeg_quality <= 100:
         raise ConfigError(f'--jpeg-quality must be in 0-100, got {options.jpeg_quality}')
@@ -240,10 +240,9 @@ def run(options: ReplayOptions) -> int:
                 if options.compressed:
                     message = CompressedImage()
                     message.header = Header(stamp=stamp, frame_id=options.frame_id)
-                    message.format = compressed_format(pixels, options.compressed_format)
-                    message.data = encode_image(
+                    message.data, message.format = encode_compressed(
                         pixels, options.compressed_format, options.jpeg_quality
-                    ).tobytes()
+                    )
                 else:
                     message = conv.numpy_to_image(
                         pixels, encoding, stamp=stamp, frame_id=options.frame_id
