@@ -386,6 +386,18 @@ def _pose_step(R: np.ndarray, t: np.ndarray, dp: np.ndarray) -> tuple[np.ndarray
     return _rotation(dp[:3]) @ R, t_new / np.linalg.norm(t_new)
 
 
+def damped_solve(JtJ: np.ndarray, Jtr: np.ndarray, damping: float) -> np.ndarray | None:
+    """The Levenberg-Marquardt step ``(JtJ + damping diag(JtJ)) step = -Jtr`` (the diagonal
+    floored at a tiny value so that a flat direction is damped too); None when the system is
+    singular or the step not finite."""
+    A = JtJ + damping * np.diag(np.maximum(np.diag(JtJ), _MIN_DIAGONAL))
+    try:
+        step = np.linalg.solve(A, -Jtr)
+    except np.linalg.LinAlgError:
+        return None
+    return step if np.all(np.isfinite(step)) else None
+
+
 def _levenberg_marquardt(
     state: State,
     linearize: Callable[[State], Any],
@@ -540,10 +552,8 @@ def refine_essential(
     def propose(
         state: State, lin: _EssentialLinearization, damping: float
     ) -> tuple[State, float] | None:
-        A = lin.JtJ + damping * np.diag(np.maximum(np.diag(lin.JtJ), _MIN_DIAGONAL))
-        try:
-            dp = np.linalg.solve(A, -lin.Jtr)
-        except np.linalg.LinAlgError:
+        dp = damped_solve(lin.JtJ, lin.Jtr, damping)
+        if dp is None:
             return None
         return _pose_step(*state, dp), float(np.linalg.norm(dp))
 

@@ -29,7 +29,6 @@ from scipy.special import fdtri
 
 from initsel_ros.geometry import triangulate_pair
 from initsel_ros.refine import (
-    _MIN_DIAGONAL,
     Refinement,
     State,
     TwoViewProblem,
@@ -37,6 +36,7 @@ from initsel_ros.refine import (
     _pixels_and_jacobian,
     _pose_step,
     _tangent_basis,
+    damped_solve,
     reprojection_errors,
     soft_l1,
     solve_two_view,
@@ -179,12 +179,8 @@ def _refine_plane(
     def propose(
         state: State, lin: _PlaneLinearization, damping: float
     ) -> tuple[State, float] | None:
-        A = lin.JtJ + damping * np.diag(np.maximum(np.diag(lin.JtJ), _MIN_DIAGONAL))
-        try:
-            step = np.linalg.solve(A, -lin.Jtr)
-        except np.linalg.LinAlgError:
-            return None
-        if not np.all(np.isfinite(step)):
+        step = damped_solve(lin.JtJ, lin.Jtr, damping)
+        if step is None:
             return None
         Rk, tk, pk = state
         size = float(np.sqrt(step[:5] @ step[:5] + step[5:] @ step[5:] / max(pk @ pk, 1e-300)))

@@ -244,3 +244,13 @@ def test_translation_sigma_grows_as_the_baseline_shrinks():
         sigmas.append(refine_two_view(R, t, X, p0, p1, K).translation_sigma_deg)
     assert sigmas[0] < sigmas[1] < sigmas[2], sigmas
     assert sigmas[2] > 5 * sigmas[0]
+
+
+def test_the_damped_step_is_none_when_singular_or_not_finite():
+    from initsel_ros.refine import damped_solve
+
+    JtJ = np.diag([4.0, 1.0, 0.0])  # a flat direction is damped by the floored diagonal
+    step = damped_solve(JtJ, np.array([4.0, 1.0, 0.0]), 1.0)
+    assert step is not None and np.allclose(step, [-0.5, -0.5, 0.0])
+    assert damped_solve(JtJ, np.array([np.nan, 1.0, 0.0]), 1.0) is None  # before: a NaN step
+    assert damped_solve(np.zeros((2, 2)), np.ones(2), 0.0) is None  # singular
