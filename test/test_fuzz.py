@@ -196,12 +196,12 @@ def test_compressed_node_refuses_mis_sized_frames_before_decoding_and_survives_a
 def test_compressed_check_catches_a_frame_decoded_despite_its_size(compressed_probe, monkeypatch):
     """The property itself can fail: a node that decodes a mis-sized frame is caught."""
     import initsel_ros.image as image_module
-    from initsel_ros.ros import node as node_module
+    from initsel_ros.ros import conversions
 
-    def decode_anything(data, fmt='', bit_depth=0, *, max_pixels=0, size=None):
-        return image_module.compressed_to_cv(data, fmt, bit_depth)
+    def decode_anything(msg, bit_depth=0, *, max_pixels=0, size=None):
+        return image_module.compressed_to_cv(msg.data, str(msg.format), bit_depth)
 
-    monkeypatch.setattr(node_module, 'compressed_to_cv', decode_anything)
+    monkeypatch.setattr(conversions, 'compressed_to_cv', decode_anything)
     with pytest.raises(AssertionError, match='not refused before decoding'):
         check_compressed_callbacks(compressed_probe, _compressed('none', size=(32, 24)))
 

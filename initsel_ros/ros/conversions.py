@@ -77,8 +77,11 @@ def image_to_numpy(msg: Image) -> np.ndarray:
     return decode_raw(msg.data, msg.encoding, msg.width, msg.height, msg.step, msg.is_bigendian)
 
 
-def image_to_cv(msg: Image, bit_depth: int | BitDepth = 0) -> np.ndarray:
-    """An Image message as the selector's input (:func:`initsel_ros.image.raw_to_cv`).
+def image_to_cv(
+    msg: Image, bit_depth: int | BitDepth = 0, *, max_pixels: int = MAX_DECODED_PIXELS
+) -> np.ndarray:
+    """An Image message as the selector's input (:func:`initsel_ros.image.raw_to_cv`): the
+    node's own conversion.
 
     Colour and Bayer encodings become BGR; mono16 and 16UC1 are scaled by their real range
     (:func:`to_8bit`: a 12-bit camera's 0..4095 becomes 0..255).
@@ -87,12 +90,20 @@ def image_to_cv(msg: Image, bit_depth: int | BitDepth = 0) -> np.ndarray:
         msg: the image.
         bit_depth: significant bits of 16-bit images (8-16); 0 = from this image's data; a
             :class:`~initsel_ros.image.BitDepth` = the stream's.
+        max_pixels: larger images are refused (the node's ``max_image_pixels``).
 
     Raises:
-        ImageConversionError: as :func:`image_to_numpy`.
+        ImageConversionError: as :func:`image_to_numpy`, or more than ``max_pixels`` pixels.
     """
     return raw_to_cv(
-        msg.data, msg.encoding, msg.width, msg.height, msg.step, msg.is_bigendian, bit_depth
+        msg.data,
+        msg.encoding,
+        msg.width,
+        msg.height,
+        msg.step,
+        msg.is_bigendian,
+        bit_depth,
+        max_pixels=max_pixels,
     )
 
 
@@ -107,13 +118,23 @@ def compressed_to_numpy(msg: CompressedImage) -> np.ndarray:
     return decode_compressed(msg.data, str(msg.format))
 
 
-def compressed_to_cv(msg: CompressedImage, bit_depth: int | BitDepth = 0) -> np.ndarray:
-    """A CompressedImage as the selector's input (:func:`initsel_ros.image.compressed_to_cv`).
+def compressed_to_cv(
+    msg: CompressedImage,
+    bit_depth: int | BitDepth = 0,
+    *,
+    max_pixels: int = MAX_DECODED_PIXELS,
+    size: tuple[int, int] | None = None,
+) -> np.ndarray:
+    """A CompressedImage as the selector's input (:func:`initsel_ros.image.compressed_to_cv`):
+    the node's own conversion; ``size`` (width, height): refuse another size before decoding.
 
     Raises:
-        ImageConversionError: as :func:`compressed_to_numpy`.
+        ImageConversionError: as :func:`compressed_to_numpy`, more than ``max_pixels``
+            pixels, or another size than ``size``.
     """
-    return image_compressed_to_cv(msg.data, str(msg.format), bit_depth)
+    return image_compressed_to_cv(
+        msg.data, str(msg.format), bit_depth, max_pixels=max_pixels, size=size
+    )
 
 
 def numpy_to_compressed(

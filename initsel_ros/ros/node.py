@@ -44,7 +44,7 @@ from std_srvs.srv import Trigger
 
 from initsel_ros.camera import MAX_FIELD_ANGLE_DEG, Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
-from initsel_ros.image import HOT_PIXEL_FRACTION, compressed_to_cv, raw_to_cv
+from initsel_ros.image import HOT_PIXEL_FRACTION
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
 from initsel_ros.overlay import draw_frame_overlay
@@ -468,24 +468,14 @@ class SelectorNode(Node):
         max_pixels = self._settings.max_image_pixels
         if isinstance(msg, CompressedImage):
             info = self._info_intrinsics if self._intrinsics_source == 'camera_info' else None
-            image = compressed_to_cv(
-                msg.data,
-                msg.format,
+            image = conv.compressed_to_cv(
+                msg,
                 bit_depth,
                 max_pixels=max_pixels,
                 size=None if info is None else (info.width, info.height),
             )
         else:
-            image = raw_to_cv(
-                msg.data,
-                msg.encoding,
-                msg.width,
-                msg.height,
-                msg.step,
-                msg.is_bigendian,
-                bit_depth,
-                max_pixels=max_pixels,
-            )
+            image = conv.image_to_cv(msg, bit_depth, max_pixels=max_pixels)
         if bit_depth.bits != before and not bit_depth.fixed:
             rise = f', up from {before}: {bit_depth.frames} frames in a row needed more'
             (self.get_logger().warning if before else self.get_logger().info)(
