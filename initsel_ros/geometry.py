@@ -165,13 +165,8 @@ def triangulate_pair(
     Xc = X @ R.T + t
     finite = np.all(np.isfinite(X), axis=1)
     in_front = finite & (X[:, 2] > 0) & (Xc[:, 2] > 0)
-    centre1 = -R.T @ t
-    ray0 = X
-    ray1 = X - centre1
-    cos = np.einsum('ij,ij->i', ray0, ray1) / (
-        np.linalg.norm(ray0, axis=1) * np.linalg.norm(ray1, axis=1) + _EPS
-    )
-    parallax = np.degrees(np.arccos(np.clip(np.nan_to_num(cos, nan=1.0), -1.0, 1.0)))
+    # 0 where undefined (a point at infinity or at a camera centre): never enough parallax
+    parallax = np.degrees(np.nan_to_num(ray_parallax_rad(X, R, t), nan=0.0))
     with np.errstate(divide='ignore', invalid='ignore'):
         u0 = X @ K.T
         u1 = Xc @ K.T
