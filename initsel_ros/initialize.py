@@ -103,6 +103,11 @@ class FireConfig:
     map_max_reprojection_px: float = MAP_MAX_REPROJECTION_PX
 
 
+#: The fire path's estimators alone: no rotation test, selection or refinement (what the
+#: offline tools judge each method by).
+ESTIMATES_ONLY = FireConfig(rotation_test=False, select=False, refine=False)
+
+
 @dataclass(frozen=True)
 class SeedMap:
     """The pose and first map points of one estimate (refined or not).
@@ -725,6 +730,7 @@ def background_test(
 __all__ = [
     'BACKGROUND_MIN_SHARE',
     'BACKGROUND_MIN_TRACKS',
+    'ESTIMATES_ONLY',
     'MAP_MAX_REPROJECTION_PX',
     'FireConfig',
     'FireResult',

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -12,6 +13,13 @@ def markdown_table(columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> str
     lines = ['| ' + ' | '.join(columns) + ' |', '|' + '---|' * len(columns)]
     lines += ['| ' + ' | '.join(str(c) for c in row) + ' |' for row in rows]
     return '\n'.join(lines)
+
+
+def number(value: float | None, digits: int = 3) -> str:
+    """A table cell for a figure: ``digits`` decimals, ``-`` for None, NaN or infinity."""
+    if value is None or not math.isfinite(value):
+        return '-'
+    return f'{value:.{digits}f}'
 
 
 class Table:
@@ -31,4 +39,4 @@ class Table:
         return markdown_table(self.columns, self.rows)
 
 
-__all__ = ['Table', 'markdown_table']
+__all__ = ['Table', 'markdown_table', 'number']

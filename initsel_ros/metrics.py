@@ -8,6 +8,7 @@ ground truth). Poses follow OpenCV: ``x_cur = R @ x_ref + t``.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -93,6 +94,12 @@ def rotation_error_deg(R_gt: np.ndarray, R_est: np.ndarray) -> float:
     return rotation_angle_deg(np.asarray(R_gt, dtype=np.float64).T @ np.asarray(R_est))
 
 
+def finite_median(values: Iterable[float]) -> float:
+    """Median of the finite values; NaN when there is none."""
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.median(finite)) if finite else math.nan
+
+
 def depth_error(points: np.ndarray, true_depth: np.ndarray) -> float:
     """Median relative depth error of map points after one scale.
 
@@ -116,6 +123,7 @@ def depth_error(points: np.ndarray, true_depth: np.ndarray) -> float:
 
 __all__ = [
     'depth_error',
+    'finite_median',
     'reconstruction_error',
     'relative_pose',
     'rotation_error_deg',

@@ -23,7 +23,7 @@ from initsel_ros.learn.baselines import ORB_MIN_PARALLAX_DEG, ORB_MIN_POINTS
 from initsel_ros.learn.candidates import Candidate, FittedCandidate, fit_candidate
 from initsel_ros.learn.table import PairTable, input_columns, table_probabilities
 from initsel_ros.learn.train import TrainConfig, feature_columns, label_column
-from initsel_ros.markdown import markdown_table
+from initsel_ros.markdown import markdown_table, number
 from initsel_ros.models import METHODS, ModelSet
 from initsel_ros.policy import PolicyConfig, Reason, check_pose_batch, decide_batch
 
@@ -520,8 +520,8 @@ def _reorder(z: np.ndarray, fitted: Mapping[str, FittedCandidate], models: Model
 
 
 # ----------------------------------------------------------------------------- formatting
-def _f(v: float) -> str:
-    return '-' if v is None or (isinstance(v, float) and math.isnan(v)) else f'{v:.4f}'
+def _f(value: float | None) -> str:
+    return number(value, 4)
 
 
 def results_markdown(report: EvalReport) -> str:
@@ -560,7 +560,7 @@ def candidates_markdown(report: EvalReport) -> str:
     rows = []
     for c in report.candidates:
         s, v = c.scores, c.veto
-        vetoed = (_f(v.precision), _f(v.recall)) if v else ('-', '-')
+        vetoed = (number(v.precision, 4), number(v.recall, 4)) if v else ('-', '-')
         alone = map(_f, (s.precision, s.recall, s.f1))
         file = map(_f, (c.precision_at_file_recall, c.file_precision, c.file_recall))
         rows.append((c.candidate, c.model, *alone, *vetoed, *file, f'{c.decision_us:.1f}'))

@@ -27,7 +27,7 @@ from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.evaluate import binary_scores
 from initsel_ros.learn.table import PairTable, table_probabilities
 from initsel_ros.learn.train import TrainConfig, label_column, prepare, train_models
-from initsel_ros.markdown import markdown_table
+from initsel_ros.markdown import markdown_table, number
 from initsel_ros.models import METHODS, ModelSet
 
 LOG = logging.getLogger(__name__)
@@ -237,10 +237,6 @@ def _score_held_out(
     return score_family(models, table.select(assigned == family), family, min_positives)
 
 
-def _fmt(v: float) -> str:
-    return '-' if not math.isfinite(v) else f'{v:.3f}'
-
-
 def generalization_markdown(
     scores: Sequence[FamilyScore], min_positives: int = MIN_POSITIVES
 ) -> str:
@@ -258,7 +254,7 @@ def generalization_markdown(
         for m in SCORED:
             s = by[(f, m)]
             mark = '' if s.scored else '*'
-            cells.append(f'{_fmt(s.precision)} / {_fmt(s.recall)} ({s.positives}{mark})')
+            cells.append(f'{number(s.precision)} / {number(s.recall)} ({s.positives}{mark})')
         rows.append((f, str(by[(f, SCORED[0])].pairs), *cells))
     mean_cells, worst_cells = [], []
     for m in SCORED:
@@ -270,10 +266,10 @@ def generalization_markdown(
             continue
         mean_p = float(np.mean([s.precision for s in finite])) if finite else math.nan
         mean_r = float(np.mean([s.recall for s in counted]))
-        mean_cells.append(f'{_fmt(mean_p)} / {_fmt(mean_r)}')
+        mean_cells.append(f'{number(mean_p)} / {number(mean_r)}')
         # a family where the model never said yes has no precision: it is the worst
         worst = min(counted, key=lambda s: s.precision if math.isfinite(s.precision) else -1.0)
-        worst_cells.append(f'{_fmt(worst.precision)} / {_fmt(worst.recall)} ({worst.family})')
+        worst_cells.append(f'{number(worst.precision)} / {number(worst.recall)} ({worst.family})')
     rows.append(('mean of the scored families', '', *mean_cells))
     rows.append(('worst family (by precision)', '', *worst_cells))
     note = (

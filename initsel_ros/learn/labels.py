@@ -30,7 +30,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import cv2
@@ -39,7 +39,7 @@ import numpy as np
 from initsel_ros import geometry
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, GeometryError, InitselError
-from initsel_ros.initialize import FireConfig, initialize_pair
+from initsel_ros.initialize import ESTIMATES_ONLY, initialize_pair
 from initsel_ros.metrics import (
     reconstruction_error,
     relative_pose,
@@ -333,12 +333,7 @@ def estimate_outcomes(
     R_gt: np.ndarray | None = None,
 ) -> dict[str, MethodOutcome]:
     """Every labelled method estimated on the pair (the fire path's estimators) and judged."""
-    fire_config = FireConfig(
-        ransac_threshold_px=config.ransac_threshold_px,
-        rotation_test=False,
-        select=False,
-        refine=False,
-    )
+    fire_config = replace(ESTIMATES_ONLY, ransac_threshold_px=config.ransac_threshold_px)
     try:
         fire = initialize_pair(p0, p1, K, POSE_METHODS, fire_config)
     except InitselError as exc:

@@ -39,7 +39,8 @@ from initsel_ros.learn.seedmap import (
     _run_selector,
     run_orbslam3_batch,
 )
-from initsel_ros.metrics import relative_pose, translation_chordal_error
+from initsel_ros.markdown import number
+from initsel_ros.metrics import finite_median, relative_pose, translation_chordal_error
 from initsel_ros.models import ModelSet
 from initsel_ros.selector import SelectorConfig
 from initsel_ros.tracking import KltTracker
@@ -190,10 +191,6 @@ def evaluate_arcs(
         return [o for outs in pool.map(evaluate_arc, *zip(*args, strict=True)) for o in outs]
 
 
-def _f(value: float, digits: int = 3) -> str:
-    return '-' if not math.isfinite(value) else f'{value:.{digits}f}'
-
-
 def _kind(name: str) -> str:
     """The sequence name without its noise and seed suffixes (``wall_arc_d3.5_e0.30``)."""
     parts = name.split('_')
@@ -223,20 +220,16 @@ def arc_markdown(outcomes: Sequence[ArcOutcome]) -> str:
     for (kind, noise, system), sel in sorted(groups.items()):
         done = [o for o in sel if o.initialized]
 
-        def median(values: list[float]) -> float:
-            finite = [v for v in values if math.isfinite(v)]
-            return float(np.median(finite)) if finite else math.nan
-
         failed = sum(o.failed for o in sel)
         runs = f'{len(sel)} ({failed} failed)' if failed else f'{len(sel)}'
         system_cell = f'{systems[system]} | ' if several else ''
         lines.append(
             f'| {kind} | {noise} | {system_cell}{runs} | '
             f'{sum(math.isfinite(o.oracle_frame) for o in sel)} | {len(done)} | '
-            f'{_f(median([o.e_t for o in done]))} | '
-            f'{_f(median([o.rotation_deg for o in done]), 2)} | '
-            f'{_f(median([o.frame for o in done]), 1)} | '
-            f'{_f(median([o.oracle_frame for o in sel]), 1)} | '
+            f'{number(finite_median([o.e_t for o in done]))} | '
+            f'{number(finite_median([o.rotation_deg for o in done]), 2)} | '
+            f'{number(finite_median([o.frame for o in done]), 1)} | '
+            f'{number(finite_median([o.oracle_frame for o in sel]), 1)} | '
             f'{sum(o.verdict == "ok" for o in sel)}/{len(sel)} |'
         )
     lines += [
@@ -250,8 +243,8 @@ def arc_markdown(outcomes: Sequence[ArcOutcome]) -> str:
         method = o.method or ('H/F' if o.initialized else '-')  # ORB-SLAM3 reports no choice
         verdict = f'{o.verdict}: {o.detail}' if o.failed and o.detail else o.verdict
         lines.append(
-            f'| {o.sequence} | {system_cell}{method} | {_f(o.frame, 0)} | {_f(o.e_t)} | '
-            f'{_f(o.rotation_deg, 2)} | {_f(o.oracle_frame, 0)} | {verdict} |'
+            f'| {o.sequence} | {system_cell}{method} | {number(o.frame, 0)} | {number(o.e_t)} | '
+            f'{number(o.rotation_deg, 2)} | {number(o.oracle_frame, 0)} | {verdict} |'
         )
     return '\n'.join(lines)
 

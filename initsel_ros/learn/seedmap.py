@@ -52,7 +52,12 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.geometry import triangulate_pair
 from initsel_ros.image import to_gray
-from initsel_ros.initialize import FireConfig, initialize_pair, plane_is_the_scene, seed_map
+from initsel_ros.initialize import (
+    ESTIMATES_ONLY,
+    initialize_pair,
+    plane_is_the_scene,
+    seed_map,
+)
 from initsel_ros.learn.baselines import (
     ORB_MIN_PARALLAX_DEG,
     ORB_MIN_POINTS,
@@ -62,8 +67,10 @@ from initsel_ros.learn.baselines import (
     vins_relative_pose,
 )
 from initsel_ros.learn.labels import true_depths
+from initsel_ros.markdown import number
 from initsel_ros.metrics import (
     depth_error,
+    finite_median,
     relative_pose,
     rotation_error_deg,
     translation_chordal_error,
@@ -204,11 +211,6 @@ def _pose_errors(
         rotation_error_deg(R_gt, R),
         float(np.linalg.norm(t_gt)),
     )
-
-
-#: The fire path's estimates alone: no rotation test, no selection, no refinement (the
-#: baselines and the per-method comparison run their own rules on them).
-ESTIMATES_ONLY = FireConfig(rotation_test=False, select=False, refine=False)
 
 
 def _estimate(method: str, p0: np.ndarray, p1: np.ndarray, K: np.ndarray):
@@ -595,11 +597,6 @@ def evaluate_sequences(
     return outcomes
 
 
-def _median(values: Sequence[float]) -> float:
-    finite = [v for v in values if math.isfinite(v)]
-    return float(np.median(finite)) if finite else math.nan
-
-
 @dataclass(frozen=True)
 class SystemSummary:
     """One row of the seed-map table: a system on a group of sequences."""
@@ -639,23 +636,19 @@ def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
                     len(sel),
                     len(done),
                     sum(o.failed for o in sel),
-                    _median([o.e_t for o in done]),
-                    _median([o.rotation_deg for o in done]),
-                    _median([o.depth_error for o in done]),
+                    finite_median([o.e_t for o in done]),
+                    finite_median([o.rotation_deg for o in done]),
+                    finite_median([o.depth_error for o in done]),
                     float(np.mean([o.e_t < 0.1 for o in done])) if done else math.nan,
                     float(np.mean([o.chosen_ok for o in done]))
                     if done and system == INITSEL
                     else math.nan,
-                    _median([o.frames_to_init for o in done]),
-                    _median([o.frames_to_publish for o in done]),
+                    finite_median([o.frames_to_init for o in done]),
+                    finite_median([o.frames_to_publish for o in done]),
                     ' '.join(f'{m}:{c}' for m, c in sorted(counts.items())),
                 )
             )
     return rows
-
-
-def _f(value: float, digits: int = 3) -> str:
-    return '-' if not math.isfinite(value) else f'{value:.{digits}f}'
 
 
 def summary_markdown(rows: Sequence[SystemSummary]) -> str:
@@ -669,10 +662,10 @@ def summary_markdown(rows: Sequence[SystemSummary]) -> str:
     for r in rows:
         lines.append(
             f'| {r.group} | {r.system} | {r.batches} | {r.initialized} | {r.failed} | '
-            f'{_f(r.median_e_t)} | '
-            f'{_f(r.median_rotation_deg, 2)} | {_f(r.median_depth_error)} | '
-            f'{_f(r.share_e_t_below_0_1, 2)} | {_f(r.chosen_ok_share, 2)} | '
-            f'{_f(r.median_frames_to_init, 1)} | {_f(r.median_frames_to_publish, 1)} | '
+            f'{number(r.median_e_t)} | '
+            f'{number(r.median_rotation_deg, 2)} | {number(r.median_depth_error)} | '
+            f'{number(r.share_e_t_below_0_1, 2)} | {number(r.chosen_ok_share, 2)} | '
+            f'{number(r.median_frames_to_init, 1)} | {number(r.median_frames_to_publish, 1)} | '
             f'{r.methods} |'
         )
     return '\n'.join(lines)

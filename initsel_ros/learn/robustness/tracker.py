@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.initialize import FireConfig, initialize_pair
+from initsel_ros.initialize import ESTIMATES_ONLY, initialize_pair
 from initsel_ros.learn.labels import ground_truth_points
 from initsel_ros.learn.robustness.models import slug
 from initsel_ros.metrics import relative_pose, rotation_error_deg, translation_chordal_error
@@ -69,10 +69,6 @@ TRACKER_SEQUENCES: dict[str, dict[str, Any]] = {
 
 
 MIN_BASELINE_M = 0.05
-
-
-#: The fire path's estimators alone (no rotation test, selection or refinement).
-ESTIMATES_ONLY = FireConfig(rotation_test=False, select=False, refine=False)
 
 
 # ----------------------------------------------------------------------------- ground truth
