@@ -22,8 +22,9 @@ def _random_rows(rng: np.random.Generator, n: int) -> list[dict]:
         for name, kind in schema():
             if kind is float:
                 row[name] = float(rng.normal())
-            elif kind is int:
-                row[name] = int(rng.integers(0, 100))
+            elif kind is int:  # labels and success flags are 0 or 1
+                high = 2 if name.endswith(('_label', '_ok')) else 100
+                row[name] = int(rng.integers(0, high))
             else:
                 row[name] = f'text {i}; with spaces'
         rows.append(row)
@@ -101,6 +102,35 @@ def test_an_older_table_without_an_added_column_reads_it_as_nan(tmp_path, caplog
     table = read_table(path)
     assert np.isnan(table[column]).all() and len(table) == 12
     assert f'an older pair table without {column}: read as NaN' in caplog.text
+
+
+@pytest.mark.parametrize(
+    ('column', 'value', 'match'),
+    [
+        ('F_label', '2', r"column 'F_label' must hold 0 or 1, got 2 on line 5"),
+        ('R_label', '-1', r"column 'R_label' must hold 0 or 1, got -1 on line 5"),
+        ('E_label', 'nan', r"column 'E_label' is malformed \(first bad line: 5\)"),
+        ('H_label', '0.5', r"column 'H_label' is malformed \(first bad line: 5\)"),
+    ],
+)
+def test_a_label_that_is_not_0_or_1_is_refused_with_its_line(tmp_path, column, value, match):
+    # before: 2 crashed `initsel train` in the tree export, and `initsel eval` counted it as
+    # a positive; a NaN label's line was 'unknown'
+    import csv
+
+    from table_fixtures import synthetic_table
+
+    from initsel_ros.errors import DatasetError
+
+    path = tmp_path / 'table.csv'
+    write_table(synthetic_table(n=6), path)
+    with path.open(newline='') as handle:
+        rows = list(csv.reader(handle))
+    rows[4][rows[0].index(column)] = value  # file line 5
+    with path.open('w', newline='') as handle:
+        csv.writer(handle).writerows(rows)
+    with pytest.raises(DatasetError, match=match):
+        read_table(path)
 
 
 def test_a_camera_feature_missing_from_an_older_table_is_a_clear_error(tmp_path, caplog):

@@ -281,11 +281,35 @@ def read_table(path: Path) -> PairTable:
             else:
                 out[name] = np.array([int(v) for v in values], dtype=np.int64)
         except (IndexError, ValueError) as exc:
-            bad = next((k + 2 for k, row in enumerate(raw) if len(row) != len(header)), 'unknown')
+            bad = _first_bad_line(raw, len(header), j, kind)
             raise DatasetError(
                 f'{path}: column {name!r} is malformed (first bad line: {bad}): {exc}'
             ) from exc
+        if name.endswith(BINARY_SUFFIXES):
+            wrong = np.flatnonzero((out[name] != 0) & (out[name] != 1))
+            if len(wrong):
+                raise DatasetError(
+                    f'{path}: column {name!r} must hold 0 or 1, got {out[name][wrong[0]]} on '
+                    f'line {wrong[0] + 2} ({len(wrong)} rows)'
+                )
     return PairTable(out)
+
+
+#: Columns that hold 0 or 1 (labels and success flags).
+BINARY_SUFFIXES = ('_label', '_ok')
+
+
+def _first_bad_line(raw: list[list[str]], width: int, column: int, kind: type) -> int | str:
+    """The file line (header = 1) of the first row that is short or whose ``column`` does not
+    parse as ``kind``; 'unknown' when none is found."""
+    for k, row in enumerate(raw):
+        if len(row) != width:
+            return k + 2
+        try:
+            kind(row[column])
+        except ValueError:
+            return k + 2
+    return 'unknown'
 
 
 def read_tables(paths: Sequence[Path]) -> PairTable:
