@@ -142,3 +142,30 @@ def test_association_is_one_to_one_and_respects_tolerance():
     depth = np.array([0.001, 0.030, 0.040, 0.2])
     match = associate(rgb, depth, 0.02)
     assert match.tolist() == [0, 1, -1, -1]
+
+
+@needs_real
+def test_images_or_depth_of_another_size_than_the_intrinsics_are_refused(tmp_path):
+    # before: resized images were tracked with the 640x480 K and labelled without a word (F
+    # positives 26 -> 9 on a probe), half-size depth read at colour pixels, 8-bit depth taken
+    # as a few millimetres
+    import cv2
+
+    seq_path = _copy_real(tmp_path)
+    rgb = sorted((seq_path / 'rgb').iterdir())
+    depth = sorted((seq_path / 'depth').iterdir())
+    small = cv2.resize(cv2.imread(str(rgb[0])), (320, 240))
+    cv2.imwrite(str(rgb[0]), small)
+    raw_depth = cv2.imread(str(depth[1]), cv2.IMREAD_UNCHANGED)
+    cv2.imwrite(str(depth[1]), cv2.resize(raw_depth, (320, 240)))
+    cv2.imwrite(str(depth[2]), (raw_depth // 256).astype(np.uint8))
+    seq = TumSequence(seq_path)
+    with pytest.raises(DatasetError, match='frame 0: the image is 320x240 but the intrinsics'):
+        seq.gray(0)
+    with pytest.raises(DatasetError, match='frame 0: the image is 320x240'):
+        seq.image(0)
+    with pytest.raises(DatasetError, match='frame 1: the depth map is 320x240'):
+        seq.depth(1)
+    with pytest.raises(DatasetError, match='depth must be a 16-bit PNG'):
+        seq.depth(2)
+    assert seq.image(1).shape == (480, 640, 3)  # the untouched frames still read

@@ -365,6 +365,11 @@ class BagSequence(Sequence):
         depth = image_from_msg(msg)
         if depth.dtype == np.uint16:  # 16UC1: millimetres
             depth = depth.astype(np.float32) / np.float32(1000.0)
+        elif depth.dtype != np.float32 or depth.ndim != 2:  # 32FC1: metres
+            raise DatasetError(
+                f'{self.path}: depth message {j} on {self._depth_topic} is not 16UC1 or '
+                f'32FC1 ({getattr(msg, "encoding", "?")})'
+            )
         return depth.astype(np.float32)
 
     def close(self) -> None:

@@ -129,8 +129,13 @@ class Sequence:
         return i % len(self)
 
     def image(self, i: int) -> np.ndarray:
-        """Colour frame ``i`` as (H, W, 3) uint8 BGR."""
-        return self._load_image(self._check_index(i))
+        """Colour frame ``i`` as (H, W, 3) uint8 BGR.
+
+        Raises:
+            DatasetError: the frame is not of the intrinsics' size (:meth:`_check_size`).
+        """
+        i = self._check_index(i)
+        return self._check_size(self._load_image(i), i, 'image')
 
     def gray(self, i: int) -> np.ndarray:
         """Frame ``i`` as (H, W) uint8 grey."""
@@ -142,14 +147,34 @@ class Sequence:
     def native_image(self, i: int) -> np.ndarray:
         """Frame ``i`` as stored: (H, W) grey or (H, W, 3) BGR, uint8 or uint16 (16-bit PNGs,
         mono16 messages). Readers of grey or 16-bit data override :meth:`_load_native`."""
-        return self._load_native(self._check_index(i))
+        i = self._check_index(i)
+        return self._check_size(self._load_native(i), i, 'image')
 
     def depth(self, i: int) -> np.ndarray | None:
-        """Depth of frame ``i`` as (H, W) float32 metres (0 = no data), or None if absent."""
+        """Depth of frame ``i`` as (H, W) float32 metres (0 = no data), or None if absent.
+
+        Raises:
+            DatasetError: the depth map is not of the images' size (registered depth is).
+        """
         i = self._check_index(i)
         if self.frames[i].depth_stamp is None:
             return None
-        return self._load_depth(i)
+        depth = self._load_depth(i)
+        return None if depth is None else self._check_size(depth, i, 'depth map')
+
+    def _check_size(self, pixels: np.ndarray, i: int, what: str) -> np.ndarray:
+        """``pixels`` when they are of the intrinsics' size; else a DatasetError: tracks and
+        labels on another size would be measured with the wrong K (or depth read at the
+        wrong pixels) without a word."""
+        h, w = pixels.shape[:2]
+        width, height = self.intrinsics.width, self.intrinsics.height
+        if (w, h) != (width, height):
+            raise DatasetError(
+                f'{self.name}: frame {i}: the {what} is {w}x{h} but the intrinsics are for '
+                f'{width}x{height}; give the intrinsics of these images (or a depth map '
+                'registered to them)'
+            )
+        return pixels
 
     def _load_image(self, i: int) -> np.ndarray:
         return bgr_from_any(self._load_native(i))

@@ -303,6 +303,11 @@ class TumSequence(Sequence):
             raise DatasetError(f'{file}: depth must be a single-channel 16-bit PNG')
         if raw.dtype == np.float32:
             return raw
+        if raw.dtype != np.uint16:  # an 8-bit PNG / depth_scale would be millimetres at most
+            raise DatasetError(
+                f'{file}: depth must be a 16-bit PNG (TUM: {self.depth_scale:g} per metre), '
+                f'got {raw.dtype}'
+            )
         return (raw.astype(np.float32) / np.float32(self.depth_scale)).astype(np.float32)
 
 
