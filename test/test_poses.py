@@ -78,3 +78,31 @@ def test_nearest_tolerance_fills_queries_just_outside_the_trajectory():
     t, _ = interpolate_poses([0.89, 0.5], stamps, positions, quats, nearest_tolerance=0.15)
     assert np.allclose(t[0], [0, 0, 0])
     assert np.isnan(t[1, 0])
+
+
+def test_a_trajectory_is_checked_sorted_and_its_exact_repeats_dropped(caplog):
+    import logging
+
+    from initsel_ros.datasets.poses import check_trajectory
+    from initsel_ros.errors import DatasetError
+
+    stamps = np.array([2.0, 1.0, 1.0, 3.0])
+    positions = np.array([[2.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0], [3.0, 0, 0]])
+    quaternions = np.array([[0, 0, 0, 1.0], [0, 0, 0, 1.0], [0, 0, 0, -1.0], [0, 0, 0, 1.0]])
+    t, p, q = check_trajectory(stamps, positions, quaternions, 'gt.txt')
+    assert len(q) == 3
+    assert t.tolist() == [1.0, 2.0, 3.0] and p[:, 0].tolist() == [1.0, 2.0, 3.0]  # q = -q
+    # one time, two poses: before, interpolation blended them silently
+    conflicting = positions.copy()
+    conflicting[2, 0] = 2.0
+    with pytest.raises(DatasetError, match=r'gt.txt: time 1.0 has two different poses'):
+        check_trajectory(stamps, conflicting, quaternions, 'gt.txt')
+    broken = positions.copy()
+    broken[3, 1] = np.nan  # before: a bag's NaN position went through as a missing x
+    with pytest.raises(DatasetError, match=r'bag /pose: sample 3 \(time 3.0\) has a non-finite'):
+        check_trajectory(stamps, broken, quaternions, 'bag /pose')
+    with pytest.raises(DatasetError, match='zero quaternion'):
+        check_trajectory(stamps, positions, quaternions * [1, 1, 1, 0], 'bag /pose')
+    with caplog.at_level(logging.WARNING):
+        check_trajectory(stamps, positions, quaternions * 3.0, 'gt.txt')
+    assert '4 of 4 quaternions are not of unit norm' in caplog.text

@@ -29,7 +29,12 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import FISHEYE_LENGTH, Intrinsics
-from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
+from initsel_ros.datasets.poses import (
+    DEFAULT_MAX_GAP,
+    check_trajectory,
+    interpolate_poses,
+    pose_matrices,
+)
 from initsel_ros.datasets.sequence import Sequence, paired_frames
 from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
@@ -323,11 +328,11 @@ class BagSequence(Sequence):
                         p, o = tr.transform.translation, tr.transform.rotation
                         tf_rows.append([_stamp(tr.header), p.x, p.y, p.z, o.x, o.y, o.z, o.w])
         gt, source = None, None
-        for rows, name in ((pose_rows, 'pose'), (tf_rows, 'tf')):
+        for rows, name, topic in ((pose_rows, 'pose', pose_topic), (tf_rows, 'tf', tf_topic)):
             if rows:
-                data = np.array(rows)
-                data = data[np.argsort(data[:, 0], kind='stable')]
-                gt, source = (data[:, 0], data[:, 1:4], data[:, 4:8]), name
+                data = np.array(rows, dtype=np.float64)
+                where = f'{self.path} {topic}'
+                gt, source = check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], where), name
                 break
         return img_times, img_stamps, depth_times, depth_stamps, info, gt, source
 

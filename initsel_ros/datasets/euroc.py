@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses
+from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, check_trajectory, interpolate_poses
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
 from initsel_ros.datasets.timestamps import ns_to_seconds
 from initsel_ros.datasets.tum import content_lines
@@ -111,10 +111,11 @@ def read_groundtruth(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not all(math.isfinite(v) for v in row) or math.hypot(*row[3:7]) < 1e-9:
             raise DatasetError(f'{path}:{number}: non-finite value or zero quaternion')
         values.append(row)
-    order = np.argsort(np.asarray(stamps, dtype=np.int64), kind='stable')
-    data = np.asarray(values, dtype=np.float64).reshape(-1, 7)[order]
-    quats_wxyz = data[:, 3:7]
-    return (np.asarray(stamps, dtype=np.int64)[order], data[:, 0:3], quats_wxyz[:, [1, 2, 3, 0]])
+    data = np.asarray(values, dtype=np.float64).reshape(-1, 7)
+    quats_xyzw = data[:, [4, 5, 6, 3]]
+    return check_trajectory(
+        np.asarray(stamps, dtype=np.int64), data[:, 0:3], quats_xyzw, str(path)
+    )
 
 
 def _matrix(node: Any, source: Path, key: str) -> np.ndarray:

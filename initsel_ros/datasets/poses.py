@@ -7,13 +7,86 @@ conversions themselves are in :mod:`initsel_ros.transforms`.
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
-from initsel_ros.errors import GeometryError
+from initsel_ros.errors import DatasetError, GeometryError
 from initsel_ros.transforms import normalize_quaternions, pose_matrix, slerp
+
+LOG = logging.getLogger(__name__)
 
 #: Default largest gap (seconds) between the two ground-truth samples bracketing a query time.
 DEFAULT_MAX_GAP = 0.1
+
+#: A quaternion this far from unit norm is normalized with a warning (a column order mixed
+#: up reads as one far from 1; rounding in a file is far below it).
+QUATERNION_NORM_TOLERANCE = 0.01
+
+
+def check_trajectory(
+    stamps: np.ndarray, positions: np.ndarray, quaternions: np.ndarray, where: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A ground-truth trajectory as the readers hand it on: sorted by time, exact repeats
+    of a sample dropped.
+
+    Args:
+        stamps: (N,) times (any unit).
+        positions: (N, 3).
+        quaternions: (N, 4) xyzw.
+        where: the file (and topic) they came from, for the messages.
+
+    Raises:
+        DatasetError: a non-finite value, a zero quaternion, or one stamp with two different
+            poses (interpolation would blend them), naming ``where`` and the sample.
+    """
+    stamps = np.asarray(stamps)
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    quaternions = np.asarray(quaternions, dtype=np.float64).reshape(-1, 4)
+    values = np.column_stack([stamps.astype(np.float64), positions, quaternions])
+    bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+    if len(bad):
+        raise DatasetError(
+            f'{where}: sample {bad[0]} (time {stamps[bad[0]]}) has a non-finite value '
+            f'{values[bad[0], 1:].tolist()} ({len(bad)} samples)'
+        )
+    norms = np.linalg.norm(quaternions, axis=1)
+    zero = np.flatnonzero(norms < 1e-9)
+    if len(zero):
+        raise DatasetError(f'{where}: sample {zero[0]} (time {stamps[zero[0]]}): zero quaternion')
+    off = np.abs(norms - 1.0) > QUATERNION_NORM_TOLERANCE
+    if np.any(off):
+        LOG.warning(
+            '%s: %d of %d quaternions are not of unit norm (%.3g to %.3g): normalized; check '
+            'the column order (x y z w)',
+            where,
+            int(off.sum()),
+            len(norms),
+            float(norms[off].min()),
+            float(norms[off].max()),
+        )
+    order = np.argsort(stamps, kind='stable')
+    stamps, positions, quaternions = stamps[order], positions[order], quaternions[order]
+    repeat = np.flatnonzero(stamps[1:] == stamps[:-1]) + 1
+    if len(repeat):
+        unit = quaternions / np.linalg.norm(quaternions, axis=1, keepdims=True)
+        same_q = np.minimum(
+            np.abs(unit[repeat] - unit[repeat - 1]).max(axis=1),
+            np.abs(unit[repeat] + unit[repeat - 1]).max(axis=1),
+        )
+        same_t = np.abs(positions[repeat] - positions[repeat - 1]).max(axis=1)
+        conflict = repeat[(same_t > 1e-9) | (same_q > 1e-9)]
+        if len(conflict):
+            k = conflict[0]
+            raise DatasetError(
+                f'{where}: time {stamps[k]} has two different poses '
+                f'({positions[k - 1].tolist()} and {positions[k].tolist()}; {len(conflict)} '
+                'such times): which one is the ground truth?'
+            )
+        keep = np.ones(len(stamps), dtype=bool)
+        keep[repeat] = False
+        stamps, positions, quaternions = stamps[keep], positions[keep], quaternions[keep]
+    return stamps, positions, quaternions
 
 
 def interpolate_poses(
@@ -95,6 +168,8 @@ def pose_matrices(t: np.ndarray, q: np.ndarray) -> list[np.ndarray | None]:
 
 __all__ = [
     'DEFAULT_MAX_GAP',
+    'QUATERNION_NORM_TOLERANCE',
+    'check_trajectory',
     'interpolate_poses',
     'pose_matrices',
 ]

@@ -17,7 +17,12 @@ import cv2
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
-from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, interpolate_poses, pose_matrices
+from initsel_ros.datasets.poses import (
+    DEFAULT_MAX_GAP,
+    check_trajectory,
+    interpolate_poses,
+    pose_matrices,
+)
 from initsel_ros.datasets.sequence import (
     Sequence,
     paired_frames,
@@ -126,8 +131,7 @@ def read_trajectory(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             raise DatasetError(f'{path}:{number}: zero quaternion; expected `{TRAJECTORY_FORMAT}`')
         rows.append(row)
     data = np.array(rows, dtype=np.float64).reshape(-1, 8)
-    data = data[np.argsort(data[:, 0], kind='stable')]
-    return data[:, 0], data[:, 1:4], data[:, 4:8]
+    return check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], str(path))
 
 
 def write_listing(path: Path, stamps: Seq[float], names: Seq[str], title: str) -> None:
