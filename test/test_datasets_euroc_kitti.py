@@ -299,6 +299,9 @@ def test_kitti_calib_p0_gives_k_and_the_png_gives_the_size(tmp_path):
         ('poses', r'03\.txt: 29 poses for 30 frames'),
         ('calib', r'calib\.txt: no P0: line'),
         ('pose_line', r'03\.txt:2: expected 12 numbers'),
+        # before: an all-zero line read as 120 degrees of rotation, a scaled block as none
+        ('pose_zero', r'03\.txt:2: the 3x3 block is not a rotation'),
+        ('pose_scaled', r'03\.txt:2: the 3x3 block is not a rotation'),
     ],
 )
 def test_broken_kitti_sequences_give_one_dataset_error_naming_the_file(
@@ -317,7 +320,12 @@ def test_broken_kitti_sequences_give_one_dataset_error_naming_the_file(
         (folder / 'calib.txt').write_text('P1: 1 0 0 0 0 1 0 0 0 0 1 0\n')
     else:
         lines = (root / 'poses' / '03.txt').read_text().splitlines()
-        lines[1] = '1 0 0'
+        numbers = [float(v) for v in lines[1].split()]
+        lines[1] = {
+            'pose_line': '1 0 0',
+            'pose_zero': ' '.join(['0'] * 12),
+            'pose_scaled': ' '.join(f'{2 * v:.9e}' for v in numbers),
+        }[change]
         (root / 'poses' / '03.txt').write_text('\n'.join(lines) + '\n')
     with pytest.raises(DatasetError, match=match):
         open_sequence(root, sequence='03')

@@ -137,6 +137,11 @@ def read_calib(path: Path, camera: int = 0) -> np.ndarray:
     raise DatasetError(f'{path}: no {key}: line')
 
 
+#: Largest entry of R^T R - I of a pose's rotation block (KITTI's files are printed to
+#: 1e-6 relative; a block scaled, zeroed or mis-ordered is far beyond it).
+ROTATION_TOLERANCE = 1e-3
+
+
 def read_poses(path: Path) -> np.ndarray:
     """``poses/NN.txt`` -> (N, 4, 4) cam0-to-world matrices."""
     path = Path(path)
@@ -146,6 +151,13 @@ def read_poses(path: Path) -> np.ndarray:
         if values.size != 12:
             raise DatasetError(
                 f'{path}:{number}: expected 12 numbers `{POSE_FORMAT}`, got {values.size}'
+            )
+        R = values.reshape(3, 4)[:, :3]
+        error = float(np.abs(R.T @ R - np.eye(3)).max())
+        if error > ROTATION_TOLERANCE or np.linalg.det(R) < 0:
+            raise DatasetError(
+                f'{path}:{number}: the 3x3 block is not a rotation (|R^T R - I| = {error:.3g}, '
+                f'det {np.linalg.det(R):.3g}); expected `{POSE_FORMAT}`'
             )
         rows.append(values)
     out = np.tile(np.eye(4), (len(rows), 1, 1))
