@@ -37,3 +37,15 @@ def test_batches_cover_the_sequence_and_drop_single_frames():
     assert batch_ranges(7, 3) == [[0, 1, 2], [3, 4, 5]]
     assert batch_ranges(8, 3)[-1] == [6, 7]
     assert batch_ranges(10, 3, stride=2) == [[0, 2, 4], [6, 8]]
+
+
+def test_a_batch_whose_first_frame_has_no_pose_starts_at_its_first_frame_with_one(caplog):
+    # the real fr3 sequences start before the motion capture: by default the sample's first
+    # frame has no pose, and its whole batch was dropped (logged at debug level only)
+    if not REAL.is_dir():
+        pytest.skip('real sample not available')
+    config = DatasetConfig(batch=3, source=Source.ORB, jobs=1)
+    table = build_table([REAL], config, progress=False)
+    assert len(table) == 1  # frame 2 against frame 1: before, no pair at all
+    assert table['ref_index'].tolist() == [1] and table['cur_index'].tolist() == [2]
+    assert 'batches start on frames without a ground-truth pose' in caplog.text

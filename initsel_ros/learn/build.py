@@ -203,6 +203,31 @@ def _run_on_dask(
             cluster.close()
 
 
+def _batch_tasks(path: str, sequence: Any, config: DatasetConfig) -> list[BatchTask]:
+    """One task per batch of ``sequence``; a batch whose first frames have no ground-truth pose
+    starts at its first frame that has one (its pairs would all be unlabelled from a reference
+    without pose: the real fr3 sequences start before their motion capture)."""
+    has_pose = sequence.has_pose
+    tasks, moved, skipped = [], 0, 0
+    for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
+        first = next((k for k, i in enumerate(frames) if has_pose[i]), len(frames))
+        if len(frames) - first < 2:
+            skipped += 1
+            continue
+        moved += first > 0
+        tasks.append(BatchTask(path, b, tuple(frames[first:]), config))
+    if moved or skipped:
+        LOG.warning(
+            '%s: %d batches start on frames without a ground-truth pose: their reference is '
+            'their first frame with one; %d batches have fewer than 2 such frames and are left '
+            'out',
+            sequence.name,
+            moved,
+            skipped,
+        )
+    return tasks
+
+
 def build_table(
     sources: Sequence[str | Path],
     config: DatasetConfig | None = None,
@@ -250,8 +275,7 @@ def build_table(
                 NO_DEPTH,
             )
         names.append(sequence.name)
-        for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
-            tasks.append(BatchTask(path, b, tuple(frames), config))
+        tasks += _batch_tasks(path, sequence, config)
     # disable=None: quiet when stderr is not a terminal (logs, CI)
     bar = tqdm(total=len(tasks), unit='batch', disable=None if progress else True)
     plans = [_Plan(task) for task in tasks]

@@ -291,7 +291,9 @@ def track_sequence_batch(
     size = (intr.width, intr.height)
     T_ref = sequence.frames[ref].pose
     if T_ref is None:
-        LOG.debug('%s batch %d: reference frame %d has no pose', sequence.name, batch, ref)
+        LOG.warning(
+            '%s batch %d: reference frame %d has no pose: no pairs', sequence.name, batch, ref
+        )
         return TrackedBatch(sequence.name, batch, size, K, sequence.has_depth, (), config)
     depth = sequence.depth(ref)  # None: labels from E_t and the rotation error only
     if config.source is Source.KLT:
