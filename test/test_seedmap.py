@@ -49,6 +49,20 @@ def test_summary_counts_failures_and_skips_empty_groups():
     assert math.isnan(rows[0].median_e_t)
 
 
+def test_initializations_without_ground_truth_are_left_out_of_the_accuracy_shares(caplog):
+    # before: a batch whose reference had no pose counted as initialized with E_t NaN, so
+    # "E_t < 0.1" and "chosen method best" read 0.00 beside a median E_t of '-'
+    from dataclasses import replace
+
+    good = BatchOutcome('near', False, 'initsel', 0, True, 'E', 10, 12, 0.1, 0.02, 0.1)
+    good = replace(good, chosen_ok=True)
+    blind = replace(good, start=30, e_t=math.nan, rotation_deg=math.nan, chosen_ok=False)
+    [row] = summarize([good, blind])
+    assert row.initialized == 2 and abs(row.median_e_t - 0.02) < 1e-12
+    assert row.share_e_t_below_0_1 == 1.0 and row.chosen_ok_share == 1.0
+    assert '1 of 2 initializations have no ground-truth pose' in caplog.text
+
+
 def test_seedmap_command_refuses_bad_baselines_groups_and_a_missing_orbslam3(
     near_sequence, tmp_path, capsys
 ):

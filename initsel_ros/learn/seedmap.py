@@ -38,6 +38,7 @@ RANSAC seed, so spread over runs comes from noise seeds.
 
 from __future__ import annotations
 
+import logging
 import math
 import zlib
 from collections.abc import Callable, Iterable, Sequence
@@ -79,6 +80,8 @@ from initsel_ros.models import ModelSet
 from initsel_ros.names import POSE_METHODS
 from initsel_ros.selector import Selector, SelectorConfig
 from initsel_ros.tracking import KltTracker
+
+LOG = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
@@ -625,6 +628,17 @@ def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
             if not sel:
                 continue
             done = [o for o in sel if o.initialized]
+            # judged against the ground truth: a pair whose frames have no pose has no E_t
+            judged = [o for o in done if math.isfinite(o.e_t)]
+            if len(judged) < len(done):
+                LOG.warning(
+                    '%s, %s: %d of %d initializations have no ground-truth pose to judge them '
+                    '(left out of E_t < 0.1 and chosen method best)',
+                    group,
+                    system,
+                    len(done) - len(judged),
+                    len(done),
+                )
             counts: dict[str, int] = {}
             for o in done:
                 if o.method:
@@ -639,9 +653,9 @@ def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
                     finite_median([o.e_t for o in done]),
                     finite_median([o.rotation_deg for o in done]),
                     finite_median([o.depth_error for o in done]),
-                    float(np.mean([o.e_t < 0.1 for o in done])) if done else math.nan,
-                    float(np.mean([o.chosen_ok for o in done]))
-                    if done and system == INITSEL
+                    float(np.mean([o.e_t < 0.1 for o in judged])) if judged else math.nan,
+                    float(np.mean([o.chosen_ok for o in judged]))
+                    if judged and system == INITSEL
                     else math.nan,
                     finite_median([o.frames_to_init for o in done]),
                     finite_median([o.frames_to_publish for o in done]),
