@@ -298,6 +298,8 @@ class Intrinsics:
                 f'{source}: intrinsics need fx, fy, cx, cy, width, height '
                 f'(and optional distortion, fisheye: true|false): {exc}'
             ) from exc
+        except ConfigError as exc:  # values Intrinsics refuses: say which file held them
+            raise ConfigError(f'{source}: {exc}') from exc
 
     def save_yaml(self, path: Path) -> None:
         """Write as a small YAML file."""
@@ -313,8 +315,9 @@ class Intrinsics:
         path = Path(path)
         try:
             data = yaml.safe_load(path.read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise ConfigError(f'{path}: cannot read intrinsics: {exc}') from exc
+        except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+            reason = ' '.join(str(exc).split())  # YAML errors span lines: one line here
+            raise ConfigError(f'{path}: cannot read intrinsics: {reason}') from exc
         if not isinstance(data, dict):
             raise ConfigError(f'{path}: expected a mapping of intrinsics')
         return cls.from_dict(data, source=str(path))

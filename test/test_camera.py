@@ -143,3 +143,14 @@ def test_the_field_mask_keeps_the_rays_within_80_degrees_of_the_axis():
     assert wide.field_mask() is mask and not mask.flags.writeable  # made once, shared
     radius = 200.0 * math.radians(80.0)  # r = f theta
     assert mask[240, 320 + int(radius) - 2] and not mask[240, 320 + int(radius) + 2]
+
+
+def test_an_intrinsics_file_s_errors_name_it_on_one_line(tmp_path):
+    path = tmp_path / 'intrinsics.yaml'
+    path.write_text('fx: .nan\nfy: 500\ncx: 320\ncy: 240\nwidth: 640\nheight: 480\n')
+    with pytest.raises(ConfigError, match=f'^{path}: intrinsics must be finite'):
+        Intrinsics.load_yaml(path)
+    path.write_text('fx: [500\nfy: 500\n')
+    with pytest.raises(ConfigError, match=f'^{path}: cannot read intrinsics') as info:
+        Intrinsics.load_yaml(path)
+    assert '\n' not in str(info.value)

@@ -169,3 +169,17 @@ def test_images_or_depth_of_another_size_than_the_intrinsics_are_refused(tmp_pat
     with pytest.raises(DatasetError, match='depth must be a 16-bit PNG'):
         seq.depth(2)
     assert seq.image(1).shape == (480, 640, 3)  # the untouched frames still read
+
+
+def test_a_listing_with_a_byte_order_mark_reads_like_one_without(tmp_path):
+    from initsel_ros.datasets.tum import read_listing
+
+    path = tmp_path / 'rgb.txt'
+    path.write_bytes(b'\xef\xbb\xbf# color images\n1.0 rgb/1.png\n')  # as Notepad saves it
+    assert read_listing(path) == read_listing(_bom_free(path, tmp_path))
+
+
+def _bom_free(path: Path, tmp_path: Path) -> Path:
+    out = tmp_path / 'plain.txt'
+    out.write_bytes(path.read_bytes()[3:])
+    return out

@@ -44,10 +44,11 @@ TRAJECTORY_FORMAT = 'timestamp tx ty tz qx qy qz qw'
 
 
 def read_text(path: Path) -> str:
-    """A dataset text file's content; a missing or unreadable file is one DatasetError line."""
+    """A dataset text file's content (UTF-8; a byte-order mark, as Windows editors write,
+    is dropped); a missing or unreadable file is one DatasetError line."""
     path = Path(path)
     try:
-        return path.read_text()
+        return path.read_text(encoding='utf-8-sig')
     except FileNotFoundError as exc:
         raise DatasetError(f'{path}: file not found') from exc
     except (OSError, UnicodeDecodeError) as exc:
