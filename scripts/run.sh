@@ -35,13 +35,15 @@ export ROS_LOG_DIR=${ROS_LOG_DIR:-$(mktemp -d -t initsel-roslog.XXXXXX)}
 # Shared-memory segment large enough for full camera frames (see README, Transport).
 export INITSEL_ENV=1
 export FASTRTPS_DEFAULT_PROFILES_FILE=${FASTRTPS_DEFAULT_PROFILES_FILE:-$root/config/fastdds_shm.xml}
-cd "$root"
 
+# Commands run in the caller's directory (relative paths mean what they say); the tests in
+# the project's.
 job=${1:-demo}
 [ $# -gt 0 ] && shift
 case "$job" in
     demo) exec initsel demo "$@" ;;
     test)
+        cd "$root"
         ruff check initsel_ros test
         ruff format --check initsel_ros test
         exec python -m pytest -q "$@" test ;;
