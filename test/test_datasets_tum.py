@@ -183,3 +183,16 @@ def _bom_free(path: Path, tmp_path: Path) -> Path:
     out = tmp_path / 'plain.txt'
     out.write_bytes(path.read_bytes()[3:])
     return out
+
+
+def test_a_repeated_listing_line_is_one_frame_and_a_conflicting_one_refused(tmp_path, caplog):
+    from initsel_ros.datasets.tum import read_listing
+
+    path = tmp_path / 'rgb.txt'
+    path.write_text('1.0 rgb/1.png\n2.0 rgb/2.png\n1.0 rgb/1.png\n')
+    stamps, names = read_listing(path)  # before: an extra frame
+    assert stamps.tolist() == [1.0, 2.0] and names == ['rgb/1.png', 'rgb/2.png']
+    assert 'rgb.txt: 1 repeated lines read once' in caplog.text
+    path.write_text('1.0 rgb/1.png\n1.0 rgb/9.png\n')
+    with pytest.raises(DatasetError, match=r'rgb.txt:2: time 1.0 is also line 1'):
+        read_listing(path)

@@ -112,14 +112,24 @@ def _lines(path: Path) -> list[tuple[int, str]]:
 def read_times(path: Path) -> list[int]:
     """``times.txt`` -> integer nanoseconds, parsed exactly from the decimal text."""
     path = Path(path)
-    out = []
+    out, numbers = [], []
     for number, line in _lines(path):
+        numbers.append(number)
         try:
             out.append(parse_seconds_ns(line.split()[0]))
         except DatasetError as exc:
             raise DatasetError(
                 f'{path}:{number}: {exc}; expected one time in seconds per line'
             ) from exc
+    back = [k for k in range(1, len(out)) if out[k] <= out[k - 1]]
+    if back:
+        _LOG.warning(
+            '%s: %d times do not rise (first at line %d): frames keep their order, their '
+            'stamps say otherwise',
+            path,
+            len(back),
+            numbers[back[0]],
+        )
     return out
 
 

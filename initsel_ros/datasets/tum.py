@@ -102,14 +102,29 @@ def read_listing_ns(path: Path) -> tuple[list[int], list[str]]:
     path = Path(path)
     stamps: list[int] = []
     names: list[str] = []
+    seen: dict[int, tuple[int, str]] = {}  # stamp -> (line, file)
+    repeated = 0
     for number, fields in _data_lines(path):
         if len(fields) != 2:
             raise DatasetError(
                 f'{path}:{number}: expected 2 columns `{LISTING_FORMAT}`, got {len(fields)}'
             )
         _float(path, number, fields[0], LISTING_FORMAT)  # the error message for bad text
-        stamps.append(parse_seconds_ns(fields[0]))
+        stamp = parse_seconds_ns(fields[0])
+        if stamp in seen:
+            line, name = seen[stamp]
+            if name != fields[1]:
+                raise DatasetError(
+                    f'{path}:{number}: time {fields[0]} is also line {line}, with another file '
+                    f'({name} and {fields[1]}): which frame is it?'
+                )
+            repeated += 1  # the same line twice: one frame
+            continue
+        seen[stamp] = (number, fields[1])
+        stamps.append(stamp)
         names.append(fields[1])
+    if repeated:
+        _LOG.warning('%s: %d repeated lines read once', path, repeated)
     return stamps, names
 
 
