@@ -282,9 +282,16 @@ class SelectorNode(Node):
             previous.intrinsics
         ):
             self.get_logger().info(
-                f'camera.* changed the intrinsics to {settings.intrinsics}: new reference'
+                f'camera.* changed the intrinsics to {settings.intrinsics}: '
+                + self._what_new_intrinsics_do()
             )
         self._tf_publisher()
+
+    def _what_new_intrinsics_do(self) -> str:
+        """The log's words for what other intrinsics do to the selector now."""
+        if self._selector.initialized and self._settings.mode is Mode.ONCE:
+            return 'a new reference once ~/reset starts over (mode once has initialized)'
+        return 'new reference'
 
     def _tf_publisher(self) -> Any:
         """The /tf publisher, created on first need; None when off or tf2_msgs is missing."""
@@ -389,7 +396,9 @@ class SelectorNode(Node):
         elif not intrinsics.same_camera(self._info_intrinsics):
             self.get_logger().info(
                 f'camera_info changed the intrinsics from {self._info_intrinsics} to '
-                f'{intrinsics}: new reference'
+                f'{intrinsics}: {self._what_new_intrinsics_do()} (at most every '
+                f'{WARN_THROTTLE_S:g} s)',
+                throttle_duration_sec=WARN_THROTTLE_S,
             )
         self._intrinsics_source = 'camera_info'
         self._info_intrinsics = intrinsics
