@@ -225,6 +225,7 @@ class _Candidate:
     steps: tuple[VerifyStep, ...] = ()
     rivals: tuple[_Candidate, ...] = ()
     methods: tuple[Method, ...] = ()  # what the fire path tried (the last frame tries again)
+    plane_alone: bool = False  # fired as H alone: the rotation test under E and F's floor
 
     def mean_rms_px(self) -> float:
         """Mean RMS reprojection error over the frames checked so far, pixels."""
@@ -655,8 +656,14 @@ class Selector:
                 )
                 for seed in fire.alternatives
             )
+            threshold = self.config.policy.min_rotation_residual_sigma
+            plane_alone = fire.rotation is not None and fire.rotation.statistic < threshold
             self._candidate = _Candidate(
-                init, np.asarray(ids)[fire.seed.indices], rivals=rivals, methods=methods
+                init,
+                np.asarray(ids)[fire.seed.indices],
+                rivals=rivals,
+                methods=methods,
+                plane_alone=plane_alone,
             )
             return replace(
                 result,
@@ -788,7 +795,20 @@ class Selector:
         if rivals:  # more than one pose held on every frame
             best = _verified_choice(best, rivals)
             init, steps = best.initialization, best.steps
-        init = self._on_last_frame(best, ref, cur, decision, stamp_ns, since, steps[-1]) or init
+        again, contradiction = self._on_last_frame(
+            best, ref, cur, decision, stamp_ns, since, steps[-1]
+        )
+        if contradiction:
+            return replace(
+                base,
+                decision=replace(
+                    decision,
+                    reason=Reason.VERIFICATION_FAILED,
+                    detail=f'{init.method.value} candidate of frame '
+                    f'{init.frames_since_reference} held on {done} frames, but {contradiction}',
+                ),
+            )
+        init = again or init
         verified = self._published(replace(init, verification=steps))
         return replace(
             base,
@@ -810,12 +830,14 @@ class Selector:
         stamp_ns: int,
         since: int,
         step: VerifyStep,
-    ) -> Initialization | None:
-        """The verified map again, from the last verification frame's longer baseline.
+    ) -> tuple[Initialization | None, str]:
+        """The verified map again, from the last verification frame's longer baseline; and
+        why the candidate must be refused after all ('' when it stands).
 
         The fire path runs once more on the reference and this frame, with the methods it
-        tried at fire time. A seed map of the same method whose pose agrees with this frame's
-        PnP pose against the verified map (rotation within
+        tried at fire time (every method for a candidate fired as H alone: see below). A
+        seed map of the same method whose pose agrees with this frame's PnP pose against the
+        verified map (rotation within
         :data:`LAST_FRAME_MAX_ROTATION_DEG`, translation direction within
         :data:`LAST_FRAME_MAX_E_T`) replaces the candidate: the same geometry, confirmed,
         seen with a few frames more baseline. Within :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T`
@@ -823,10 +845,37 @@ class Selector:
         ambiguous (its two decompositions too close to call) is judged the same way, at the
         strict bounds: agreeing with the verified map's PnP pose tells which decomposition it
         is. None when there is none.
+
+        A candidate fired as H alone (the rotation test between the floors: a plane's
+        perspective change, not yet parallax for E and F) is checked against E and F too:
+        when this frame's rotation test reaches their floor and the fire path chooses E or F
+        whose direction of motion lies more than :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T`
+        from this frame's PnP pose against the candidate, the H fitted a scene with depth at
+        a baseline too short to show it, and its decomposition says nothing about the
+        motion: refused (a desk 1.5 cm into a forward motion: H's direction 48 degrees off,
+        verified on 5 frames; E from the last frame's 4.4 cm: 4 degrees).
         """
         init = candidate.initialization
         config = self._fire_config()
-        fire = initialize_pair(ref, cur, self.intrinsics.K, candidate.methods, config)
+        methods = tuple(Method) if candidate.plane_alone else candidate.methods
+        fire = initialize_pair(ref, cur, self.intrinsics.K, methods, config)
+        t_pnp = step.t / max(float(np.linalg.norm(step.t)), 1e-12)
+        threshold = self.config.policy.min_rotation_residual_sigma
+        if (
+            candidate.plane_alone
+            and fire.seed is not None
+            and fire.seed.method is not Method.H
+            and fire.rotation is not None
+            and fire.rotation.statistic >= threshold
+        ):
+            apart = float(np.linalg.norm(fire.seed.t - t_pnp))
+            if apart > LAST_FRAME_MORE_CERTAIN_MAX_E_T:
+                return None, (
+                    f'on frame {len(candidate.steps)} the rotation test reads '
+                    f'{fire.rotation.statistic:.1f} x the noise and {fire.seed.method.value} '
+                    f'moves {np.degrees(2 * np.arcsin(min(apart / 2, 1.0))):.0f} degrees '
+                    f'from its direction: the H fitted a scene with depth'
+                )
         if fire.reason is Reason.INITIALIZED and fire.seed is not None:
             seeds = [(seed, False) for seed in (fire.seed, *fire.alternatives)]
         else:  # an H refused only as ambiguous: the verified map tells its decomposition
@@ -837,7 +886,6 @@ class Selector:
                 for seed in [usable_seed(estimate, ref, cur, self.intrinsics.K, config)]
                 if seed is not None
             ]
-        t_pnp = step.t / max(float(np.linalg.norm(step.t)), 1e-12)
         verified_sigma = _direction_sigma_deg(init.refinement)
         for seed, ambiguous in seeds:
             looser = not ambiguous and _direction_sigma_deg(seed.refinement) < verified_sigma
@@ -848,10 +896,11 @@ class Selector:
                 <= (LAST_FRAME_MORE_CERTAIN_MAX_E_T if looser else LAST_FRAME_MAX_E_T)
             )
             if agrees:
-                return self._initialization(
+                again = self._initialization(
                     seed, ref, cur, decision, stamp_ns, since, fire.selection
                 )
-        return None
+                return again, ''
+        return None, ''
 
     def _check(self, candidate: _Candidate, tracks: Tracks, cur: np.ndarray) -> VerifyStep:
         """PnP of one candidate's map points against their tracks in this frame."""
