@@ -619,7 +619,9 @@ def _last_frame(monkeypatch, apart, refit_sigma, fire=None):
     monkeypatch.setattr(selector_module, 'usable_seed', lambda *a, **k: refit)
     decision = sel.process(texture(1), ns(0.0)).decision
     cur = np.zeros((3, 2))
-    return sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 14, step), t_refit
+    again, refused = sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 14, step)
+    assert refused == ''  # an H candidate fired with E and F allowed is never refused here
+    return again, t_refit
 
 
 @pytest.mark.parametrize(
@@ -672,6 +674,51 @@ def test_an_h_refused_as_ambiguous_at_the_last_frame_is_taken_where_the_verified
     assert (out is not None) == replaced
     if replaced:
         assert np.allclose(out.t / np.linalg.norm(out.t), t_refit)
+
+
+@pytest.mark.parametrize(
+    ('plane_alone', 'method', 'statistic', 'apart', 'refused'),
+    [
+        (True, Method.E, 6.5, 0.9, True),  # the probe's desk: E 54 degrees from the H
+        (True, Method.E, 6.5, 0.2, False),  # E agrees with the H's direction: it stands
+        (True, Method.E, 2.5, 0.9, False),  # E still under its floor: no evidence against H
+        (True, Method.H, 6.5, 0.9, False),  # the longer baseline chose H again
+        (False, Method.E, 6.5, 0.9, False),  # fired with E and F allowed: as before
+    ],
+)
+def test_an_h_fired_alone_is_refused_where_e_at_the_last_frame_contradicts_it(
+    monkeypatch, plane_alone, method, statistic, apart, refused
+):
+    import initsel_ros.selector as selector_module
+    from initsel_ros.geometry import RotationTest
+    from initsel_ros.initialize import FireResult, SeedMap
+
+    sel = Selector(constant_models(), CAMERA)
+    verified = Initialization(
+        Method.H, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, 9, 3, {}, 1.2, refinement=_refined(1.0),
+    )  # fmt: skip
+    candidate = _Candidate(verified, np.arange(3), methods=(Method.H,), plane_alone=plane_alone)
+    step = VerifyStep(True, 100, 100, 1.0, 0.7, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
+    angle = 2 * np.arcsin(apart / 2)
+    t_new = np.array([np.cos(angle), np.sin(angle), 0.0])
+    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
+    seed = SeedMap(method, np.eye(3), t_new, points, np.arange(3), 4.0, _refined(3.0))
+    rotation = RotationTest(1.0, 1.0 / statistic, statistic, 1.0)
+    tried = []
+
+    def fire(ref, cur, K, methods, config):
+        tried.append(tuple(methods))
+        return FireResult(Reason.INITIALIZED, rotation=rotation, seed=seed)
+
+    monkeypatch.setattr(selector_module, 'initialize_pair', fire)
+    decision = sel.process(texture(1), ns(0.0)).decision
+    cur = np.zeros((3, 2))
+    _, why = sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 8, step)
+    assert bool(why) == refused
+    assert tried == [tuple(Method) if plane_alone else (Method.H,)]
+    if refused:
+        assert why.startswith('on frame 0 the rotation test reads 6.5 x the noise and E moves')
 
 
 def test_the_selector_gives_its_camera_to_a_model_that_reads_it(caplog):
