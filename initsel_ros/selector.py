@@ -360,6 +360,7 @@ class Selector:
         self._frame_index = 0
         self._reference_stamp_ns: int | None = None
         self._candidate: _Candidate | None = None
+        self._dropped = ''  # why a candidate under verification was dropped, for the next frame
         self._frame_tracks: Tracks | None = None
         # when the fire path runs next for want of baseline: see _recheck_rotation
         self._schedule = _FireSchedule(0, self.config.rotation_recheck_frames)
@@ -375,6 +376,7 @@ class Selector:
         changed = not intrinsics.same_camera(self.intrinsics)
         self.intrinsics = intrinsics
         if changed:
+            self._drop_candidate('the intrinsics changed')
             self.tracker.clear()
             self.tracker.region = intrinsics.field_mask()
             self._reference_stamp_ns = None
@@ -386,14 +388,21 @@ class Selector:
         The thresholds are recomputed; the tracker is rebuilt (dropping the reference) only
         when its own settings changed. Switching to mode continuous once initialized in mode
         once starts over (:meth:`reset`'s reference and state, the bit depth kept): the old
-        reference has been tracked past, and its initialization already published.
+        reference has been tracked past, and its initialization already published. A
+        candidate under verification was fired under the old thresholds and policy: when
+        those change it is dropped (the next frames fire, or not, under the new ones).
         """
-        old_tracker = self.config.tracker
+        old = self.config
         if self.initialized and config.mode is not Mode.ONCE:
             self.tracker.clear()
             self.initialized = False
             self._reference_stamp_ns = None
-            self._candidate = None
+            self._drop_candidate('mode continuous starts over')
+        if config.policy != old.policy:
+            self._drop_candidate('the thresholds or the decision policy changed')
+        if config.tracker != old.tracker:
+            self._drop_candidate('the tracker settings changed')
+        old_tracker = old.tracker
         self.config = config
         self.thresholds = effective_thresholds(self.models.thresholds, config.policy)
         if config.tracker != old_tracker:
@@ -408,7 +417,7 @@ class Selector:
         self.bit_depth.reset()
         self.initialized = False
         self._reference_stamp_ns = None
-        self._candidate = None
+        self._drop_candidate('~/reset')
 
     def restart(self) -> None:
         """The stream started over (time jumped back): the next frame becomes the reference.
@@ -418,7 +427,13 @@ class Selector:
         """
         self.tracker.clear()
         self._reference_stamp_ns = None
-        self._candidate = None
+        self._drop_candidate('the stream restarted')
+
+    def _drop_candidate(self, why: str) -> None:
+        """Forget the candidate under verification, if any; the next frame's detail says why."""
+        if self._candidate is not None:
+            self._candidate = None
+            self._dropped = why
 
     def _new_reference(
         self,
@@ -439,6 +454,11 @@ class Selector:
         """Handle one frame (see :meth:`_process`); the result carries its tracks too."""
         self._frame_tracks = None
         result = self._process(image, stamp_ns)
+        if self._dropped:
+            note = f'the candidate being verified was dropped: {self._dropped}'
+            detail = f'{result.decision.detail}; {note}' if result.decision.detail else note
+            result = replace(result, decision=replace(result.decision, detail=detail))
+            self._dropped = ''
         # The tracks this frame was decided on; a new reference's fresh detections otherwise.
         # (``is None``: an empty Tracks is falsy.) ``thresholds`` is replaced, never mutated,
         # by update_config, so the result can share it.
@@ -817,7 +837,8 @@ class Selector:
                 decision,
                 reason=Reason.INITIALIZED,
                 probabilities=dict(init.probabilities),
-                detail=f'{init.method.value} verified on {wanted} frames (last: {step.detail})',
+                detail=f'{init.method.value} verified on {len(steps)} frames '
+                f'(last: {step.detail})',
             ),
         )
 

@@ -230,6 +230,48 @@ def test_switching_to_continuous_after_a_once_initialization_starts_over(near_se
     assert after.frames_since_reference == 1 and after.reference_stamp_ns == stamps[first + 12]
 
 
+def _until_verifying(seq, sel):
+    stamps = [int(t) for t in seq.stamps_ns]
+    for i in range(len(stamps)):
+        result = sel.process(seq.image(i), stamps[i])
+        if result.decision.reason is Reason.VERIFYING and sel._candidate is not None:
+            return i, stamps
+    raise AssertionError('never verifying')
+
+
+def test_a_candidate_under_verification_is_dropped_when_the_policy_changes_and_says_so(
+    near_sequence,
+):
+    from dataclasses import replace
+
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import default_model_path
+
+    seq = open_sequence(near_sequence)
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, SelectorConfig())
+    i, stamps = _until_verifying(seq, sel)
+    strict = replace(sel.config.policy, min_points=300)
+    sel.update_config(replace(sel.config, policy=strict))
+    # before: the candidate fired under the old policy was published all the same
+    after = sel.process(seq.image(i + 1), stamps[i + 1])
+    assert after.decision.reason is not Reason.VERIFYING and sel._candidate is None
+    assert after.decision.detail.endswith(
+        'the candidate being verified was dropped: the thresholds or the decision policy changed'
+    )
+    sel.reset()  # nothing to drop now: no note
+    assert 'dropped' not in sel.process(seq.image(i + 2), stamps[i + 2]).decision.detail
+    # the verification count is the frames that were checked, whatever the setting says now
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, SelectorConfig())
+    i, stamps = _until_verifying(seq, sel)
+    sel.process(seq.image(i + 1), stamps[i + 1])
+    sel.process(seq.image(i + 2), stamps[i + 2])
+    shorter = replace(sel.config.verify, frames=2)
+    sel.update_config(replace(sel.config, verify=shorter))
+    done = sel.process(seq.image(i + 3), stamps[i + 3])
+    assert done.initialization is not None
+    assert done.decision.detail.startswith(f'{done.initialization.method.value} verified on 3 ')
+
+
 def _first_init(path, config):
     from initsel_ros.datasets import open_sequence
     from initsel_ros.models import default_model_path
