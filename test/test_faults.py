@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 import pytest
 
+from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import DatasetError, ModelFileError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -183,6 +184,8 @@ def _tum_folder(path: Path, n: int = 3) -> Path:
     write_trajectory(
         path / 'groundtruth.txt', stamps, np.zeros((n, 3)), np.tile([0, 0, 0, 1.0], (n, 1))
     )
+    # the intrinsics of these images (the fr3 default is for 640x480: refused, not misread)
+    Intrinsics.tum_fr3().scaled(64, 48).save_yaml(path / 'intrinsics.yaml')
     return path
 
 
