@@ -225,7 +225,6 @@ class _Candidate:
     steps: tuple[VerifyStep, ...] = ()
     rivals: tuple[_Candidate, ...] = ()
     methods: tuple[Method, ...] = ()  # what the fire path tried (the last frame tries again)
-    plane_alone: bool = False  # fired as H alone: the rotation test under E and F's floor
 
     def mean_rms_px(self) -> float:
         """Mean RMS reprojection error over the frames checked so far, pixels."""
@@ -331,6 +330,21 @@ def decide_pair(
         ref, cur, width, height, thresholds, camera
     )
     return decide(probs, thresholds, len(ref), mean_disparity, policy, referred)
+
+
+def _fits_better_than_h(selection: Selection | None) -> str:
+    """'E better than H (GRIC a against b)' when E or F has a lower GRIC than H among a fire path's
+    candidates, whether or not they passed the pose check (the tracks are then no plane);
+    '' when H fits best or was not scored."""
+    if selection is None:
+        return ''
+    gric = {s.method: s.gric for s in selection.scores if math.isfinite(s.gric)}
+    if Method.H not in gric or len(gric) < 2:
+        return ''
+    best = min(gric, key=gric.__getitem__)
+    if best is Method.H:
+        return ''
+    return f'{best.value} better than H (GRIC {gric[best]:.0f} against {gric[Method.H]:.0f})'
 
 
 def _direction_sigma_deg(refinement: Refinement | None) -> float:
@@ -676,14 +690,8 @@ class Selector:
                 )
                 for seed in fire.alternatives
             )
-            threshold = self.config.policy.min_rotation_residual_sigma
-            plane_alone = fire.rotation is not None and fire.rotation.statistic < threshold
             self._candidate = _Candidate(
-                init,
-                np.asarray(ids)[fire.seed.indices],
-                rivals=rivals,
-                methods=methods,
-                plane_alone=plane_alone,
+                init, np.asarray(ids)[fire.seed.indices], rivals=rivals, methods=methods
             )
             return replace(
                 result,
@@ -828,6 +836,12 @@ class Selector:
                     f'{init.frames_since_reference} held on {done} frames, but {contradiction}',
                 ),
             )
+        detail = f'{init.method.value} verified on {len(steps)} frames (last: {step.detail})'
+        if again is not None and again.method is not init.method:
+            detail += (
+                f'; published as {again.method.value} from this frame, whose pose agrees with '
+                f'the verified map'
+            )
         init = again or init
         verified = self._published(replace(init, verification=steps))
         return replace(
@@ -837,8 +851,7 @@ class Selector:
                 decision,
                 reason=Reason.INITIALIZED,
                 probabilities=dict(init.probabilities),
-                detail=f'{init.method.value} verified on {len(steps)} frames '
-                f'(last: {step.detail})',
+                detail=detail,
             ),
         )
 
@@ -856,9 +869,9 @@ class Selector:
         why the candidate must be refused after all ('' when it stands).
 
         The fire path runs once more on the reference and this frame, with the methods it
-        tried at fire time (every method for a candidate fired as H alone: see below). A
-        seed map of the same method whose pose agrees with this frame's PnP pose against the
-        verified map (rotation within
+        tried at fire time (every method for an H candidate: see below). A seed map of the
+        same method whose pose agrees with this frame's PnP pose against the verified map
+        (rotation within
         :data:`LAST_FRAME_MAX_ROTATION_DEG`, translation direction within
         :data:`LAST_FRAME_MAX_E_T`) replaces the candidate: the same geometry, confirmed,
         seen with a few frames more baseline. Within :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T`
@@ -867,35 +880,41 @@ class Selector:
         strict bounds: agreeing with the verified map's PnP pose tells which decomposition it
         is. None when there is none.
 
-        A candidate fired as H alone (the rotation test between the floors: a plane's
-        perspective change, not yet parallax for E and F) is checked against E and F too:
-        when this frame's rotation test reaches their floor and the fire path chooses E or F
-        whose direction of motion lies more than :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T`
-        from this frame's PnP pose against the candidate, the H fitted a scene with depth at
-        a baseline too short to show it, and its decomposition says nothing about the
-        motion: refused (a desk 1.5 cm into a forward motion: H's direction 48 degrees off,
-        verified on 5 frames; E from the last frame's 4.4 cm: 4 degrees).
+        An H candidate is checked against E and F too. At a baseline of a centimetre or
+        two every track of a scene with depth fits some homography, and that H's
+        decomposition says nothing about the motion; PnP against its map stays consistent
+        for a few frames. So when this frame's rotation test reaches E and F's floor and the
+        fire path chooses E or F: one whose direction lies more than
+        :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T` from the PnP pose refuses the candidate (a
+        desk 1.5 cm into a forward motion: H 48 degrees off, verified on 5 frames; E from
+        the last frame's 4.4 cm: 4 degrees), and one that agrees with it by the bounds above
+        replaces it, as a seed map of H's own would (a camera-effects desk: H 25 degrees
+        off at 2.3 cm, F from 5.2 cm 3 degrees).
         """
         init = candidate.initialization
         config = self._fire_config()
-        methods = tuple(Method) if candidate.plane_alone else candidate.methods
+        h_candidate = init.method is Method.H
+        methods = tuple(Method) if h_candidate else candidate.methods
         fire = initialize_pair(ref, cur, self.intrinsics.K, methods, config)
         t_pnp = step.t / max(float(np.linalg.norm(step.t)), 1e-12)
         threshold = self.config.policy.min_rotation_residual_sigma
-        if (
-            candidate.plane_alone
-            and fire.seed is not None
-            and fire.seed.method is not Method.H
-            and fire.rotation is not None
-            and fire.rotation.statistic >= threshold
-        ):
-            apart = float(np.linalg.norm(fire.seed.t - t_pnp))
-            if apart > LAST_FRAME_MORE_CERTAIN_MAX_E_T:
+        if h_candidate and fire.rotation is not None and fire.rotation.statistic >= threshold:
+            on_frame = (
+                f'on frame {len(candidate.steps)} the rotation test reads '
+                f'{fire.rotation.statistic:.1f} x the noise and '
+            )
+            if fire.seed is not None and fire.seed.method is not Method.H:
+                apart = float(np.linalg.norm(fire.seed.t - t_pnp))
+                if apart > LAST_FRAME_MORE_CERTAIN_MAX_E_T:
+                    return None, (
+                        f'{on_frame}{fire.seed.method.value} moves '
+                        f'{np.degrees(2 * np.arcsin(min(apart / 2, 1.0))):.0f} degrees from '
+                        'its direction: the H fitted a scene with depth'
+                    )
+            elif fire.seed is None and (deeper := _fits_better_than_h(fire.selection)):
                 return None, (
-                    f'on frame {len(candidate.steps)} the rotation test reads '
-                    f'{fire.rotation.statistic:.1f} x the noise and {fire.seed.method.value} '
-                    f'moves {np.degrees(2 * np.arcsin(min(apart / 2, 1.0))):.0f} degrees '
-                    f'from its direction: the H fitted a scene with depth'
+                    f"{on_frame}the tracks fit {deeper}: not a plane, so the H's "
+                    'decomposition says nothing about the motion'
                 )
         if fire.reason is Reason.INITIALIZED and fire.seed is not None:
             seeds = [(seed, False) for seed in (fire.seed, *fire.alternatives)]
@@ -911,7 +930,7 @@ class Selector:
         for seed, ambiguous in seeds:
             looser = not ambiguous and _direction_sigma_deg(seed.refinement) < verified_sigma
             agrees = (
-                seed.method is init.method
+                (seed.method is init.method or h_candidate)
                 and rotation_angle_deg(seed.R.T @ step.R) <= LAST_FRAME_MAX_ROTATION_DEG
                 and float(np.linalg.norm(seed.t - t_pnp))
                 <= (LAST_FRAME_MORE_CERTAIN_MAX_E_T if looser else LAST_FRAME_MAX_E_T)

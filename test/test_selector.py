@@ -269,7 +269,7 @@ def test_a_candidate_under_verification_is_dropped_when_the_policy_changes_and_s
     sel.update_config(replace(sel.config, verify=shorter))
     done = sel.process(seq.image(i + 3), stamps[i + 3])
     assert done.initialization is not None
-    assert done.decision.detail.startswith(f'{done.initialization.method.value} verified on 3 ')
+    assert ' verified on 3 frames (last: ' in done.decision.detail
 
 
 def _first_init(path, config):
@@ -662,7 +662,7 @@ def _last_frame(monkeypatch, apart, refit_sigma, fire=None):
     decision = sel.process(texture(1), ns(0.0)).decision
     cur = np.zeros((3, 2))
     again, refused = sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 14, step)
-    assert refused == ''  # an H candidate fired with E and F allowed is never refused here
+    assert refused == ''  # the stubbed refit is an H: the E and F check has nothing to judge
     return again, t_refit
 
 
@@ -719,17 +719,18 @@ def test_an_h_refused_as_ambiguous_at_the_last_frame_is_taken_where_the_verified
 
 
 @pytest.mark.parametrize(
-    ('plane_alone', 'method', 'statistic', 'apart', 'refused'),
+    ('candidate', 'method', 'statistic', 'apart', 'outcome'),
     [
-        (True, Method.E, 6.5, 0.9, True),  # the probe's desk: E 54 degrees from the H
-        (True, Method.E, 6.5, 0.2, False),  # E agrees with the H's direction: it stands
-        (True, Method.E, 2.5, 0.9, False),  # E still under its floor: no evidence against H
-        (True, Method.H, 6.5, 0.9, False),  # the longer baseline chose H again
-        (False, Method.E, 6.5, 0.9, False),  # fired with E and F allowed: as before
+        (Method.H, Method.E, 6.5, 0.9, 'refused'),  # the probe's desk: E 54 degrees away
+        (Method.H, Method.F, 6.5, 0.08, 'replaced'),  # F agrees with the PnP pose: F is published
+        (Method.H, Method.E, 6.5, 0.2, 'kept'),  # between the bounds, E no more certain
+        (Method.H, Method.E, 2.5, 0.9, 'kept'),  # E under its floor: no evidence against H
+        (Method.H, Method.H, 6.5, 0.9, 'kept'),  # the longer baseline chose H again, far off
+        (Method.E, Method.F, 6.5, 0.9, 'kept'),  # an E candidate: F is not its judge
     ],
 )
-def test_an_h_fired_alone_is_refused_where_e_at_the_last_frame_contradicts_it(
-    monkeypatch, plane_alone, method, statistic, apart, refused
+def test_an_h_candidate_is_refused_or_replaced_by_e_or_f_from_the_last_frame(
+    monkeypatch, candidate, method, statistic, apart, outcome
 ):
     import initsel_ros.selector as selector_module
     from initsel_ros.geometry import RotationTest
@@ -737,11 +738,11 @@ def test_an_h_fired_alone_is_refused_where_e_at_the_last_frame_contradicts_it(
 
     sel = Selector(constant_models(), CAMERA)
     verified = Initialization(
-        Method.H, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        candidate, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
         np.zeros((0, 2)), 0, 9, 3, {}, 1.2, refinement=_refined(1.0),
     )  # fmt: skip
-    candidate = _Candidate(verified, np.arange(3), methods=(Method.H,), plane_alone=plane_alone)
     step = VerifyStep(True, 100, 100, 1.0, 0.7, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
+    held = _Candidate(verified, np.arange(3), steps=(step,) * 5, methods=(candidate,))
     angle = 2 * np.arcsin(apart / 2)
     t_new = np.array([np.cos(angle), np.sin(angle), 0.0])
     points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
@@ -756,11 +757,67 @@ def test_an_h_fired_alone_is_refused_where_e_at_the_last_frame_contradicts_it(
     monkeypatch.setattr(selector_module, 'initialize_pair', fire)
     decision = sel.process(texture(1), ns(0.0)).decision
     cur = np.zeros((3, 2))
-    _, why = sel._on_last_frame(candidate, cur, cur, decision, ns(0.5), 8, step)
-    assert bool(why) == refused
-    assert tried == [tuple(Method) if plane_alone else (Method.H,)]
-    if refused:
-        assert why.startswith('on frame 0 the rotation test reads 6.5 x the noise and E moves')
+    again, why = sel._on_last_frame(held, cur, cur, decision, ns(0.5), 8, step)
+    assert tried == [tuple(Method) if candidate is Method.H else (candidate,)]
+    assert bool(why) == (outcome == 'refused')
+    assert (again is not None) == (outcome == 'replaced')
+    if outcome == 'refused':
+        assert why.startswith('on frame 5 the rotation test reads 6.5 x the noise and E moves')
+    if outcome == 'replaced':
+        assert again.method is Method.F and again.frames_since_reference == 8
+
+
+def test_an_h_candidate_is_refused_where_the_last_frame_s_tracks_fit_e_or_f_better(monkeypatch):
+    # random motion over the desk: H fired at 2.9 x the noise, 3.5 cm from its reference, and
+    # held on 5 frames 1.8 (chordal) off; on the last frame (5.8 cm) no method had the parallax
+    # for a seed map yet, but F fitted the tracks better than H: no plane
+    import initsel_ros.selector as selector_module
+    from initsel_ros.geometry import RotationTest
+    from initsel_ros.initialize import FireResult
+    from initsel_ros.model_selection import CandidateScore, Selection
+
+    def score(method, gric):
+        return CandidateScore(method, False, 'low parallax', gric, 200, 0.7, 0.9)
+
+    sel = Selector(constant_models(), CAMERA)
+    verified = Initialization(
+        Method.H, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, 9, 6, {}, 1.2, refinement=_refined(1.5),
+    )  # fmt: skip
+    step = VerifyStep(True, 100, 100, 1.0, 0.4, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
+    held = _Candidate(verified, np.arange(3), steps=(step,) * 5, methods=(Method.H,))
+    decision = sel.process(texture(1), ns(0.0)).decision
+    cur = np.zeros((3, 2))
+    for scores, refused in (
+        ((score(Method.F, 1436.0), score(Method.E, 1540.0), score(Method.H, 1529.0)), True),
+        ((score(Method.F, 1636.0), score(Method.E, 1540.0), score(Method.H, 1529.0)), False),
+    ):
+        fire = FireResult(
+            Reason.LOW_PARALLAX,
+            rotation=RotationTest(1.0, 1.0 / 3.6, 3.6, 1.0),
+            selection=Selection(None, scores, np.nan, ''),
+        )
+        monkeypatch.setattr(selector_module, 'initialize_pair', lambda *a, f=fire, **k: f)
+        again, why = sel._on_last_frame(held, cur, cur, decision, ns(0.5), 11, step)
+        assert again is None and bool(why) == refused
+    # the message of the refused case (the loop's first)
+    monkeypatch.setattr(
+        selector_module,
+        'initialize_pair',
+        lambda *a, **k: FireResult(
+            Reason.LOW_PARALLAX,
+            rotation=RotationTest(1.0, 1.0 / 3.6, 3.6, 1.0),
+            selection=Selection(
+                None, (score(Method.F, 1436.0), score(Method.H, 1529.0)), np.nan, ''
+            ),
+        ),
+    )
+    _, why = sel._on_last_frame(held, cur, cur, decision, ns(0.5), 11, step)
+    assert why == (
+        'on frame 5 the rotation test reads 3.6 x the noise and the tracks fit F better than H '
+        "(GRIC 1436 against 1529): not a plane, so the H's decomposition says nothing about "
+        'the motion'
+    )
 
 
 def test_the_selector_gives_its_camera_to_a_model_that_reads_it(caplog):
