@@ -56,11 +56,16 @@ def test_initializations_without_ground_truth_are_left_out_of_the_accuracy_share
 
     good = BatchOutcome('near', False, 'initsel', 0, True, 'E', 10, 12, 0.1, 0.02, 0.1)
     good = replace(good, chosen_ok=True)
-    blind = replace(good, start=30, e_t=math.nan, rotation_deg=math.nan, chosen_ok=False)
+    blind = replace(good, start=30, baseline_m=math.nan, e_t=math.nan, rotation_deg=math.nan)
+    blind = replace(blind, chosen_ok=False)
     [row] = summarize([good, blind])
     assert row.initialized == 2 and abs(row.median_e_t - 0.02) < 1e-12
     assert row.share_e_t_below_0_1 == 1.0 and row.chosen_ok_share == 1.0
     assert '1 of 2 initializations have no ground-truth pose' in caplog.text
+    # an initialization on a pure rotation has a baseline (0) but no E_t: still a miss
+    pan = replace(good, start=60, baseline_m=0.0, e_t=math.nan, chosen_ok=False)
+    [row] = summarize([good, pan])
+    assert row.share_e_t_below_0_1 == 0.5 and row.chosen_ok_share == 0.5
 
 
 def test_seedmap_command_refuses_bad_baselines_groups_and_a_missing_orbslam3(

@@ -628,8 +628,9 @@ def summarize(outcomes: Sequence[BatchOutcome]) -> list[SystemSummary]:
             if not sel:
                 continue
             done = [o for o in sel if o.initialized]
-            # judged against the ground truth: a pair whose frames have no pose has no E_t
-            judged = [o for o in done if math.isfinite(o.e_t)]
+            # judged against the ground truth: a pair whose frames have no pose has no
+            # baseline (a pure rotation has one, 0, and no E_t: a miss, as before)
+            judged = [o for o in done if math.isfinite(o.baseline_m)]
             if len(judged) < len(done):
                 LOG.warning(
                     '%s, %s: %d of %d initializations have no ground-truth pose to judge them '
