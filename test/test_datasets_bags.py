@@ -86,3 +86,20 @@ def test_writing_over_an_existing_bag_is_refused(static_sequence, tmp_path):
     target.write_bytes(b'')
     with pytest.raises(DatasetError, match='already exists'):
         write_bag(TumSequence(static_sequence), target, 'ros1')
+
+
+def test_an_unusable_pose_topic_leaves_the_bag_readable_without_ground_truth(
+    near_bag_ros1, monkeypatch, caplog
+):
+    # e.g. a pose topic whose messages are all unstamped: before, one time with many poses
+    # made the whole bag unopenable, for initsel replay too, which needs no poses
+    import initsel_ros.datasets.bags as bags
+
+    def refuse(stamps, positions, quaternions, where):
+        raise DatasetError(f'{where}: time 0.0 has two different poses')
+
+    monkeypatch.setattr(bags, 'check_trajectory', refuse)
+    bag = BagSequence(near_bag_ros1)
+    assert len(bag) > 0 and not bag.has_pose.any()
+    assert bag.image(0).shape == (480, 640, 3)
+    assert 'time 0.0 has two different poses: not used as ground truth' in caplog.text

@@ -332,7 +332,12 @@ class BagSequence(Sequence):
             if rows:
                 data = np.array(rows, dtype=np.float64)
                 where = f'{self.path} {topic}'
-                gt, source = check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], where), name
+                try:
+                    gt = check_trajectory(data[:, 0], data[:, 1:4], data[:, 4:8], where)
+                except DatasetError as exc:  # the images stay usable (replay needs no poses)
+                    _LOG.warning('%s: not used as ground truth', exc)
+                    continue
+                source = name
                 break
         return img_times, img_stamps, depth_times, depth_stamps, info, gt, source
 
