@@ -32,6 +32,7 @@ from initsel_ros.learn.pairs import (
     batch_ranges,
     chunk_bounds,
     label_inputs,
+    labelled_batches,
     open_cached,
     track_task,
 )
@@ -203,31 +204,6 @@ def _run_on_dask(
             cluster.close()
 
 
-def _batch_tasks(path: str, sequence: Any, config: DatasetConfig) -> list[BatchTask]:
-    """One task per batch of ``sequence``; a batch whose first frames have no ground-truth pose
-    starts at its first frame that has one (its pairs would all be unlabelled from a reference
-    without pose: the real fr3 sequences start before their motion capture)."""
-    has_pose = sequence.has_pose
-    tasks, moved, skipped = [], 0, 0
-    for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
-        first = next((k for k, i in enumerate(frames) if has_pose[i]), len(frames))
-        if len(frames) - first < 2:
-            skipped += 1
-            continue
-        moved += first > 0
-        tasks.append(BatchTask(path, b, tuple(frames[first:]), config))
-    if moved or skipped:
-        LOG.warning(
-            '%s: %d batches start on frames without a ground-truth pose: their reference is '
-            'their first frame with one; %d batches have fewer than 2 such frames and are left '
-            'out',
-            sequence.name,
-            moved,
-            skipped,
-        )
-    return tasks
-
-
 def build_table(
     sources: Sequence[str | Path],
     config: DatasetConfig | None = None,
@@ -275,7 +251,8 @@ def build_table(
                 NO_DEPTH,
             )
         names.append(sequence.name)
-        tasks += _batch_tasks(path, sequence, config)
+        for b, frames in labelled_batches(sequence, config):
+            tasks.append(BatchTask(path, b, tuple(frames), config))
     # disable=None: quiet when stderr is not a terminal (logs, CI)
     bar = tqdm(total=len(tasks), unit='batch', disable=None if progress else True)
     plans = [_Plan(task) for task in tasks]
@@ -332,9 +309,9 @@ def explain_no_pairs(sources: Sequence[str | Path], config: DatasetConfig) -> st
                 f'{seq.name}: {len(seq)} frames make no batch of 2 or more '
                 f'(batch {config.batch}, stride {config.stride})'
             )
-        elif not any(seq.frames[b[0]].pose is not None for b in batches):
+        elif not labelled_batches(seq, config, warn=False):
             reasons.append(
-                f'{seq.name}: no batch starts on a frame with a pose '
+                f'{seq.name}: no batch has 2 frames with a pose '
                 f'({n_posed} of {len(seq)} frames have one)'
             )
         else:

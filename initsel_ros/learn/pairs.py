@@ -121,6 +121,35 @@ def batch_ranges(n_frames: int, batch: int, stride: int = 1) -> list[list[int]]:
     return [b for b in out if len(b) >= 2]
 
 
+def labelled_batches(
+    sequence: Any, config: DatasetConfig, warn: bool = True
+) -> list[tuple[int, list[int]]]:
+    """(batch index, frames) of the batches of ``sequence`` that can be labelled
+    (:func:`batch_ranges`): a batch whose first frames have no ground-truth pose starts at its
+    first frame that has one, since every pair is measured against the batch's first frame
+    (the real fr3 sequences start before their motion capture); one with fewer than 2 frames
+    from there is left out. ``warn``: log how many batches were moved or left out."""
+    has_pose = sequence.has_pose
+    out, moved, skipped = [], 0, 0
+    for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
+        first = next((k for k, i in enumerate(frames) if has_pose[i]), len(frames))
+        if len(frames) - first < 2:
+            skipped += 1
+            continue
+        moved += first > 0
+        out.append((b, frames[first:]))
+    if warn and (moved or skipped):
+        LOG.warning(
+            '%s: %d batches start on frames without a ground-truth pose: their reference is '
+            'their first frame with one; %d batches have fewer than 2 such frames and are left '
+            'out',
+            sequence.name,
+            moved,
+            skipped,
+        )
+    return out
+
+
 def pair_row(
     sequence_name: str,
     batch: int,
@@ -387,6 +416,7 @@ __all__ = [
     'chunk_bounds',
     'label_inputs',
     'label_sequence_batch',
+    'labelled_batches',
     'open_cached',
     'pair_row',
     'track_sequence_batch',

@@ -39,11 +39,11 @@ def label_sequence(sequence: Any, config: Any = None) -> list[dict[str, Any]]:
     """Table rows of every 30-frame batch of a sequence, exactly as ``initsel dataset`` labels
     them (:func:`initsel_ros.learn.pairs.label_sequence_batch`: tracked points undistorted
     first, as the selector does, and depth read where the distorted reference pixel lies)."""
-    from initsel_ros.learn.pairs import DatasetConfig, batch_ranges, label_sequence_batch
+    from initsel_ros.learn.pairs import DatasetConfig, label_sequence_batch, labelled_batches
 
     config = config or DatasetConfig(batch=30, jobs=1)
     rows = []
-    for b, frames in enumerate(batch_ranges(len(sequence), config.batch, config.stride)):
+    for b, frames in labelled_batches(sequence, config):
         rows += label_sequence_batch(sequence, b, frames, config)
     return rows
 
