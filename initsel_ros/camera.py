@@ -293,7 +293,7 @@ class Intrinsics:
                 tuple(float(d) for d in data.get('distortion', []) or []),
                 _flag(data.get('fisheye', False)),
             )
-        except (KeyError, TypeError, ValueError) as exc:
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
             raise ConfigError(
                 f'{source}: intrinsics need fx, fy, cx, cy, width, height '
                 f'(and optional distortion, fisheye: true|false): {exc}'

@@ -154,3 +154,10 @@ def test_an_intrinsics_file_s_errors_name_it_on_one_line(tmp_path):
     with pytest.raises(ConfigError, match=f'^{path}: cannot read intrinsics') as info:
         Intrinsics.load_yaml(path)
     assert '\n' not in str(info.value)
+
+
+def test_an_infinite_image_size_in_an_intrinsics_file_is_one_line_naming_it(tmp_path):
+    path = tmp_path / 'intrinsics.yaml'
+    path.write_text('fx: 500\nfy: 500\ncx: 320\ncy: 240\nwidth: .inf\nheight: 480\n')
+    with pytest.raises(ConfigError, match=f'^{path}: intrinsics need'):  # was OverflowError
+        Intrinsics.load_yaml(path)

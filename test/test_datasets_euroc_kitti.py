@@ -481,6 +481,6 @@ def test_kitti_times_that_do_not_rise_are_warned_about(tmp_path, caplog):
     from initsel_ros.datasets.kitti import read_times
 
     path = tmp_path / 'times.txt'
-    path.write_text('0.0\n0.1\n\n0.05\n0.2\n')
+    path.write_text('\ufeff0.0\n0.1\n\n0.05\n0.2\n', encoding='utf-8')  # with a BOM, too
     assert read_times(path) == [0, 100_000_000, 50_000_000, 200_000_000]
     assert '1 times do not rise (first at line 4)' in caplog.text

@@ -142,7 +142,7 @@ def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
 
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding='utf-8-sig')
         # Some ASL tools write OpenCV's '%YAML:1.0' directive, which PyYAML rejects.
         lines = [ln for ln in text.splitlines() if not ln.startswith('%YAML')]
         data = yaml.safe_load('\n'.join(lines))

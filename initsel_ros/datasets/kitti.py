@@ -101,7 +101,7 @@ def _numbers(path: Path, number: int, fields: list[str], expected: str) -> np.nd
 
 def _lines(path: Path) -> list[tuple[int, str]]:
     try:
-        text = path.read_text()
+        text = path.read_text(encoding='utf-8-sig')
     except FileNotFoundError as exc:
         raise DatasetError(f'{path}: file not found') from exc
     except (OSError, UnicodeDecodeError) as exc:
