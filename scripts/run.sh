@@ -8,6 +8,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 venv=${INITSEL_VENV:-$root/.venv}
+case "$venv" in /*) ;; *) venv=$PWD/$venv ;; esac  # a relative INITSEL_VENV: the caller's
 python=${PYTHON:-python3}
 
 # A parent ROS-wheels process marks its children; a fresh venv must bootstrap itself.
