@@ -16,6 +16,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
+from initsel_ros import timestamps
 from initsel_ros.errors import StatusError
 from initsel_ros.names import MODEL_NAMES
 from initsel_ros.policy import Reason
@@ -28,15 +29,11 @@ if TYPE_CHECKING:  # the selector pulls in OpenCV; readers of the status need no
 WARN_REASONS = frozenset(
     {Reason.TOO_FEW_TRACKS, Reason.POSE_FAILED, Reason.SKIPPED_IMAGE, Reason.INTERNAL_ERROR}
 )
-NS_PER_S = 1_000_000_000
 
 
 def _split_ns(ns: int | None) -> tuple[int | None, int | None]:
-    """Integer nanoseconds -> (sec, nanosec) as ``builtin_interfaces/Time`` keeps them."""
-    if ns is None:
-        return None, None
-    sec, nanosec = divmod(int(ns), NS_PER_S)
-    return sec, nanosec
+    """:func:`initsel_ros.timestamps.split_ns`, None for None."""
+    return (None, None) if ns is None else timestamps.split_ns(ns)
 
 
 @dataclass(frozen=True)
@@ -256,14 +253,14 @@ class FrameStatus:
     @property
     def stamp_ns(self) -> int:
         """The frame's stamp, integer nanoseconds (exact)."""
-        return self.stamp_sec * NS_PER_S + self.stamp_nanosec
+        return timestamps.stamp_ns(self.stamp_sec, self.stamp_nanosec)
 
     @property
     def initializing_stamp_ns(self) -> int | None:
         """The stamp of the frame the published initialization belongs to, nanoseconds."""
         if self.initializing_stamp_sec is None or self.initializing_stamp_nanosec is None:
             return None
-        return self.initializing_stamp_sec * NS_PER_S + self.initializing_stamp_nanosec
+        return timestamps.stamp_ns(self.initializing_stamp_sec, self.initializing_stamp_nanosec)
 
     @property
     def diagnostic_level(self) -> str:

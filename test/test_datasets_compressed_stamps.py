@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from initsel_ros.datasets import Frame, open_sequence
-from initsel_ros.datasets.timestamps import parse_seconds_ns, split_ns
 from initsel_ros.datasets.tum import TumSequence
 from initsel_ros.errors import DatasetError
+from initsel_ros.timestamps import parse_seconds_ns, split_ns
 
 #: Realistic Unix stamps with odd nanoseconds, 30 Hz.
 FIRST_NS = 1_700_000_000_666_666_985

@@ -36,10 +36,10 @@ from initsel_ros.datasets.poses import (
     pose_matrices,
 )
 from initsel_ros.datasets.sequence import Sequence, paired_frames
-from initsel_ros.datasets.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
 from initsel_ros.errors import ConfigError, DatasetError, ImageConversionError
 from initsel_ros.image import decode_compressed, decode_raw, encode_compressed, to_cv
+from initsel_ros.timestamps import ns_to_seconds, split_ns, stamp_ns
 from initsel_ros.transforms import matrix_to_pose
 
 _LOG = logging.getLogger(__name__)

@@ -32,9 +32,9 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, check_trajectory, interpolate_poses
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
-from initsel_ros.datasets.timestamps import ns_to_seconds
 from initsel_ros.datasets.tum import content_lines
 from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.timestamps import ns_to_seconds
 from initsel_ros.transforms import matrix_to_pose, pose_matrix
 
 _LOG = logging.getLogger(__name__)

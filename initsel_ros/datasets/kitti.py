@@ -25,8 +25,8 @@ import numpy as np
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
-from initsel_ros.datasets.timestamps import ns_to_seconds, parse_seconds_ns
 from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.timestamps import ns_to_seconds, parse_seconds_ns
 
 _LOG = logging.getLogger(__name__)
 

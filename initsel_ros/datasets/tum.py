@@ -29,8 +29,8 @@ from initsel_ros.datasets.sequence import (
     read_image_file,
     without_alpha,
 )
-from initsel_ros.datasets.timestamps import ns_to_seconds, parse_seconds_ns
 from initsel_ros.errors import ConfigError, DatasetError
+from initsel_ros.timestamps import ns_to_seconds, parse_seconds_ns
 
 _LOG = logging.getLogger(__name__)
 

@@ -17,6 +17,7 @@ from geometry_msgs.msg import PoseStamped, TransformStamped
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2, PointField
 from std_msgs.msg import Header
 
+from initsel_ros import timestamps
 from initsel_ros.camera import FISHEYE_LENGTH, Intrinsics
 from initsel_ros.errors import ImageConversionError
 from initsel_ros.image import (
@@ -41,12 +42,12 @@ POINT_FIELDS: tuple[str, ...] = ('x', 'y', 'z', 'u0', 'v0', 'u1', 'v1')
 # --------------------------------------------------------------------------------------- time
 def stamp_to_seconds(stamp: Time) -> float:
     """``builtin_interfaces/Time`` -> float seconds."""
-    return stamp.sec + stamp.nanosec * 1e-9
+    return timestamps.ns_to_seconds(stamp_to_ns(stamp))
 
 
 def stamp_to_ns(stamp: Time) -> int:
     """``builtin_interfaces/Time`` -> integer nanoseconds, exactly (may be negative)."""
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    return timestamps.stamp_ns(stamp.sec, stamp.nanosec)
 
 
 def ns_to_stamp(ns: int) -> Time:
@@ -54,7 +55,7 @@ def ns_to_stamp(ns: int) -> Time:
 
     Negative times keep ``0 <= nanosec < 1e9`` with a negative ``sec``, as ROS does.
     """
-    sec, nanosec = divmod(int(ns), 1_000_000_000)
+    sec, nanosec = timestamps.split_ns(ns)
     return Time(sec=sec, nanosec=nanosec)
 
 
@@ -63,7 +64,7 @@ def seconds_to_stamp(seconds: float) -> Time:
     total_ns = round(seconds * 1e9)
     if total_ns < 0:
         raise ValueError(f'ROS time cannot be negative: {seconds} s')
-    return Time(sec=total_ns // 1_000_000_000, nanosec=total_ns % 1_000_000_000)
+    return ns_to_stamp(total_ns)
 
 
 # ------------------------------------------------------------------------------------- images

@@ -1,4 +1,5 @@
-"""Exact timestamps: decimal-second text and ROS ``sec``/``nanosec`` pairs as integer nanoseconds.
+"""Exact timestamps: decimal-second text and ROS ``sec``/``nanosec`` pairs as integer nanoseconds
+(the one home of these conversions: datasets, the status record and the node's messages).
 
 Datasets store time either as decimal seconds in text (TUM ``1341839327.392692``, KITTI
 ``1.036205e-01``) or as integer nanoseconds (EuRoC, bag headers). Both are kept here as Python
