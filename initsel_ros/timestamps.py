@@ -44,10 +44,23 @@ def split_ns(ns: int) -> tuple[int, int]:
     return sec, nanosec
 
 
+def seconds_to_ns(seconds: float) -> int:
+    """Float seconds -> integer nanoseconds, rounded (a float already lost what text keeps:
+    parse decimal text with :func:`parse_seconds_ns`)."""
+    return round(float(seconds) * 1e9)
+
+
 def ns_to_seconds(ns: int) -> float:
     """Integer nanoseconds -> float seconds (for timing and interpolation only)."""
     sec, nanosec = split_ns(ns)
     return sec + nanosec * 1e-9
 
 
-__all__ = ['NS_PER_S', 'ns_to_seconds', 'parse_seconds_ns', 'split_ns', 'stamp_ns']
+__all__ = [
+    'NS_PER_S',
+    'ns_to_seconds',
+    'parse_seconds_ns',
+    'seconds_to_ns',
+    'split_ns',
+    'stamp_ns',
+]

@@ -39,7 +39,7 @@ from initsel_ros.datasets.sequence import Sequence, paired_frames
 from initsel_ros.datasets.tum import MAX_ASSOCIATION_DIFF, associate, read_trajectory
 from initsel_ros.errors import ConfigError, DatasetError, ImageConversionError
 from initsel_ros.image import decode_compressed, decode_raw, encode_compressed, to_cv
-from initsel_ros.timestamps import ns_to_seconds, split_ns, stamp_ns
+from initsel_ros.timestamps import ns_to_seconds, seconds_to_ns, split_ns, stamp_ns
 from initsel_ros.transforms import matrix_to_pose
 
 _LOG = logging.getLogger(__name__)
@@ -525,7 +525,7 @@ def write_bag(
             writer.write(c_info, t_ns, serialize(info, Info.__msgtype__))
             depth = sequence.depth(f.index)
             if depth is not None:
-                d_ns = round(f.depth_stamp * 1e9)
+                d_ns = seconds_to_ns(f.depth_stamp)
                 dmsg = Image(
                     header=header(d_ns, CAMERA_FRAME, f.index),
                     height=h,

@@ -17,6 +17,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import DatasetError
 from initsel_ros.image import to_bgr
+from initsel_ros.timestamps import seconds_to_ns
 
 _LOG = logging.getLogger(__name__)
 
@@ -42,7 +43,7 @@ class Frame:
 
     def __post_init__(self) -> None:
         if self.stamp_ns is None:
-            object.__setattr__(self, 'stamp_ns', round(self.stamp * 1e9))
+            object.__setattr__(self, 'stamp_ns', seconds_to_ns(self.stamp))
         else:
             object.__setattr__(self, 'stamp_ns', int(self.stamp_ns))
 

@@ -19,6 +19,7 @@ from initsel_ros.overlay import draw_frame_overlay
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.selector import Selector, SelectorConfig, to_gray
+from initsel_ros.timestamps import seconds_to_ns
 from initsel_ros.tracking import KltTracker, Photometric
 
 
@@ -98,7 +99,7 @@ def time_frame_path(
         msg = frames.messages[k % n]
         if k % n == 0:
             selector.reset()  # the sequence starts over: a new reference, as after a bag loop
-        stamp_ns = round((float(frames.stamps[0]) + k * period) * 1e9)
+        stamp_ns = seconds_to_ns(float(frames.stamps[0]) + k * period)
         t0 = clock()
         image = conv.image_to_cv(msg)
         result = selector.process(image, stamp_ns)

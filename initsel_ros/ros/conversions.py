@@ -61,7 +61,7 @@ def ns_to_stamp(ns: int) -> Time:
 
 def seconds_to_stamp(seconds: float) -> Time:
     """Float seconds (>= 0) -> ``builtin_interfaces/Time``, rounded to the nanosecond."""
-    total_ns = round(seconds * 1e9)
+    total_ns = timestamps.seconds_to_ns(seconds)
     if total_ns < 0:
         raise ValueError(f'ROS time cannot be negative: {seconds} s')
     return ns_to_stamp(total_ns)

@@ -42,6 +42,7 @@ from sensor_msgs.msg import CameraInfo, CompressedImage, Image, PointCloud2
 from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
+from initsel_ros import timestamps
 from initsel_ros.camera import MAX_FIELD_ANGLE_DEG, Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
 from initsel_ros.image import HOT_PIXEL_FRACTION
@@ -271,7 +272,7 @@ class SelectorNode(Node):
 
     @staticmethod
     def _tolerance_ns(settings: NodeSettings) -> int:
-        return round(settings.restart_tolerance_s * 1e9)
+        return timestamps.seconds_to_ns(settings.restart_tolerance_s)
 
     def _apply_settings(self, settings: NodeSettings) -> None:
         """Worker: use validated live settings from this frame on."""
