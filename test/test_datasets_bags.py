@@ -103,3 +103,62 @@ def test_an_unusable_pose_topic_leaves_the_bag_readable_without_ground_truth(
     assert len(bag) > 0 and not bag.has_pose.any()
     assert bag.image(0).shape == (480, 640, 3)
     assert 'time 0.0 has two different poses: not used as ground truth' in caplog.text
+
+
+def _rewrite_ros1(src, dst, receive_time):
+    """A copy of the ROS 1 bag ``src`` whose messages get ``receive_time(topic, k, t)``."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    with AnyReader([src]) as reader, Writer(dst) as writer:
+        out = {
+            c.id: writer.add_connection(c.topic, c.msgtype, typestore=store)
+            for c in reader.connections
+        }
+        seen: dict[str, int] = {}
+        for conn, t, raw in reader.messages():
+            k = seen[conn.topic] = seen.get(conn.topic, -1) + 1
+            msg = reader.deserialize(raw, conn.msgtype)
+            writer.write(
+                out[conn.id],
+                receive_time(conn.topic, k, t),
+                store.serialize_ros1(msg, conn.msgtype),
+            )
+    return dst
+
+
+def test_two_frames_received_at_one_time_are_read_as_two(near_bag_ros1, tmp_path):
+    # before: the second frame came back with the first one's pixels, without a word
+    original = BagSequence(near_bag_ros1)
+    times = {}
+
+    def same_time(topic, k, t):
+        times.setdefault((topic, k), t)
+        return times[(topic, k - 1)] if k == 11 and topic.endswith('image_color') else t
+
+    bag = BagSequence(_rewrite_ros1(near_bag_ros1, tmp_path / 'twins.bag', same_time))
+    assert np.array_equal(bag.image(11), original.image(11))
+    assert not np.array_equal(bag.image(11), bag.image(10))
+
+
+def test_an_image_topic_that_holds_no_images_is_one_line(near_bag_ros1):
+    with pytest.raises(DatasetError, match=r'camera_info is sensor_msgs/msg/CameraInfo, not'):
+        BagSequence(near_bag_ros1, image_topic='/camera/rgb/camera_info')
+
+
+def test_a_bag_without_camera_info_says_the_intrinsics_are_assumed(
+    near_bag_ros1, tmp_path, caplog
+):
+    bag = BagSequence(
+        _rewrite_ros1(near_bag_ros1, tmp_path / 'x.bag', lambda topic, k, t: t),
+        info_topic='/nowhere',
+    )
+    assert bag.intrinsics.fx == pytest.approx(535.4)
+    assert 'no CameraInfo on /nowhere: the TUM fr3 intrinsics are assumed' in caplog.text
+
+
+def test_writing_a_bag_into_a_missing_folder_is_one_line(static_sequence, tmp_path):
+    with pytest.raises(DatasetError, match='no such folder to write the bag in'):
+        write_bag(TumSequence(static_sequence), tmp_path / 'nodir' / 'x.bag', 'ros1')

@@ -210,6 +210,8 @@ class BagSequence(Sequence):
             self.close()
             raise DatasetError(f'{path}: {exc}') from exc
         img_times, img_ns, depth_times, depth_stamps, info, gt_bag, gt_source = scan
+        img_times, self._img_ords = img_times
+        depth_times, self._depth_ords = depth_times
         img_stamps = [ns_to_seconds(t) for t in img_ns]
         if not img_stamps:
             self.close()
@@ -221,6 +223,7 @@ class BagSequence(Sequence):
         stamps = np.asarray(img_stamps)[order]
         stamps_ns = [img_ns[k] for k in order]
         self._img_times = np.asarray(img_times)[order]
+        self._img_ords = np.asarray(self._img_ords, dtype=np.int64)[order]
         self._depth_times = np.asarray(depth_times, dtype=np.int64)
         depth_stamps_arr = np.asarray(depth_stamps, dtype=np.float64)
         match = associate(stamps, depth_stamps_arr, max_association_diff)
@@ -252,6 +255,13 @@ class BagSequence(Sequence):
         else:
             _LOG.info('%s: no ground truth found', path)
         self.groundtruth_source = gt_source if gt is not None else None
+        if intrinsics is None and info is None:
+            _LOG.warning(
+                '%s: no CameraInfo on %s: the TUM fr3 intrinsics are assumed (pass the '
+                "camera's own to be sure)",
+                path,
+                info_topic,
+            )
         if intrinsics is None:
             intrinsics = info if info is not None else Intrinsics.tum_fr3()
         frames = paired_frames(stamps, stamps_ns, poses, depth_stamps_arr, match)
@@ -282,7 +292,15 @@ class BagSequence(Sequence):
         ]
         self._img_conns = [c for c in conns if c.topic == image_topic]
         self._depth_conns = [c for c in conns if c.topic == depth_topic]
+        for c in (*self._img_conns, *self._depth_conns):
+            if c.msgtype.rsplit('/', 1)[-1] not in ('Image', 'CompressedImage'):
+                raise DatasetError(
+                    f'{c.topic} is {c.msgtype}, not sensor_msgs/Image or CompressedImage'
+                )
         img_times, img_stamps, depth_times, depth_stamps = [], [], [], []
+        # a message's place among those of its topic at the same receive time: two frames
+        # recorded at one time are told apart by it (_message)
+        img_ords, depth_ords, at_time = [], [], {}
         info: Intrinsics | None = None
         pose_rows: list[list[float]] = []
         tf_rows: list[list[float]] = []
@@ -290,11 +308,15 @@ class BagSequence(Sequence):
             topic = conn.topic
             if topic in (image_topic, depth_topic):
                 header = reader.deserialize(raw, conn.msgtype).header
+                key = (topic == image_topic, t_ns)
+                ordinal = at_time[key] = at_time.get(key, -1) + 1
                 if topic == image_topic:
                     img_times.append(t_ns)
+                    img_ords.append(ordinal)
                     img_stamps.append(_stamp_ns(header))
                 else:
                     depth_times.append(t_ns)
+                    depth_ords.append(ordinal)
                     depth_stamps.append(_stamp(header))
             elif topic == info_topic and info is None:
                 msg = reader.deserialize(raw, conn.msgtype)
@@ -339,14 +361,25 @@ class BagSequence(Sequence):
                     continue
                 source = name
                 break
-        return img_times, img_stamps, depth_times, depth_stamps, info, gt, source
+        return (
+            (img_times, img_ords),
+            img_stamps,
+            (depth_times, depth_ords),
+            depth_stamps,
+            info,
+            gt,
+            source,
+        )
 
-    def _message(self, conns: list[Any], t_ns: int) -> Any:
+    def _message(self, conns: list[Any], t_ns: int, ordinal: int = 0) -> Any:
+        """The ``ordinal``-th message on ``conns`` received at ``t_ns`` (several frames may
+        share a receive time)."""
         try:
-            for conn, _, raw in self._reader.messages(
-                connections=conns, start=int(t_ns), stop=int(t_ns) + 1
+            for k, (conn, _, raw) in enumerate(
+                self._reader.messages(connections=conns, start=int(t_ns), stop=int(t_ns) + 1)
             ):
-                return self._reader.deserialize(raw, conn.msgtype)
+                if k == ordinal:
+                    return self._reader.deserialize(raw, conn.msgtype)
         except _read_errors() as exc:
             raise DatasetError(
                 f'{self.path}: cannot read message at {t_ns} ns: {read_error_reason(exc)}'
@@ -354,7 +387,7 @@ class BagSequence(Sequence):
         raise DatasetError(f'{self.path}: message at {t_ns} ns disappeared')
 
     def _load_native(self, i: int) -> np.ndarray:
-        msg = self._message(self._img_conns, self._img_times[i])
+        msg = self._message(self._img_conns, self._img_times[i], int(self._img_ords[i]))
         try:
             if is_compressed_type(self._img_conns[0].msgtype):
                 return image_from_compressed(msg)
@@ -371,7 +404,7 @@ class BagSequence(Sequence):
         j = self._depth_match[i]
         if j < 0:
             return None
-        msg = self._message(self._depth_conns, self._depth_times[j])
+        msg = self._message(self._depth_conns, self._depth_times[j], int(self._depth_ords[j]))
         depth = image_from_msg(msg)
         if depth.dtype == np.uint16:  # 16UC1: millimetres
             depth = depth.astype(np.float32) / np.float32(1000.0)
@@ -435,6 +468,8 @@ def write_bag(
         raise ConfigError(f'jpeg quality must be in 0-100, got {jpeg_quality}')
     if path.exists():
         raise DatasetError(f'{path}: already exists')
+    if not path.parent.is_dir():
+        raise DatasetError(f'{path.parent}: no such folder to write the bag in')
     if fmt == 'ros1':
         from rosbags.rosbag1 import Writer as Ros1Writer
 
