@@ -414,12 +414,10 @@ class Selector:
             self._drop_candidate('mode continuous starts over')
         if config.policy != old.policy:
             self._drop_candidate('the thresholds or the decision policy changed')
-        if config.tracker != old.tracker:
-            self._drop_candidate('the tracker settings changed')
-        old_tracker = old.tracker
         self.config = config
         self.thresholds = effective_thresholds(self.models.thresholds, config.policy)
-        if config.tracker != old_tracker:
+        if config.tracker != old.tracker:
+            self._drop_candidate('the tracker settings changed')
             self.tracker = KltTracker(config.tracker, self.intrinsics.field_mask())
             self._reference_stamp_ns = None
         if config.bit_depth != self.bit_depth.fixed:

@@ -209,9 +209,8 @@ class BagSequence(Sequence):
         except DatasetError as exc:
             self.close()
             raise DatasetError(f'{path}: {exc}') from exc
-        img_times, img_ns, depth_times, depth_stamps, info, gt_bag, gt_source = scan
-        img_times, self._img_ords = img_times
-        depth_times, self._depth_ords = depth_times
+        img_times, img_ords, img_ns, depth_times, self._depth_ords, depth_stamps = scan[:6]
+        info, gt_bag, gt_source = scan[6:]
         img_stamps = [ns_to_seconds(t) for t in img_ns]
         if not img_stamps:
             self.close()
@@ -223,7 +222,7 @@ class BagSequence(Sequence):
         stamps = np.asarray(img_stamps)[order]
         stamps_ns = [img_ns[k] for k in order]
         self._img_times = np.asarray(img_times)[order]
-        self._img_ords = np.asarray(self._img_ords, dtype=np.int64)[order]
+        self._img_ords = np.asarray(img_ords, dtype=np.int64)[order]
         self._depth_times = np.asarray(depth_times, dtype=np.int64)
         depth_stamps_arr = np.asarray(depth_stamps, dtype=np.float64)
         match = associate(stamps, depth_stamps_arr, max_association_diff)
@@ -362,9 +361,11 @@ class BagSequence(Sequence):
                 source = name
                 break
         return (
-            (img_times, img_ords),
+            img_times,
+            img_ords,
             img_stamps,
-            (depth_times, depth_ords),
+            depth_times,
+            depth_ords,
             depth_stamps,
             info,
             gt,

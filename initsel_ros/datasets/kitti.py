@@ -163,11 +163,11 @@ def read_poses(path: Path) -> np.ndarray:
                 f'{path}:{number}: expected 12 numbers `{POSE_FORMAT}`, got {values.size}'
             )
         R = values.reshape(3, 4)[:, :3]
-        error = float(np.abs(R.T @ R - np.eye(3)).max())
-        if error > ROTATION_TOLERANCE or np.linalg.det(R) < 0:
+        error, det = float(np.abs(R.T @ R - np.eye(3)).max()), float(np.linalg.det(R))
+        if error > ROTATION_TOLERANCE or det < 0:
             raise DatasetError(
                 f'{path}:{number}: the 3x3 block is not a rotation (|R^T R - I| = {error:.3g}, '
-                f'det {np.linalg.det(R):.3g}); expected `{POSE_FORMAT}`'
+                f'det {det:.3g}); expected `{POSE_FORMAT}`'
             )
         rows.append(values)
     out = np.tile(np.eye(4), (len(rows), 1, 1))

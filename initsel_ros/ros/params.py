@@ -138,7 +138,7 @@ class FrameId(Text):
             raise ConfigError(
                 f"{name} must not start with '/' (tf2 refuses such frame ids), got {value!r}"
             )
-        if value != value.strip() or any(c.isspace() for c in value):
+        if any(c.isspace() for c in value):
             raise ConfigError(f'{name} must not contain white space, got {value!r}')
         return value
 
