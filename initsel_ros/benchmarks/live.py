@@ -8,8 +8,10 @@ frames and the child-process handling.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
+import shutil
 import subprocess
 import tempfile
 from collections.abc import Sequence
@@ -31,7 +33,9 @@ def configure_ros_environment() -> None:
     """
     os.environ.setdefault('ROS_DOMAIN_ID', str(os.getpid() % 50 + 150))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    os.environ.setdefault('ROS_LOG_DIR', tempfile.mkdtemp(prefix='initsel-bench-roslog-'))
+    if 'ROS_LOG_DIR' not in os.environ:  # a folder of this run's own, removed at its exit
+        os.environ['ROS_LOG_DIR'] = tempfile.mkdtemp(prefix='initsel-bench-roslog-')
+        atexit.register(shutil.rmtree, os.environ['ROS_LOG_DIR'], True)
     if 'FASTRTPS_DEFAULT_PROFILES_FILE' not in os.environ:
         from initsel_ros.config_files import find_config_file
 
