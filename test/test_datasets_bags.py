@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets import open_sequence
 from initsel_ros.datasets.bags import BagSequence, write_bag
 from initsel_ros.datasets.tum import TumSequence
@@ -162,3 +163,16 @@ def test_a_bag_without_camera_info_says_the_intrinsics_are_assumed(
 def test_writing_a_bag_into_a_missing_folder_is_one_line(static_sequence, tmp_path):
     with pytest.raises(DatasetError, match='no such folder to write the bag in'):
         write_bag(TumSequence(static_sequence), tmp_path / 'nodir' / 'x.bag', 'ros1')
+
+
+def test_a_bag_without_camera_info_takes_the_intrinsics_it_is_given(
+    near_bag_ros1, tmp_path, caplog
+):
+    camera = Intrinsics(500.0, 505.0, 321.0, 239.0, 640, 480)
+    bag = open_sequence(
+        _rewrite_ros1(near_bag_ros1, tmp_path / 'x.bag', lambda topic, k, t: t),
+        info_topic='/nowhere',
+        intrinsics=camera,
+    )
+    assert bag.intrinsics == camera
+    assert 'assumed' not in caplog.text

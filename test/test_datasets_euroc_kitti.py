@@ -484,3 +484,10 @@ def test_kitti_times_that_do_not_rise_are_warned_about(tmp_path, caplog):
     path.write_text('\ufeff0.0\n0.1\n\n0.05\n0.2\n', encoding='utf-8')  # with a BOM, too
     assert read_times(path) == [0, 100_000_000, 50_000_000, 200_000_000]
     assert '1 times do not rise (first at line 4)' in caplog.text
+
+
+def test_intrinsics_given_for_euroc_or_kitti_are_refused_in_one_line(euroc_folder, kitti_root):
+    camera = Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480)
+    for folder, options in ((euroc_folder, {}), (kitti_root, {'sequence': '03'})):
+        with pytest.raises(DatasetError, match='carry their own calibration'):
+            open_sequence(folder, intrinsics=camera, **options)

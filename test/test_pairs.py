@@ -49,3 +49,12 @@ def test_a_batch_whose_first_frame_has_no_pose_starts_at_its_first_frame_with_on
     assert len(table) == 1  # frame 2 against frame 1: before, no pair at all
     assert table['ref_index'].tolist() == [1] and table['cur_index'].tolist() == [2]
     assert 'batches start on frames without a ground-truth pose' in caplog.text
+
+
+def test_the_dataset_reads_a_folder_with_the_intrinsics_it_is_given(static_sequence):
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.learn.pairs import open_cached
+
+    camera = Intrinsics(500.0, 505.0, 321.0, 239.0, 640, 480)
+    assert open_cached(str(static_sequence), DatasetConfig()).intrinsics != camera
+    assert open_cached(str(static_sequence), DatasetConfig(intrinsics=camera)).intrinsics == camera

@@ -89,3 +89,35 @@ def test_oversized_frames_are_reported_once(caplog):
     warnings = [r for r in caplog.records if 'shared-memory segment' in r.getMessage()]
     assert len(warnings) == 1
     assert '36.00 MiB' in warnings[0].getMessage() and '16.00 MiB' in warnings[0].getMessage()
+
+
+# ------------------------------------------------------------------------- --intrinsics
+def _replay_options(argv: list[str]):
+    from initsel_ros.cli.options import options_from
+    from initsel_ros.ros.replay import ReplayOptions
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    return options_from(parser.parse_args(argv), ReplayOptions)
+
+
+def test_intrinsics_given_to_replay_replace_the_folders_own(static_sequence, tmp_path):
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.ros.replay import open_source
+
+    camera = Intrinsics(500.0, 505.0, 321.0, 239.0, 640, 480)
+    camera.save_yaml(tmp_path / 'camera.yaml')
+    assert open_source(_replay_options([str(static_sequence)])).intrinsics != camera
+    options = _replay_options(
+        [str(static_sequence), '--intrinsics', str(tmp_path / 'camera.yaml')]
+    )
+    assert open_source(options).intrinsics == camera
+
+
+def test_an_unreadable_intrinsics_file_is_one_line(static_sequence, tmp_path):
+    from initsel_ros.ros.replay import open_source
+
+    (tmp_path / 'bad.yaml').write_text('fx: [1, 2\n')
+    options = _replay_options([str(static_sequence), '--intrinsics', str(tmp_path / 'bad.yaml')])
+    with pytest.raises(ConfigError, match=r'bad.yaml: cannot read intrinsics: \S.*'):
+        open_source(options)

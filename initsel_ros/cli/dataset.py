@@ -95,6 +95,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='bags: the image topic (Image or CompressedImage; default '
         '/camera/rgb/image_color, or <it>/compressed when absent)',
     )
+    options.add_intrinsics_option(parser)
     parser.add_argument(
         '--no-orbslam', action='store_true', help='skip the ORB-SLAM H/F scoring baseline (faster)'
     )
@@ -105,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
     """Build the table and write it atomically."""
     import numpy as np
 
+    from initsel_ros.camera import Intrinsics
     from initsel_ros.errors import DatasetError
     from initsel_ros.learn.build import BuildStats, build_table, explain_no_pairs
     from initsel_ros.learn.correspondences import Source
@@ -125,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         nearest_tolerance=args.nearest_tolerance,
         sequence=args.sequence,
         image_topic=args.image_topic,
+        intrinsics=None if args.intrinsics is None else Intrinsics.load_yaml(args.intrinsics),
         chunk=max(0, args.chunk),
         executor=args.executor,
         scheduler=args.scheduler,

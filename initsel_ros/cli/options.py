@@ -118,6 +118,19 @@ def add_kitti_sequence_option(parser: argparse.ArgumentParser, help_text: str) -
     parser.add_argument('--sequence', default=None, metavar='NN', help=help_text)
 
 
+def add_intrinsics_option(parser: argparse.ArgumentParser) -> None:
+    """``--intrinsics FILE``: the camera of TUM folders and bags, replacing their own."""
+    parser.add_argument(
+        '--intrinsics',
+        type=Path,
+        default=None,
+        metavar='FILE',
+        help='TUM folders and bags: YAML of the camera (fx, fy, cx, cy, width, height, '
+        "distortion, as a TUM folder's intrinsics.yaml) replacing intrinsics.yaml or "
+        'CameraInfo (without either they are the TUM fr3 camera)',
+    )
+
+
 def add_named_models_option(parser: argparse.ArgumentParser) -> None:
     """``--models [NAME=]PATH``, repeatable: several model files compared in one run."""
     parser.add_argument(

@@ -58,11 +58,13 @@ def open_sequence(path: Path | str, sequence: str | None = None, **options: Any)
         **options: passed to the reader (:class:`TumSequence`, :class:`EurocSequence`,
             :class:`KittiSequence`, ``bags.BagSequence``); e.g. ``nearest_tolerance``,
             ``max_gap``; for bags ``image_topic``, ``depth_topic``, ``info_topic``,
-            ``pose_topic``, ``tf_parent``, ``tf_child``, ``groundtruth``.
+            ``pose_topic``, ``tf_parent``, ``tf_child``, ``groundtruth``; for TUM folders and
+            bags ``intrinsics`` (an :class:`Intrinsics` that replaces ``intrinsics.yaml`` or
+            CameraInfo, and the TUM fr3 default without them).
 
     Raises:
-        DatasetError: the path does not exist or is none of these, or ``sequence`` was given
-            for another layout.
+        DatasetError: the path does not exist or is none of these, or ``sequence`` or
+            ``intrinsics`` was given for a layout they do not apply to.
     """
     path = Path(path)
     if not path.exists():
@@ -70,6 +72,11 @@ def open_sequence(path: Path | str, sequence: str | None = None, **options: Any)
     kind = sequence_kind(path)
     if sequence is not None and kind not in ('kitti', 'kitti_root'):
         raise DatasetError(f'{path}: --sequence {sequence} applies to KITTI odometry only')
+    if options.get('intrinsics') is not None and kind not in ('tum', 'bag'):
+        raise DatasetError(
+            f'{path}: --intrinsics applies to TUM folders and bags; EuRoC and KITTI folders '
+            'carry their own calibration (sensor.yaml, calib.txt)'
+        )
     if kind == 'tum':
         return TumSequence(path, **options)
     if kind == 'euroc':

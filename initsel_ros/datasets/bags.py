@@ -256,8 +256,8 @@ class BagSequence(Sequence):
         self.groundtruth_source = gt_source if gt is not None else None
         if intrinsics is None and info is None:
             _LOG.warning(
-                '%s: no CameraInfo on %s: the TUM fr3 intrinsics are assumed (pass the '
-                "camera's own to be sure)",
+                '%s: no CameraInfo on %s: the TUM fr3 intrinsics are assumed (give the '
+                "camera's own with --intrinsics)",
                 path,
                 info_topic,
             )

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import Scaling, extra_features, pair_features
 from initsel_ros.learn import baselines
@@ -79,6 +80,9 @@ class DatasetConfig:
             KITTI sequence ('NN') for sources that are a KITTI odometry root.
         image_topic: (str or None)
             Image topic of bag sources (None = the reader's default).
+        intrinsics: (Intrinsics or None)
+            The camera of TUM and bag sources, replacing ``intrinsics.yaml`` or CameraInfo
+            (None = the source's own).
         chunk: (int)
             Pairs per labelling task: a tracked batch is labelled in slices of this many pairs,
             in parallel (0 = the whole batch in one task).
@@ -104,6 +108,7 @@ class DatasetConfig:
     nearest_tolerance: float | None = None
     sequence: str | None = None
     image_topic: str | None = None
+    intrinsics: Intrinsics | None = None
     chunk: int = 10
     executor: str = 'processes'
     scheduler: str | None = None
@@ -241,8 +246,8 @@ def open_cached(path: str, config: DatasetConfig) -> Any:
     """``open_sequence`` with the reader options of ``config``, cached per process (bags are
     slow to open)."""
     nearest_tolerance, sequence = config.nearest_tolerance, config.sequence
-    image_topic = config.image_topic
-    key = f'{path}\0{nearest_tolerance}\0{sequence}\0{image_topic}'
+    image_topic, intrinsics = config.image_topic, config.intrinsics
+    key = f'{path}\0{nearest_tolerance}\0{sequence}\0{image_topic}\0{intrinsics}'
     if key not in _SEQUENCES:
         from initsel_ros.datasets import open_sequence, sequence_kind
 
@@ -252,6 +257,8 @@ def open_cached(path: str, config: DatasetConfig) -> Any:
             options['nearest_tolerance'] = nearest_tolerance
         if image_topic is not None and kind == 'bag':
             options['image_topic'] = image_topic
+        if intrinsics is not None:  # (open_sequence refuses it for EuRoC and KITTI)
+            options['intrinsics'] = intrinsics
         kitti = kind in ('kitti', 'kitti_root')  # --sequence concerns KITTI sources only
         _SEQUENCES[key] = open_sequence(path, sequence=sequence if kitti else None, **options)
     return _SEQUENCES[key]

@@ -38,6 +38,8 @@ class ReplayOptions:
         source: TUM, EuRoC or KITTI folder, ROS 1 .bag file or ROS 2 bag folder.
         sequence: KITTI: the sequence, when ``source`` is the odometry root.
         bag_image_topic: bags: the image topic to read, or None for the default.
+        intrinsics: TUM folders and bags: a YAML file of the camera's intrinsics (as
+            ``intrinsics.yaml``) replacing the source's own, or None.
         rate: playback speed factor of the recorded timing.
         loop: start over at the end, until ^C.
         start: seconds skipped from the first frame.
@@ -58,6 +60,7 @@ class ReplayOptions:
     source: Path
     sequence: str | None
     bag_image_topic: str | None
+    intrinsics: Path | None
     rate: float
     loop: bool
     start: float
@@ -146,15 +149,19 @@ def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarra
 
 
 def open_source(options: ReplayOptions) -> object:
-    """The sequence of ``options.source`` (with its ``sequence`` and ``bag_image_topic``)."""
+    """The sequence of ``options.source`` (with its ``sequence``, ``bag_image_topic`` and
+    ``intrinsics``)."""
+    from initsel_ros.camera import Intrinsics
     from initsel_ros.datasets import open_sequence, sequence_kind
 
-    topic = {}
+    reader: dict[str, object] = {}
     if options.bag_image_topic is not None:
         if sequence_kind(options.source) != 'bag':
             raise ConfigError('--bag-image-topic applies to bags only')
-        topic['image_topic'] = options.bag_image_topic
-    return open_sequence(options.source, sequence=options.sequence, **topic)
+        reader['image_topic'] = options.bag_image_topic
+    if options.intrinsics is not None:
+        reader['intrinsics'] = Intrinsics.load_yaml(options.intrinsics)
+    return open_sequence(options.source, sequence=options.sequence, **reader)
 
 
 def run(options: ReplayOptions) -> int:
