@@ -106,8 +106,9 @@ def test_an_unusable_pose_topic_leaves_the_bag_readable_without_ground_truth(
     assert 'time 0.0 has two different poses: not used as ground truth' in caplog.text
 
 
-def _rewrite_ros1(src, dst, receive_time):
-    """A copy of the ROS 1 bag ``src`` whose messages get ``receive_time(topic, k, t)``."""
+def _rewrite_ros1(src, dst, receive_time, edit=None):
+    """A copy of the ROS 1 bag ``src`` whose messages get ``receive_time(topic, k, t)`` (and
+    ``edit(topic, k, msg)`` first, when given)."""
     from rosbags.highlevel import AnyReader
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_typestore
@@ -122,6 +123,8 @@ def _rewrite_ros1(src, dst, receive_time):
         for conn, t, raw in reader.messages():
             k = seen[conn.topic] = seen.get(conn.topic, -1) + 1
             msg = reader.deserialize(raw, conn.msgtype)
+            if edit is not None:
+                edit(conn.topic, k, msg)
             writer.write(
                 out[conn.id],
                 receive_time(conn.topic, k, t),
@@ -176,3 +179,54 @@ def test_a_bag_without_camera_info_takes_the_intrinsics_it_is_given(
     )
     assert bag.intrinsics == camera
     assert 'assumed' not in caplog.text
+
+
+def _set_image_stamp(stamp_ns):
+    def edit(topic, k, msg):
+        if topic.endswith('image_color'):
+            msg.header.stamp = type(msg.header.stamp)(*divmod(stamp_ns(k), 1_000_000_000))
+
+    return edit
+
+
+def test_frames_without_header_stamps_take_the_times_the_bag_received_them(
+    near_bag_ros1, tmp_path, caplog
+):
+    # before: every frame was at time 0: replayed in one burst, one ground-truth pose for all
+    original = BagSequence(near_bag_ros1)
+    bag = BagSequence(
+        _rewrite_ros1(
+            near_bag_ros1, tmp_path / 'x.bag', lambda topic, k, t: t, _set_image_stamp(lambda k: 0)
+        )
+    )
+    assert 'zero header stamp' in caplog.text
+    assert len(bag) == len(original)
+    assert np.all(np.diff(bag.stamps) > 0)
+    np.testing.assert_allclose(bag.stamps, original.stamps, atol=0.05)  # the recorder's lag
+    assert np.array_equal(bag.image(7), original.image(7))
+
+
+def test_header_stamps_out_of_the_order_of_reception_are_said(near_bag_ros1, tmp_path, caplog):
+    original = BagSequence(near_bag_ros1)
+    first = int(original.stamps_ns[0])
+    swapped = {3: 4, 4: 3}  # frames 3 and 4 carry each other's stamps
+
+    bag = BagSequence(
+        _rewrite_ros1(
+            near_bag_ros1,
+            tmp_path / 'x.bag',
+            lambda topic, k, t: t,
+            _set_image_stamp(lambda k: int(original.stamps_ns[swapped.get(k, k)])),
+        )
+    )
+    assert (
+        f'1 of {len(original)} frames on /camera/rgb/image_color carry an earlier' in caplog.text
+    )
+    assert int(bag.stamps_ns[0]) == first
+    assert 'carry an earlier' not in _warnings_of(near_bag_ros1, caplog)
+
+
+def _warnings_of(path, caplog):
+    caplog.clear()
+    BagSequence(path)
+    return caplog.text

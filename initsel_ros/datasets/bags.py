@@ -93,6 +93,35 @@ def _stamp(header: Any) -> float:
     return ns_to_seconds(_stamp_ns(header))
 
 
+def _frame_stamps(
+    path: Path, topic: str, header_ns: list[int], receive_ns: list[int]
+) -> list[int]:
+    """The frames' times: their header stamps, or the receive times when every header stamp is
+    zero (a driver that does not stamp: the frames would all be at one time, replayed at once
+    and given one ground-truth pose). Both that and header stamps out of the order of
+    reception (the frames are sorted by them) are said in a warning."""
+    if len(header_ns) > 1 and not any(header_ns):
+        _LOG.warning(
+            '%s: every frame on %s has a zero header stamp: the times the bag received them '
+            'are used instead',
+            path,
+            topic,
+        )
+        return list(receive_ns)
+    in_reception = np.asarray(header_ns, dtype=np.int64)[np.argsort(receive_ns, kind='stable')]
+    back = int(np.count_nonzero(np.diff(in_reception) < 0))
+    if back:
+        _LOG.warning(
+            '%s: %d of %d frames on %s carry an earlier header stamp than the frame received '
+            'before them: frames are read in the order of their header stamps',
+            path,
+            back,
+            len(header_ns),
+            topic,
+        )
+    return header_ns
+
+
 def is_compressed_type(msgtype: str) -> bool:
     """True for ``sensor_msgs/(msg/)CompressedImage``."""
     return msgtype.rsplit('/', 1)[-1] == 'CompressedImage'
@@ -211,13 +240,14 @@ class BagSequence(Sequence):
             raise DatasetError(f'{path}: {exc}') from exc
         img_times, img_ords, img_ns, depth_times, self._depth_ords, depth_stamps = scan[:6]
         info, gt_bag, gt_source = scan[6:]
-        img_stamps = [ns_to_seconds(t) for t in img_ns]
-        if not img_stamps:
+        if not img_ns:
             self.close()
             topics = sorted({c.topic for c in self._reader.connections})
             raise DatasetError(
                 f'{path}: no messages on image topic {image_topic!r} (topics: {", ".join(topics)})'
             )
+        img_ns = _frame_stamps(path, self.image_topic, img_ns, img_times)
+        img_stamps = [ns_to_seconds(t) for t in img_ns]
         order = np.argsort(np.asarray(img_ns, dtype=np.int64), kind='stable')
         stamps = np.asarray(img_stamps)[order]
         stamps_ns = [img_ns[k] for k in order]
