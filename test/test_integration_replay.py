@@ -240,3 +240,38 @@ def test_replay_warns_once_when_frames_exceed_the_shared_memory_segment(sources,
     assert len(warnings) == 1, output  # 20 oversized frames, one warning
     assert '0.88 MiB' in warnings[0] and '0.25 MiB' in warnings[0]
     assert str(profile) in warnings[0]
+
+
+def _replay_output(source: Path, *options: str) -> tuple[int, str]:
+    proc = subprocess.Popen(
+        [_initsel(), 'replay', str(source), '--rate', '8', *options],
+        env=_environment(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        output, _ = proc.communicate(timeout=TIMEOUT_S)
+    finally:
+        stop_process(proc)
+    return proc.returncode, output
+
+
+def test_an_unreadable_frame_is_skipped_with_a_warning_and_the_replay_goes_on(sources, tmp_path):
+    # before: the first unreadable frame ended the replay with a traceback
+    tum = tmp_path / 'tum'
+    shutil.copytree(sources['tum'], tum)
+    (tum / 'rgb' / '3.png').write_bytes(b'\x89PNG\r\n\x1a\n not an image')
+    code, output = _replay_output(tum, '--image-topic', '/skip_probe/image_raw')
+    assert code == 0, output
+    assert 'frame 3 not published' in output
+    assert f'published {N_FRAMES - 1} frames' in output
+    assert '1 unreadable frames skipped' in output
+    assert 'Traceback' not in output
+
+    for png in (tum / 'rgb').glob('*.png'):
+        png.write_bytes(b'')
+    code, output = _replay_output(tum, '--loop', '--image-topic', '/skip_probe/image_raw')
+    assert code == 1, output  # nothing readable: a failure, and --loop does not spin on it
+    assert 'published 0 frames' in output
+    assert output.count('not published') == 5  # the rest are counted, not named

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from initsel_ros.errors import ConfigError
+from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.image import to_8bit
 from initsel_ros.ros.transport import OversizeMonitor
 
@@ -27,6 +27,9 @@ log = logging.getLogger(__name__)
 
 #: Seconds to keep the node alive after the last frame so reliable messages get delivered.
 LINGER_S = 0.5
+
+#: Unreadable frames named one by one in warnings; the rest are only counted.
+MAX_SKIP_WARNINGS = 5
 
 
 @dataclass(frozen=True)
@@ -196,7 +199,7 @@ def run(options: ReplayOptions) -> int:
 
     rclpy.init(args=[])
     node = rclpy.create_node(options.node_name)
-    published = passes = 0
+    published = passes = skipped = 0
     started = time.monotonic()
     try:
         if options.compressed:
@@ -243,7 +246,13 @@ def run(options: ReplayOptions) -> int:
                     stamp = node.get_clock().now().to_msg()
                 else:
                     stamp = conv.ns_to_stamp(frame.stamp_ns)
-                pixels, encoding = frame_pixels(sequence, int(index), layout)
+                try:
+                    pixels, encoding = frame_pixels(sequence, int(index), layout)
+                except DatasetError as exc:  # a camera drops a frame; the replay goes on
+                    skipped += 1
+                    if skipped <= MAX_SKIP_WARNINGS:
+                        log.warning('frame %d not published: %s', int(index), exc)
+                    continue
                 if options.compressed:
                     message = CompressedImage()
                     message.header = Header(stamp=stamp, frame_id=options.frame_id)
@@ -265,7 +274,7 @@ def run(options: ReplayOptions) -> int:
                 published += 1
             else:
                 passes += 1
-                if options.loop:
+                if options.loop and published:  # (a pass of unreadable frames only: stop)
                     continue
             break
         if rclpy.ok():
@@ -279,8 +288,9 @@ def run(options: ReplayOptions) -> int:
     print(
         f'published {published} frames of {sequence.name} in {elapsed:.1f} s '
         f'({passes} full pass{"es" if passes != 1 else ""})'
+        + (f'; {skipped} unreadable frames skipped' if skipped else '')
     )
-    return 0
+    return 0 if published else 1
 
 
 def _wait_for_subscriber(publisher: object, timeout: float) -> bool:
