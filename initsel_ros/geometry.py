@@ -555,113 +555,10 @@ def _kabsch(b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
     return U @ Vt
 
 
-def _rotation_residuals_px(
-    R: np.ndarray, b0: np.ndarray, pixels: np.ndarray, K: np.ndarray
-) -> np.ndarray:
-    """Pixel distances between ``pixels`` (N, 2) and bearings ``b0`` (N, 3) rotated by ``R``.
-
-    ``R`` is (3, 3) or a stack (H, 3, 3); the result is (N,) or (H, N). One matrix product for
-    the whole stack (inf where a point falls behind the camera).
-    """
-    M = np.asarray(K @ R)
-    stack = M.reshape(-1, 3, 3)
-    proj = (b0 @ stack.transpose(2, 0, 1).reshape(3, -1)).reshape(len(b0), -1, 3)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        u = proj[..., 0] / proj[..., 2] - pixels[:, :1]
-        err = np.hypot(u, proj[..., 1] / proj[..., 2] - pixels[:, 1:])
-    err = np.where(proj[..., 2] > 0, err, np.inf).T
-    return err[0] if M.ndim == 2 else err
-
-
 #: Minimal samples (two bearing pairs each) of the robust rotation fit.
 ROTATION_HYPOTHESES = 128
 #: Hypotheses are scored on at most this many points (an even, deterministic subset).
 ROTATION_SCORING_POINTS = 300
-
-
-def rotation_only_residual_px(
-    p0: np.ndarray,
-    p1: np.ndarray,
-    K: np.ndarray,
-    hypotheses: int = ROTATION_HYPOTHESES,
-    enough_below_px: float | None = None,
-) -> float:
-    """Median pixel residual of the best pure rotation between two views.
-
-    The bearing vectors of a pure rotation are related by one rotation matrix, whatever the
-    depths; fitted, it leaves only the tracking noise, while a baseline leaves parallax that no
-    rotation explains. "Best" is least median of squares: the least-squares (Kabsch) fit on
-    all points and rotations from ``hypotheses`` random pairs of points (the minimal sample)
-    are scored by their median residual, and the best is refitted on its better half. Objects
-    moving independently, or gross tracking errors, on fewer than half of the points
-    therefore cannot pass for parallax, as they do for a least-squares fit. Like the pose
-    check's median parallax, it also calls a pair a rotation when more than half of its
-    points are so far away that the baseline moves them by less than the residual.
-
-    Args:
-        p0: (N, 2) pixels in the first view; rows with a non-finite value are ignored.
-        p1: (N, 2) the same points in the second view.
-        K: (3, 3) camera matrix.
-        hypotheses: minimal samples drawn (fixed seed: the result is deterministic).
-        enough_below_px: when the least-squares fit alone already leaves less than this, it
-            is returned without the robust search (the robust residual can only be lower);
-            a caller comparing with a threshold passes it to skip the search on plain pans.
-
-    Returns:
-        The residual in pixels; NaN for fewer than 3 finite points.
-    """
-    a, b = _check_pair(p0, p1)
-    K = _check_camera_matrix(K)
-    finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
-    return _rotation_median_px(a[finite], b[finite], K, hypotheses, enough_below_px)
-
-
-def _rotation_median_px(
-    a: np.ndarray,
-    b: np.ndarray,
-    K: np.ndarray,
-    hypotheses: int = ROTATION_HYPOTHESES,
-    enough_below_px: float | None = None,
-    quantile: float = 0.5,
-) -> float:
-    """:func:`rotation_only_residual_px` on checked, finite (N, 2) pixel arrays.
-
-    ``quantile`` below 0.5 scores (and returns) that quantile of the residuals instead of
-    the median (least quantile of squares): a rotation then only has to explain that share
-    of the tracks.
-    """
-
-    def q(values: np.ndarray, axis: int | None = None) -> np.ndarray:
-        if quantile == 0.5:
-            return np.median(values, axis=axis)
-        return np.quantile(values, quantile, axis=axis, method='lower')  # inf-safe
-
-    n = a.shape[0]
-    if n < 3:
-        return float('nan')
-    K_inv = np.linalg.inv(K)
-    b0 = homogeneous(a) @ K_inv.T
-    b1 = homogeneous(b) @ K_inv.T
-    b0 /= np.linalg.norm(b0, axis=1, keepdims=True)
-    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-    least_squares = _kabsch(b0, b1)
-    best = float(q(_rotation_residuals_px(least_squares, b0, b, K)))
-    if enough_below_px is not None and best < enough_below_px:
-        return best
-    rng = np.random.default_rng(0)
-    first = rng.integers(0, n, hypotheses)
-    second = (first + rng.integers(1, n, hypotheses)) % n  # a different point
-    pairs = np.stack([first, second], axis=1)
-    rotations = np.concatenate([least_squares[None], _kabsch(b0[pairs], b1[pairs])])
-    subset = np.linspace(0, n - 1, min(n, ROTATION_SCORING_POINTS)).astype(np.int64)
-    scores = q(_rotation_residuals_px(rotations, b0[subset], b[subset], K), axis=1)
-    err = _rotation_residuals_px(rotations[int(np.argmin(scores))], b0, b, K)
-    best = min(best, float(q(err)))
-    half = err <= q(err)
-    if half.sum() >= 3:
-        refit = _kabsch(b0[half], b1[half])
-        best = min(best, float(q(_rotation_residuals_px(refit, b0, b, K))))
-    return best
 
 
 #: Focal-length scales the rotation test tries: a rotation seen through a camera whose focal
@@ -703,10 +600,11 @@ def _scaled_squared_residuals(
     Ks: np.ndarray,
     dtype: type[np.floating] = np.float64,
 ) -> np.ndarray:
-    """Squared :func:`_rotation_residuals_px` for S focal scales at once: (S, H, 3, 3)
-    rotations, (S, N, 3) bearings and (S, 3, 3) camera matrices -> (S, N, H) squared pixel
-    residuals (inf behind the camera). Squared: quantiles and the best hypothesis are the same
-    without the square roots, which only the returned residual needs."""
+    """Squared pixel distances between ``pixels`` (N, 2) and bearings rotated and projected,
+    for S focal scales at once: (S, H, 3, 3) rotations, (S, N, 3) bearings and (S, 3, 3)
+    camera matrices -> (S, N, H) squared pixel residuals (inf behind the camera). Squared:
+    quantiles and the best hypothesis are the same without the square roots, which only the
+    returned residual needs."""
     M = (Ks[:, None] @ R).transpose(0, 2, 3, 1).astype(dtype)  # (S, row, j, H)
     b0, pixels = b0.astype(dtype, copy=False), pixels.astype(dtype, copy=False)
     # one product per scale and image row: (N, 3) bearings against the H rows, contiguous
@@ -752,12 +650,16 @@ def _rotation_quantile_over_scales(
     quantile: float,
     stop_px: float | None,
 ) -> tuple[float, float]:
-    """The least-quantile rotation residual of :func:`_rotation_median_px` under each focal
-    scale (``scales`` in the order they are preferred), all scales in one set of array
-    operations; returns (lowest residual in pixels, its scale).
+    """The least-quantile rotation residual under each focal scale (``scales`` in the order
+    they are preferred), all scales in one set of array operations; returns (lowest residual
+    in pixels, its scale).
 
-    Each scale runs the same steps as :func:`_rotation_median_px` (least-squares fit, the
-    same minimal samples scored on the same subset, the best refitted on its better part).
+    Each scale runs the same steps: the least-squares (Kabsch) fit on all tracks, rotations
+    from :data:`ROTATION_HYPOTHESES` random pairs of tracks (the minimal sample; fixed seed)
+    scored by the ``quantile`` of their residuals on an even subset of at most
+    :data:`ROTATION_SCORING_POINTS` tracks, and the best refitted on the tracks it explains
+    at least that well; the lowest quantile of the three fits is the residual. (The tests
+    check it against a one-scale-at-a-time reference implementation.)
     When ``stop_px`` is given and a scale's least-squares fit leaves less, the first such
     scale is returned at once, as a sequential search stopping there would (a plain pan).
     """
@@ -781,7 +683,7 @@ def _rotation_quantile_over_scales(
     if stop_px is not None and (best < stop_px * stop_px).any():
         i = int(np.flatnonzero(best < stop_px * stop_px)[0])
         return float(np.sqrt(best[i])), float(scales[i])
-    rng = np.random.default_rng(0)  # the samples of _rotation_median_px, for every scale
+    rng = np.random.default_rng(0)  # the same samples for every scale
     first = rng.integers(0, n, ROTATION_HYPOTHESES)
     second = (first + rng.integers(1, n, ROTATION_HYPOTHESES)) % n
     pairs = np.stack([first, second], axis=1)
@@ -913,8 +815,8 @@ def rotation_test(
 ) -> RotationTest:
     """Fit the best rotation (3 dof, ``x1 ~ K R K^-1 x0``) and weigh its residual by the noise.
 
-    The rotation is the least-median fit of :func:`rotation_only_residual_px` (robust to
-    independently moving objects on under half of the tracks), tried under each focal scale
+    The rotation is a least-quantile fit (robust to independently moving objects on up to
+    two thirds of the tracks: :data:`ROTATION_QUANTILE`), tried under each focal scale
     (``K`` with fx and fy scaled, :data:`ROTATION_FOCAL_SCALES`; a miscalibrated pan is
     still a rotation); the noise is that of the same tracks (:func:`tracking_noise_px`: the
     smaller of what a RANSAC homography and a RANSAC fundamental matrix leave), floored at

@@ -111,3 +111,76 @@ def toward_a_wall(
     p1 = view_of(X, TOWARD_A_WALL_TURN, t) + rng.normal(0, noise_px, (n, 2))
     R = cv2.Rodrigues(TOWARD_A_WALL_TURN)[0]
     return p0, p1, R, direction, X / baseline
+
+
+# ----------------------------------------------------------------- rotation fit, reference
+def rotation_residuals_px(
+    R: np.ndarray, b0: np.ndarray, pixels: np.ndarray, K: np.ndarray
+) -> np.ndarray:
+    """Pixel distances between ``pixels`` (N, 2) and bearings ``b0`` (N, 3) rotated by ``R``
+    (3, 3) or by each of a stack (H, 3, 3): (N,) or (H, N); inf behind the camera."""
+    stack = np.asarray(K @ R).reshape(-1, 3, 3)
+    proj = np.einsum('hij,nj->hni', stack, b0)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        err = np.hypot(
+            proj[..., 0] / proj[..., 2] - pixels[:, 0], proj[..., 1] / proj[..., 2] - pixels[:, 1]
+        )
+    err = np.where(proj[..., 2] > 0, err, np.inf)
+    return err[0] if np.ndim(R) == 2 else err
+
+
+def least_quantile_rotation_px(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    quantile: float = 0.5,
+    enough_below_px: float | None = None,
+) -> float:
+    """The robust rotation fit of ``geometry._rotation_quantile_over_scales`` under one K,
+    written one step at a time (the reference the vectorized search is checked against):
+    the ``quantile`` of the residuals of the best of the least-squares fit, 128 two-point
+    samples (scored on an even subset of at most 300 tracks) and the best one's refit on the
+    tracks it explains at least that well. With ``quantile`` 0.5 and the 3 px threshold this
+    was the selector's rotation guard before issue 20 (``rotation_only_residual_px``).
+    ``enough_below_px``: return the least-squares fit's value when it is already below.
+    Rows with a non-finite value are ignored; NaN below 3 finite rows."""
+    from initsel_ros.geometry import (
+        ROTATION_HYPOTHESES,
+        ROTATION_SCORING_POINTS,
+        _kabsch,
+        homogeneous,
+    )
+
+    a, b = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
+    finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    a, b = a[finite], b[finite]
+    n = a.shape[0]
+    if n < 3:
+        return float('nan')
+
+    def q(values: np.ndarray, axis: int | None = None) -> np.ndarray:
+        return np.quantile(values, quantile, axis=axis, method='lower')  # inf-safe
+
+    K_inv = np.linalg.inv(K)
+    b0 = homogeneous(a) @ K_inv.T
+    b1 = homogeneous(b) @ K_inv.T
+    b0 /= np.linalg.norm(b0, axis=1, keepdims=True)
+    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
+    least_squares = _kabsch(b0, b1)
+    best = float(q(rotation_residuals_px(least_squares, b0, b, K)))
+    if enough_below_px is not None and best < enough_below_px:
+        return best
+    rng = np.random.default_rng(0)
+    first = rng.integers(0, n, ROTATION_HYPOTHESES)
+    second = (first + rng.integers(1, n, ROTATION_HYPOTHESES)) % n
+    pairs = np.stack([first, second], axis=1)
+    rotations = np.concatenate([least_squares[None], _kabsch(b0[pairs], b1[pairs])])
+    subset = np.linspace(0, n - 1, min(n, ROTATION_SCORING_POINTS)).astype(np.int64)
+    scores = q(rotation_residuals_px(rotations, b0[subset], b[subset], K), axis=1)
+    err = rotation_residuals_px(rotations[int(np.argmin(scores))], b0, b, K)
+    best = min(best, float(q(err)))
+    better = err <= q(err)
+    if better.sum() >= 3:
+        refit = _kabsch(b0[better], b1[better])
+        best = min(best, float(q(rotation_residuals_px(refit, b0, b, K))))
+    return best

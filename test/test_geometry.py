@@ -92,78 +92,75 @@ def test_triangulate_recovers_known_points():
     np.testing.assert_allclose(triangulate_pair(R_TRUE, T_TRUE, K, p0, p1).points, X, atol=1e-6)
 
 
-def test_rotation_only_residual_separates_a_pan_from_a_baseline():
-    from geometry_fixtures import K, two_view
-
-    from initsel_ros.geometry import rotation_only_residual_px
-
-    rng = np.random.default_rng(0)
-    p0 = rng.uniform([20, 20], [620, 460], (200, 2))
-    R = cv2.Rodrigues(np.array([0.02, -0.15, 0.01]))[0]  # a 9 degree pan, no translation
-    rays = np.hstack([p0, np.ones((200, 1))]) @ np.linalg.inv(K).T
-    proj = rays @ R.T @ K.T
-    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 0.3, (200, 2))
-    assert rotation_only_residual_px(p0, p1, K) < 0.5  # only the noise is left
-    a, b, *_ = two_view(planar=False, baseline=0.05)
-    assert rotation_only_residual_px(a, b, K) > 2.0  # 5 cm at 1-4 m leaves parallax
-    a, b, *_ = two_view(planar=True, baseline=0.05)
-    assert rotation_only_residual_px(a, b, K) > 1.0  # a plane too
-    assert np.isnan(rotation_only_residual_px(p0[:2], p1[:2], K))
-
-
-def test_rotation_only_residual_is_not_fooled_by_objects_moving_on_their_own():
+def _pan(rng: np.ndarray, n: int, rvec: tuple[float, float, float], noise_px: float):
+    """(p0, p1) of a pure rotation ``rvec`` seen by the geometry fixtures' K, with noise."""
     from geometry_fixtures import K
 
-    from initsel_ros.geometry import rotation_only_residual_px
+    p0 = rng.uniform([20, 20], [620, 460], (n, 2))
+    rays = np.hstack([p0, np.ones((n, 1))]) @ np.linalg.inv(K).T
+    proj = rays @ cv2.Rodrigues(np.array(rvec))[0].T @ K.T
+    return p0, proj[:, :2] / proj[:, 2:3] + rng.normal(0, noise_px, (n, 2))
+
+
+def test_the_rotation_test_separates_a_pan_from_a_baseline_against_the_noise():
+    from geometry_fixtures import K, two_view
+
+    from initsel_ros.geometry import rotation_test
+    from initsel_ros.policy import PolicyConfig
+
+    bar = PolicyConfig().min_rotation_residual_sigma
+    p0, p1 = _pan(np.random.default_rng(0), 200, (0.02, -0.15, 0.01), 0.3)  # a 9 degree pan
+    pan = rotation_test(p0, p1, K)
+    assert pan.statistic < 1.5  # only the noise is left
+    assert pan.noise_px == pytest.approx(0.3, rel=0.3)
+    for planar in (False, True):  # 15 cm at 1-4 m, and before a wall 2 m away: parallax
+        a, b, *_ = two_view(planar=planar, baseline=0.15)
+        assert rotation_test(a, b, K).statistic > bar
+    assert np.isnan(rotation_test(p0[:7], p1[:7], K).statistic)  # under 8 tracks
+
+
+def test_the_rotation_test_is_not_fooled_by_objects_moving_on_their_own():
+    from geometry_fixtures import K, least_quantile_rotation_px
+
+    from initsel_ros.geometry import rotation_test
 
     rng = np.random.default_rng(1)
-    p0 = rng.uniform([20, 20], [620, 460], (300, 2))
-    R = cv2.Rodrigues(np.array([0.01, -0.12, 0.02]))[0]  # a pan
-    rays = np.hstack([p0, np.ones((300, 1))]) @ np.linalg.inv(K).T
-    proj = rays @ R.T @ K.T
-    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 0.3, (300, 2))
+    p0, p1 = _pan(rng, 300, (0.01, -0.12, 0.02), 0.3)
     movers = np.arange(300) < 120  # 40 % of the tracks on two boards sliding sideways
     p1[movers & (np.arange(300) % 2 == 0)] += [25.0, 4.0]
     p1[movers & (np.arange(300) % 2 == 1)] += [-12.0, 18.0]
-    # A least-squares rotation is pulled by the boards past the selector's 3 px guard ...
-    from initsel_ros.geometry import _kabsch, _rotation_residuals_px
-
-    b0 = rays / np.linalg.norm(rays, axis=1, keepdims=True)
-    b1 = np.hstack([p1, np.ones((300, 1))]) @ np.linalg.inv(K).T
-    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-    least_squares = np.median(_rotation_residuals_px(_kabsch(b0, b1), b0, p1, K))
-    assert least_squares > 3.0
+    # A least-squares rotation is pulled by the boards past the old 3 px guard ...
+    assert least_quantile_rotation_px(p0, p1, K, enough_below_px=1e9) > 3.0
     # ... the robust fit is not: the boards cannot pass for parallax.
-    assert rotation_only_residual_px(p0, p1, K) < 1.5  # the noise is 0.3 px per coordinate
+    assert rotation_test(p0, p1, K).statistic < 1.5
     order = rng.permutation(300)  # fixed seed: the answer does not hinge on point order
-    assert rotation_only_residual_px(p0[order], p1[order], K) < 1.5
+    assert rotation_test(p0[order], p1[order], K).statistic < 1.5
 
 
-def test_rotation_only_residual_skips_bad_rows_and_can_stop_at_a_threshold():
+def test_the_rotation_test_skips_bad_rows_and_can_stop_at_a_threshold():
     from geometry_fixtures import K, two_view
 
-    from initsel_ros.geometry import rotation_only_residual_px
+    from initsel_ros.geometry import rotation_test
 
     a, b, *_ = two_view(planar=False, baseline=0.05)
-    clean = rotation_only_residual_px(a, b, K)
+    clean = rotation_test(a, b, K)
     a_bad, b_bad = a.copy(), b.copy()
     a_bad[:5] = np.nan
     b_bad[5:8, 0] = np.inf
-    assert np.isfinite(rotation_only_residual_px(a_bad, b_bad, K))
-    assert np.isnan(rotation_only_residual_px(a_bad[:7], b_bad[:7], K))  # < 3 finite rows
-    # With a threshold the least-squares residual is returned when it is already below it
-    # (here 4.09 px, against 3.05 px for the robust fit); above it, the full search runs and
-    # gives the same value as without one.
-    assert rotation_only_residual_px(a, b, K, enough_below_px=1e-3) == clean
-    least_squares = rotation_only_residual_px(a, b, K, enough_below_px=1e3)
-    assert least_squares > clean + 0.5
+    assert np.isfinite(rotation_test(a_bad, b_bad, K).statistic)
+    # Stopping where a least-squares fit is already below the threshold: a tiny one never
+    # stops (the full search, the same value); a huge one stops at the first fit, which only
+    # the search can lower.
+    assert rotation_test(a, b, K, enough_below=1e-6) == clean
+    assert rotation_test(a, b, K, enough_below=1e6).residual_px > clean.residual_px
 
 
 def test_the_rotation_test_searches_every_focal_scale_at_once_as_one_scale_at_a_time():
+    from geometry_fixtures import least_quantile_rotation_px
+
     from initsel_ros.geometry import (
         ROTATION_FOCAL_SCALES,
         ROTATION_QUANTILE,
-        _rotation_median_px,
         _rotation_quantile_over_scales,
     )
 
@@ -182,7 +179,7 @@ def test_the_rotation_test_searches_every_focal_scale_at_once_as_one_scale_at_a_
         p1 = (X1 @ K.T)[:, :2] / X1[:, 2:] + rng.normal(0, 0.3, (200, 2))
         p1[:30] += rng.uniform(-20, 20, (30, 2))  # movers
         one_at_a_time = [
-            _rotation_median_px(p0, p1, K @ np.diag([s, s, 1.0]), quantile=ROTATION_QUANTILE)
+            least_quantile_rotation_px(p0, p1, K @ np.diag([s, s, 1.0]), ROTATION_QUANTILE)
             for s in scales
         ]
         best, scale = _rotation_quantile_over_scales(p0, p1, K, scales, ROTATION_QUANTILE, None)

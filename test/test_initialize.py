@@ -7,9 +7,9 @@ from dataclasses import replace
 import cv2
 import numpy as np
 import pytest
-from geometry_fixtures import K, pan, two_view
+from geometry_fixtures import K, least_quantile_rotation_px, pan, two_view
 
-from initsel_ros.geometry import Method, rotation_only_residual_px
+from initsel_ros.geometry import Method
 from initsel_ros.initialize import FireConfig, fire_methods, initialize_pair
 from initsel_ros.metrics import translation_chordal_error
 from initsel_ros.policy import Decision, PolicyConfig, Reason
@@ -98,7 +98,7 @@ def _arc_on_a_wall(
 def test_a_plane_from_a_sideways_arc_is_parallax_against_the_noise_and_initializes_with_h():
     p0, p1, t = _arc_on_a_wall()
     # The old fixed guard is wrong here: the arc's perspective change is under 3 px ...
-    assert rotation_only_residual_px(p0, p1, K) < 3.0
+    assert least_quantile_rotation_px(p0, p1, K) < 3.0
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H))
     # ... but several times the tracking noise, measured on the same tracks.
     assert fire.rotation is not None
@@ -121,7 +121,7 @@ def test_a_noisy_miscalibrated_pan_is_a_rotation_at_the_noise_level():
     proj = (np.column_stack([p0, np.ones(n)]) @ np.linalg.inv(K_true).T) @ (K_true @ R).T
     p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 2.0, (n, 2))
     p0 = p0 + rng.normal(0, 2.0, (n, 2))
-    assert rotation_only_residual_px(p0, p1, K) >= 3.0
+    assert least_quantile_rotation_px(p0, p1, K) >= 3.0
     fire = initialize_pair(p0, p1, K, (Method.E, Method.F, Method.H))
     # ... yet it is the noise level once the focal scale is free and the noise measured.
     assert fire.reason is Reason.ROTATION and fire.seed is None
