@@ -298,3 +298,56 @@ def test_parameter_overrides_of_wrong_types_stay_a_config_error(context):
             namespace='/badtype',
             parameter_overrides=[Parameter('bit_depth', value='auto')],
         )
+
+
+def test_parameters_the_selector_does_not_have_are_named_with_what_was_meant(
+    context, tmp_path, capfd
+):
+    # before: a typo in a params file or a -p override set nothing, without a word
+    from initsel_ros.ros.node import SelectorNode
+
+    node = SelectorNode(
+        context=context,
+        namespace='/typos',
+        cli_args=[
+            '--ros-args',
+            '-p',
+            'min_parralax_deg:=5.0',
+            '-p',
+            'thresholds.e:=0.5',
+            '-p',
+            f'model_file:={double_model_file(tmp_path)}',
+        ],
+    )
+    try:
+        err = capfd.readouterr().err
+        assert (
+            'ignoring parameters the selector does not have: min_parralax_deg '
+            '(min_parallax_deg?), thresholds.e (thresholds.E?)'
+        ) in err
+        assert node.get_parameter('min_parallax_deg').value != 5.0
+    finally:
+        node.destroy_node()
+
+
+def test_a_params_file_with_no_section_for_the_node_is_said(context, tmp_path, capfd):
+    from initsel_ros.ros.node import SelectorNode, _warn_of_unused_params_files
+
+    elsewhere = tmp_path / 'elsewhere.yaml'
+    elsewhere.write_text('/**/selectr:\n  ros__parameters:\n    min_tracks: 5\n')
+    mine = tmp_path / 'mine.yaml'
+    mine.write_text('/robot/selector:\n  ros__parameters:\n    min_tracks: 5\n')
+    node = SelectorNode(
+        context=context,
+        namespace='/sections',
+        parameter_overrides=[Parameter('model_file', value=str(double_model_file(tmp_path)))],
+    )
+    try:
+        capfd.readouterr()
+        argv = ['selector', '--ros-args', '--params-file', str(elsewhere)]
+        _warn_of_unused_params_files([*argv, '--params-file', str(mine)], node)
+        err = capfd.readouterr().err
+        assert "elsewhere.yaml: no section for node 'selector' (sections: /**/selectr)" in err
+        assert 'mine.yaml' not in err
+    finally:
+        node.destroy_node()

@@ -59,6 +59,8 @@ from initsel_ros.ros.params import (
     ImageTransport,
     NodeSettings,
     read_params_yaml,
+    section_applies,
+    unknown_parameters_note,
 )
 from initsel_ros.selector import FrameResult, Initialization, Selector
 from initsel_ros.stamps import CONSEQUENCES, StampCheck, StampIssue, StampMonitor
@@ -118,6 +120,15 @@ class SelectorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self._settings = NodeSettings.from_values(self._declare_parameters())
+        # rcl hands over every override of this node; a name the node does not declare would
+        # be dropped without a word (a typo in a params file sets nothing)
+        overrides = getattr(self, '_parameter_overrides', {})
+        unknown = {name for name in overrides if not self.has_parameter(name)}
+        if unknown:
+            self.get_logger().warning(
+                f'ignoring parameters the selector does not have: '
+                f'{unknown_parameters_note(sorted(unknown))}'
+            )
         model_path = self._settings.model_path()
         models = ModelSet.load(model_path)
         self._selector = Selector(
@@ -762,6 +773,18 @@ def _check_ros_arguments(argv: Sequence[str]) -> None:
         read_params_yaml(path)
 
 
+def _warn_of_unused_params_files(argv: Sequence[str], node: Node) -> None:
+    """A ``--params-file`` none of whose sections names this node sets nothing: say so."""
+    for path in params_files(argv):
+        data = read_params_yaml(path)
+        keys = list(data) if isinstance(data, dict) else []
+        if not any(section_applies(key, node.get_name()) for key in keys):
+            node.get_logger().warning(
+                f'{path}: no section for node {node.get_name()!r} (sections: '
+                f'{", ".join(map(str, keys)) or "none"}): none of its parameters are applied'
+            )
+
+
 def main(args: Sequence[str] | None = None) -> int:
     """Run the node until SIGINT/SIGTERM; 1 on bad parameters or a bad model file.
 
@@ -795,6 +818,7 @@ def main(args: Sequence[str] | None = None) -> int:
             logger.error(f'cannot start: invalid ROS arguments: {_first_line(exc)}')
             return 1
         node = SelectorNode()
+        _warn_of_unused_params_files(argv, node)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.is_set() and rclpy.ok():

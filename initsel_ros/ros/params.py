@@ -679,6 +679,30 @@ def load_params_file(path: Path) -> dict[str, Any]:
     raise ConfigError(f'{path}: no "{NODE_NAME}: ros__parameters:" section')
 
 
+def unknown_parameters_note(names: Sequence[str]) -> str:
+    """What to say of parameter overrides that are not the selector's (``names``): each one,
+    with the parameter it was probably meant to be, e.g. ``min_parralax_deg (min_parallax_deg?)``;
+    '' when there are none."""
+    import difflib
+
+    known = [spec.name for spec in PARAMETERS]
+    lowered = {name.lower(): name for name in known}
+    parts = []
+    for name in sorted(names):
+        guess = lowered.get(name.lower()) or next(
+            iter(difflib.get_close_matches(name, known, n=1, cutoff=0.8)), None
+        )
+        parts.append(f'{name} ({guess}?)' if guess else name)
+    return ', '.join(parts)
+
+
+def section_applies(key: str, node_name: str) -> bool:
+    """Whether a parameter file's top-level ``key`` can name a node called ``node_name`` (in
+    any namespace): ``node``, ``/ns/node``, ``/**/node``, ``/**``, ``/*`` and the like."""
+    last = str(key).rstrip('/').rsplit('/', 1)[-1]
+    return last in (node_name, '*', '**')
+
+
 def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in tree.items():
@@ -704,4 +728,6 @@ __all__ = [
     'default_params_file',
     'load_params_file',
     'read_params_yaml',
+    'section_applies',
+    'unknown_parameters_note',
 ]
