@@ -375,6 +375,7 @@ class Selector:
         self._reference_stamp_ns: int | None = None
         self._candidate: _Candidate | None = None
         self._dropped = ''  # why a candidate under verification was dropped, for the next frame
+        self._reference_dropped = ''  # why the reference was dropped, for the next frame
         self._frame_tracks: Tracks | None = None
         # when the fire path runs next for want of baseline: see _recheck_rotation
         self._schedule = _FireSchedule(0, self.config.rotation_recheck_frames)
@@ -390,10 +391,8 @@ class Selector:
         changed = not intrinsics.same_camera(self.intrinsics)
         self.intrinsics = intrinsics
         if changed:
-            self._drop_candidate('the intrinsics changed')
-            self.tracker.clear()
+            self._drop_reference('the intrinsics changed')
             self.tracker.region = intrinsics.field_mask()
-            self._reference_stamp_ns = None
         return changed
 
     def update_config(self, config: SelectorConfig) -> None:
@@ -408,28 +407,23 @@ class Selector:
         """
         old = self.config
         if self.initialized and config.mode is not Mode.ONCE:
-            self.tracker.clear()
+            self._drop_reference('mode continuous starts over')
             self.initialized = False
-            self._reference_stamp_ns = None
-            self._drop_candidate('mode continuous starts over')
         if config.policy != old.policy:
             self._drop_candidate('the thresholds or the decision policy changed')
         self.config = config
         self.thresholds = effective_thresholds(self.models.thresholds, config.policy)
         if config.tracker != old.tracker:
-            self._drop_candidate('the tracker settings changed')
+            self._drop_reference('the tracker settings changed')
             self.tracker = KltTracker(config.tracker, self.intrinsics.field_mask())
-            self._reference_stamp_ns = None
         if config.bit_depth != self.bit_depth.fixed:
             self.bit_depth = BitDepth(config.bit_depth)
 
     def reset(self) -> None:
         """Start over: the next frame becomes the reference; the automatic bit depth is reset."""
-        self.tracker.clear()
+        self._drop_reference('~/reset')
         self.bit_depth.reset()
         self.initialized = False
-        self._reference_stamp_ns = None
-        self._drop_candidate('~/reset')
 
     def restart(self) -> None:
         """The stream started over (time jumped back): the next frame becomes the reference.
@@ -437,9 +431,16 @@ class Selector:
         Unlike :meth:`reset`, an initialization in mode ONCE is kept (frames stay
         ``already initialized`` until :meth:`reset`), and so is the bit depth.
         """
+        self._drop_reference('the stream restarted')
+
+    def _drop_reference(self, why: str) -> None:
+        """The next frame becomes the reference (and a candidate is dropped); that frame's
+        detail says why."""
+        if self.tracker.has_reference:
+            self._reference_dropped = why
         self.tracker.clear()
         self._reference_stamp_ns = None
-        self._drop_candidate('the stream restarted')
+        self._drop_candidate(why)
 
     def _drop_candidate(self, why: str) -> None:
         """Forget the candidate under verification, if any; the next frame's detail says why."""
@@ -466,11 +467,15 @@ class Selector:
         """Handle one frame (see :meth:`_process`); the result carries its tracks too."""
         self._frame_tracks = None
         result = self._process(image, stamp_ns)
+        note = ''
         if self._dropped:
             note = f'the candidate being verified was dropped: {self._dropped}'
+        elif self._reference_dropped and result.decision.reason is Reason.NEW_REFERENCE:
+            note = f'new reference: {self._reference_dropped}'
+        if note:
             detail = f'{result.decision.detail}; {note}' if result.decision.detail else note
             result = replace(result, decision=replace(result.decision, detail=detail))
-            self._dropped = ''
+        self._dropped = self._reference_dropped = ''
         # The tracks this frame was decided on; a new reference's fresh detections otherwise.
         # (``is None``: an empty Tracks is falsy.) ``thresholds`` is replaced, never mutated,
         # by update_config, so the result can share it.

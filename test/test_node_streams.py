@@ -527,6 +527,39 @@ def test_camera_info_with_other_intrinsics_or_size_starts_a_new_reference(
     assert capfd.readouterr().err.count('camera_info changed the intrinsics') == 1
 
 
+def test_the_first_frame_waits_for_its_camera_info(harness_factory, tmp_path, capfd):
+    # before: a frame that arrived before its camera_info became a reference under the
+    # parameters' intrinsics, dropped one frame later by the camera_info (replays differed
+    # from run to run), and nothing said why
+    import time
+
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(14)
+    other = Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480)
+    h.publish(h.image_message(img, 1.0))
+    h.settle(3)  # the image reaches the node; its camera_info comes 80 ms later
+    time.sleep(0.08)
+    h.publish_camera_info(other)
+    h.wait_until(lambda: len(h.statuses) >= 1, what='the first status')
+    first = h.statuses[0]
+    assert first.new_reference and first.intrinsics_source == 'camera_info'
+    assert h.send_array(shifted(img, 1, 0), 1.033).frames_since_reference == 1
+    assert 'no camera_info within' not in capfd.readouterr().err
+    # a camera_info that changes the camera later drops the reference, and says why
+    h.send_camera_info(Intrinsics.tum_fr3())
+    status = h.send_array(shifted(img, 2, 0), 1.066)
+    assert status.new_reference and 'new reference: the intrinsics changed' in status.detail
+
+
+def test_without_camera_info_the_first_frame_goes_on_after_a_short_wait(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    status = h.send_array(texture(14), 1.0)
+    assert status.new_reference and status.intrinsics_source == 'parameters'
+    assert 'no camera_info within 0.2 s of the first frame' in capfd.readouterr().err
+
+
 def test_an_equidistant_camera_info_is_a_fisheye_lens_and_another_model_is_refused(
     harness_factory, tmp_path, capfd
 ):

@@ -48,6 +48,27 @@ def test_first_frame_becomes_the_reference_and_later_frames_carry_reasons():
     assert second.reference_stamp_ns == ns(10.0) and second.frames_since_reference == 1
 
 
+def test_a_new_reference_taken_because_the_old_one_was_dropped_says_why():
+    sel = Selector(constant_models(), CAMERA)
+    big, small = texture(4), texture(4, shape=(240, 320))
+    assert sel.process(big, ns(1.0)).decision.detail.endswith('features detected')
+
+    def after(drop, t: float, img: np.ndarray = big) -> tuple[str, str]:
+        sel.process(shifted(big, 1.0, 0.0), ns(t))
+        drop()
+        first = sel.process(img, ns(t + 0.5))
+        assert first.new_reference
+        return first.decision.detail, sel.process(shifted(img, 1, 0), ns(t + 0.6)).decision.detail
+
+    first, next_one = after(sel.restart, 2.0)
+    assert first.endswith('new reference: the stream restarted')
+    assert 'new reference' not in next_one  # said once
+    first, _ = after(sel.reset, 3.0)
+    assert first.endswith('new reference: ~/reset')
+    first, _ = after(lambda: sel.set_intrinsics(CAMERA.scaled(320, 240)), 4.0, small)
+    assert first.endswith('new reference: the intrinsics changed')
+
+
 def test_rotation_model_vetoes_and_says_so():
     sel = Selector(constant_models(E=0.9, F=0.9, R=0.9), CAMERA)
     img = texture(5)

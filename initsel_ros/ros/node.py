@@ -102,6 +102,9 @@ TF_QOS = _keep_last(100, ReliabilityPolicy.RELIABLE)
 WARN_THROTTLE_S = 5.0
 #: The executor's wait slice in main(), seconds: how soon a stop signal is seen.
 SPIN_SLICE_S = 0.1
+#: How long the first frame waits for its camera_info (use_camera_info), seconds; frames
+#: arriving meanwhile are dropped as while any frame is processed.
+CAMERA_INFO_WAIT_S = 0.2
 #: How to give the node real intrinsics (logged and put in ~/status when they are guessed).
 CALIBRATE_HINT = (
     'calibrate (ros2 run camera_calibration cameracalibrator) and publish the camera_info, '
@@ -140,6 +143,8 @@ class SelectorNode(Node):
         self._intrinsics_source = 'parameters'  # or 'camera_info'
         self._info_intrinsics: Intrinsics | None = None  # from the last valid camera_info
         self._camera_info_seen = False  # read by the parameter callback (camera.* live until)
+        self._camera_info_arrived = threading.Event()  # the first valid camera_info
+        self._waited_for_camera_info = not self._settings.use_camera_info  # (worker)
 
         # State shared between the callbacks and the worker.
         self._lock = threading.Lock()
@@ -333,6 +338,7 @@ class SelectorNode(Node):
         with self._lock:
             self._pending_intrinsics = intrinsics
         self._camera_info_seen = True
+        self._camera_info_arrived.set()
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -399,7 +405,29 @@ class SelectorNode(Node):
                 continue
             if msg is None:
                 return
+            if not self._waited_for_camera_info:
+                self._wait_for_camera_info()
             self._process(msg, dropped)
+
+    def _wait_for_camera_info(self) -> None:
+        """Worker, first frame: give its camera_info :data:`CAMERA_INFO_WAIT_S` to arrive.
+
+        A camera publishes the two on separate topics, so the first frame can come first;
+        processed with the parameters' intrinsics, it would be a reference that the
+        camera_info then drops (a new reference one frame later, which made replays differ
+        from run to run). Once only: later frames never wait.
+        """
+        self._waited_for_camera_info = True
+        if not self._camera_info_arrived.wait(CAMERA_INFO_WAIT_S):
+            self.get_logger().info(
+                f'no camera_info within {CAMERA_INFO_WAIT_S:g} s of the first frame: the '
+                'camera.* parameters are used until one arrives'
+            )
+            return
+        with self._lock:
+            intrinsics, self._pending_intrinsics = self._pending_intrinsics, None
+        if intrinsics is not None:
+            self._use_camera_info(intrinsics)
 
     def _use_camera_info(self, intrinsics: Intrinsics) -> None:
         """Worker: intrinsics of a valid camera_info (another camera starts a new reference)."""

@@ -265,8 +265,8 @@ def run(options: ReplayOptions) -> int:
                     )
                 shm.check(len(message.data), image_pub.topic_name)
                 info_template.header.stamp = stamp
+                info_pub.publish(info_template)  # first: a subscriber has it for the frame
                 image_pub.publish(message)
-                info_pub.publish(info_template)
                 if gt_pub is not None and frame.pose is not None:
                     world = Header(stamp=stamp, frame_id=options.world_frame_id)
                     T_w_c = frame.pose  # camera-to-world
