@@ -226,6 +226,22 @@ def test_header_stamps_out_of_the_order_of_reception_are_said(near_bag_ros1, tmp
     assert 'carry an earlier' not in _warnings_of(near_bag_ros1, caplog)
 
 
+def test_header_stamps_repeated_are_said(near_bag_ros1, tmp_path, caplog):
+    # before: the second frame took the first one's pose and lost its depth, without a word
+    original = BagSequence(near_bag_ros1)
+    BagSequence(
+        _rewrite_ros1(
+            near_bag_ros1,
+            tmp_path / 'x.bag',
+            lambda topic, k, t: t,
+            _set_image_stamp(lambda k: int(original.stamps_ns[1 if k == 2 else k])),
+        )
+    )
+    said = f'1 of {len(original)} frames on /camera/rgb/image_color carry the header stamp of'
+    assert said in caplog.text
+    assert 'header stamp of another' not in _warnings_of(near_bag_ros1, caplog)
+
+
 def _warnings_of(path, caplog):
     caplog.clear()
     BagSequence(path)

@@ -98,8 +98,8 @@ def _frame_stamps(
 ) -> list[int]:
     """The frames' times: their header stamps, or the receive times when every header stamp is
     zero (a driver that does not stamp: the frames would all be at one time, replayed at once
-    and given one ground-truth pose). Both that and header stamps out of the order of
-    reception (the frames are sorted by them) are said in a warning."""
+    and given one ground-truth pose). That, header stamps out of the order of reception (the
+    frames are sorted by them) and stamps repeated are said in a warning."""
     if len(header_ns) > 1 and not any(header_ns):
         _LOG.warning(
             '%s: every frame on %s has a zero header stamp: the times the bag received them '
@@ -116,6 +116,16 @@ def _frame_stamps(
             'before them: frames are read in the order of their header stamps',
             path,
             back,
+            len(header_ns),
+            topic,
+        )
+    repeated = int(np.count_nonzero(np.diff(np.sort(in_reception)) == 0))
+    if repeated:
+        _LOG.warning(
+            '%s: %d of %d frames on %s carry the header stamp of another frame: such frames '
+            'get one ground-truth pose, and only one of them a depth map',
+            path,
+            repeated,
             len(header_ns),
             topic,
         )
