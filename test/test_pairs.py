@@ -58,3 +58,16 @@ def test_the_dataset_reads_a_folder_with_the_intrinsics_it_is_given(static_seque
     camera = Intrinsics(500.0, 505.0, 321.0, 239.0, 640, 480)
     assert open_cached(str(static_sequence), DatasetConfig()).intrinsics != camera
     assert open_cached(str(static_sequence), DatasetConfig(intrinsics=camera)).intrinsics == camera
+
+
+def test_two_sources_of_one_sequence_name_are_refused(static_sequence, tmp_path):
+    # before: their pairs were merged under one name (eval counted one batch for two)
+    import shutil
+
+    from initsel_ros.errors import DatasetError
+
+    copy = tmp_path / 'elsewhere' / static_sequence.name
+    shutil.copytree(static_sequence, copy)
+    for sources in ([static_sequence, static_sequence], [static_sequence, copy]):
+        with pytest.raises(DatasetError, match=r"are both sequence '.*': the pair table"):
+            build_table(sources, DatasetConfig(batch=10, jobs=1), progress=False)

@@ -250,6 +250,13 @@ def build_table(
                 sequence.name,
                 NO_DEPTH,
             )
+        if sequence.name in names:  # the pair table tells sequences apart by name
+            other = sources[names.index(sequence.name)]
+            raise DatasetError(
+                f'{other} and {path} are both sequence {sequence.name!r}: the pair table '
+                'tells sequences apart by name (give a sequence once; rename one of two '
+                'different ones)'
+            )
         names.append(sequence.name)
         for b, frames in labelled_batches(sequence, config):
             tasks.append(BatchTask(path, b, tuple(frames), config))
