@@ -21,12 +21,23 @@ def config_dirs() -> list[Path]:
     The ament share directories (``$AMENT_PREFIX_PATH/*/share/initsel_ros/config``), the
     interpreter prefix (``pip install``), then the source tree (editable installs).
     """
-    dirs: list[Path] = []
-    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
-        dirs.append(Path(prefix) / 'share' / PACKAGE / 'config')
-    dirs.append(Path(sys.prefix) / 'share' / PACKAGE / 'config')
+    prefixes = [Path(p) for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
+    prefixes += [*_install_prefixes(Path(__file__).absolute()), Path(sys.prefix)]
+    dirs = [prefix / 'share' / PACKAGE / 'config' for prefix in prefixes]
     dirs.append(Path(__file__).resolve().parent.parent / 'config')
-    return dirs
+    return list(dict.fromkeys(dirs))  # each once, in order
+
+
+def _install_prefixes(module: Path) -> list[Path]:
+    """The prefix this package is installed under, from the module's own path: ``PREFIX`` of
+    ``PREFIX/lib/pythonX.Y/site-packages/initsel_ros/...`` (and of Debian's
+    ``PREFIX/local/lib/pythonX.Y/dist-packages``); none in a source tree. A colcon install
+    then finds its own ``share/`` without its setup script sourced."""
+    for parent in module.parents:
+        if parent.name in ('site-packages', 'dist-packages') and len(parent.parents) >= 3:
+            prefix = parent.parents[2]  # .../lib/pythonX.Y/site-packages -> ...
+            return [prefix, prefix.parent] if prefix.name == 'local' else [prefix]
+    return []
 
 
 def find_config_file(name: str) -> Path:

@@ -310,3 +310,25 @@ def test_the_referee_decides_only_within_its_band(tmp_path):
     # saved again, the referee stays
     wide.save(tmp_path / 'again.json')
     assert ModelSet.load(tmp_path / 'again.json').referee.band_logit == {'R': 1e6}
+
+
+def test_an_installed_package_finds_its_share_without_the_ament_prefix_path(tmp_path):
+    # before: a colcon install run without its setup script sourced looked everywhere but in
+    # its own prefix (and listed one folder twice)
+    from initsel_ros.config_files import _install_prefixes
+
+    site = tmp_path / 'install' / 'lib' / 'python3.11' / 'site-packages'
+    assert _install_prefixes(site / 'initsel_ros' / 'config_files.py') == [tmp_path / 'install']
+    debian = tmp_path / 'usr' / 'local' / 'lib' / 'python3.12' / 'dist-packages' / 'initsel_ros'
+    assert _install_prefixes(debian / 'x.py') == [tmp_path / 'usr' / 'local', tmp_path / 'usr']
+    assert _install_prefixes(tmp_path / 'src' / 'initsel_ros' / 'x.py') == []
+
+
+def test_each_config_folder_is_looked_in_once(monkeypatch):
+    import sys
+
+    from initsel_ros.config_files import config_dirs
+
+    monkeypatch.setenv('AMENT_PREFIX_PATH', f'{sys.prefix}:{sys.prefix}')
+    dirs = config_dirs()
+    assert len(dirs) == len(set(dirs))
