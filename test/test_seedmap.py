@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from initsel_ros.learn.seedmap import (
     ORB2_RULE,
     RULE_SYSTEMS,
@@ -103,3 +105,19 @@ def test_params_file_gives_the_node_settings_and_a_bad_one_is_refused(tmp_path, 
         args = [command, str(tmp_path), '--params-file', str(bad), '--out-dir', str(tmp_path)]
         assert main(args) == 2
         assert 'min_homography_parallax_deg must be a finite number' in capsys.readouterr().err
+
+
+def test_batches_start_on_their_first_frame_with_a_ground_truth_pose():
+    # before: a batch starting before the motion capture was never judged (the real fr3)
+    from initsel_ros.learn.seedmap import batch_windows
+
+    has_pose = np.ones(100, dtype=bool)
+    assert batch_windows(has_pose, 60, 30) == ([(0, 60), (30, 60), (60, 40)], 0)
+    has_pose[:40] = False
+    windows, moved = batch_windows(has_pose, 60, 30)
+    assert windows == [(40, 50), (60, 40)] and moved == 1  # one batch, not two, at frame 40
+    has_pose[:] = False  # no ground truth at all: the batches keep their starts (unjudged)
+    assert batch_windows(has_pose, 60, 30) == ([(0, 60), (30, 60), (60, 40)], 0)
+    has_pose[59] = True  # the last frame of the first batch: nothing to pair it with there
+    windows, _ = batch_windows(has_pose, 60, 30)
+    assert (59, 1) not in windows and (59, 31) in windows  # the second batch keeps it

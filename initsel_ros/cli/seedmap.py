@@ -84,6 +84,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="override the policy's min_rotation_residual_sigma (H alone is still tried from "
         'min_plane_residual_sigma, 2 by default; set that in a --params-file)',
     )
+    parser.add_argument(
+        '--nearest-tolerance',
+        type=float,
+        default=None,
+        metavar='S',
+        help='TUM, EuRoC, bags: frames outside the ground truth take the nearest pose within S '
+        'seconds (as initsel dataset)',
+    )
     options.add_jobs_option(parser, 2)
     options.add_out_dir_option(
         parser, 'write seedmap.md and seedmap.csv (one row per batch and system)'
@@ -144,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
             groups=groups,
             noise_seeds=args.noise_seed,
             progress=progress,
+            nearest_tolerance=args.nearest_tolerance,
         )
     table = summary_markdown(summarize(outcomes))
     print(table)

@@ -512,16 +512,17 @@ def evaluate_batch(
     tolerance: float = 0.05,
     baselines: bool | BaselineOptions = True,
     group: str = '',
+    nearest_tolerance: float | None = None,
 ) -> list[BatchOutcome]:
     """Every system's outcome on one batch (a process-pool task: arguments are picklable).
 
     ``baselines``: True = the rules, False = the selector only, or a :class:`BaselineOptions`.
+    ``nearest_tolerance``: the readers' (frames outside the ground truth take the nearest
+    pose within that many seconds).
     """
-    from initsel_ros.datasets import open_sequence
-
     options = _options(baselines)
     cv2.setNumThreads(1)
-    sequence = open_sequence(path)
+    sequence = _open_quietly(path, nearest_tolerance)
     batch = _Batch(sequence, start, length, group, options.sensor_noise, options.noise_seed)
     models = ModelSet.load(model_path)
     outcomes = [_run_selector(batch, models, config, tolerance)]
@@ -530,6 +531,60 @@ def evaluate_batch(
     outcomes += _run_track_baselines(batch, config, options.baselines)
     seed = options.noise_seed if options.sensor_noise > 0 else -1
     return [replace(o, noise_seed=seed) for o in outcomes]
+
+
+_OPENED: dict[tuple[str, float | None], object] = {}
+
+
+def _reader_options(path: Path | str, nearest_tolerance: float | None) -> dict[str, float]:
+    from initsel_ros.datasets import sequence_kind
+
+    kind = sequence_kind(Path(path))
+    if nearest_tolerance is None or kind not in ('tum', 'euroc', 'bag'):
+        return {}
+    return {'nearest_tolerance': nearest_tolerance}
+
+
+def _open_quietly(path: str, nearest_tolerance: float | None):
+    """A batch worker's sequence: opened once per process, without the readers' warnings
+    (:func:`evaluate_sequences` has said them once already)."""
+    from initsel_ros.datasets import open_sequence
+
+    key = (path, nearest_tolerance)
+    if key not in _OPENED:
+        readers = logging.getLogger('initsel_ros.datasets')
+        level = readers.level
+        readers.setLevel(logging.ERROR)
+        try:
+            _OPENED[key] = open_sequence(path, **_reader_options(path, nearest_tolerance))
+        finally:
+            readers.setLevel(level)
+    return _OPENED[key]
+
+
+def batch_windows(
+    has_pose: np.ndarray, length: int, step: int
+) -> tuple[list[tuple[int, int]], int]:
+    """(first frame, frames) of the batches of a sequence whose frames have a ground-truth pose
+    where ``has_pose``: one every ``step`` frames, ``length`` frames long (shorter at the
+    end). Where a batch's first frame has no pose it starts on its first frame that has one
+    (the initialization is judged against the batch's first frame, and the real TUM sequences
+    start before their motion capture), keeping its last frame (of two batches moved to one
+    frame, the longer is kept); a batch with fewer than 2 frames from there is left out, and
+    one without any pose keeps its start (its initializations go unjudged). Returns (windows,
+    how many batches were moved)."""
+    n = len(has_pose)
+    windows: dict[int, int] = {}  # first frame -> frames (two batches moved to one frame: one)
+    moved = 0
+    for s in range(0, max(n - length // 2, 1), step):
+        stop = min(s + length, n)
+        posed = np.flatnonzero(has_pose[s:stop])
+        first = s + int(posed[0]) if posed.size else s
+        if stop - first < 2:
+            continue
+        moved += first != s and first not in windows
+        windows[first] = stop - first
+    return list(windows.items()), moved
 
 
 def _options(baselines: bool | BaselineOptions) -> BaselineOptions:
@@ -551,8 +606,12 @@ def evaluate_sequences(
     groups: dict[str, str] | None = None,
     noise_seeds: Sequence[int] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    nearest_tolerance: float | None = None,
 ) -> list[BatchOutcome]:
     """Run :func:`evaluate_batch` over every batch of every sequence (in a process pool).
+
+    Batches start every ``step`` frames, on their first frame with a ground-truth pose
+    (:func:`batch_windows`).
 
     Args:
         groups: sequence path (as given) or folder name -> group (one of :data:`GROUPS`);
@@ -573,13 +632,22 @@ def evaluate_sequences(
         raise ValueError(f'unknown groups {sorted(bad)}: choose from {GROUPS}')
     tasks = []
     for path in paths:
-        n = len(open_sequence(path))
+        sequence = open_sequence(path, **_reader_options(path, nearest_tolerance))
+        windows, moved = batch_windows(sequence.has_pose, length, step)
+        if moved:
+            LOG.warning(
+                '%s: %d batches start on frames without a ground-truth pose: each starts on '
+                'its first frame with one',
+                sequence.name,
+                moved,
+            )
         group = groups.get(str(path), groups.get(Path(path).name, ''))
-        tasks += [(str(path), s, length, group) for s in range(0, max(n - length // 2, 1), step)]
+        tasks += [(str(path), s, k, group) for s, k in windows]
     outcomes: list[BatchOutcome] = []
     seeds = list(noise_seeds or [options.noise_seed]) if options.sensor_noise > 0 else [-1]
+    reader = nearest_tolerance
     args = [
-        (p, s, n, str(model_path), config, tolerance, replace(options, noise_seed=seed), g)
+        (p, s, n, str(model_path), config, tolerance, replace(options, noise_seed=seed), g, reader)
         for seed in seeds
         for p, s, n, g in tasks
     ]
