@@ -36,6 +36,10 @@ def test_binary_scores_without_predictions_or_positives_are_zero_not_nan():
     assert (no_pos.precision, no_pos.recall) == (0.0, 0.0)
     assert no_pos.accuracy == pytest.approx(2 / 3)
     assert math.isnan(binary_scores(np.zeros(0, bool), np.zeros(0, bool)).accuracy)
+    # ... but a table shows them as undefined (before: 0.0000 for R with 0 yes, 0 positives)
+    shown = [np.isnan(v) for v in none.shown()]
+    assert shown == [True, False, True]  # precision without a yes; recall 0 of 2 is a 0
+    assert [np.isnan(v) for v in no_pos.shown()] == [False, True, True]
 
 
 def test_precision_at_recall_takes_the_best_threshold_reaching_the_recall():

@@ -58,6 +58,15 @@ class Scores:
     positives: int
     n: int
 
+    def shown(self) -> tuple[float, float, float]:
+        """(precision, recall, F1) for a table: NaN (a '-') where undefined, i.e. precision
+        without a yes, recall without a positive, F1 without either, instead of the 0 the
+        fields hold for threshold search."""
+        precision = self.precision if self.predicted else math.nan
+        recall = self.recall if self.positives else math.nan
+        f1 = self.f1 if self.predicted and self.positives else math.nan
+        return precision, recall, f1
+
 
 def binary_scores(y: np.ndarray, pred: np.ndarray) -> Scores:
     """Accuracy, precision, recall, F1 of ``pred`` against ``y`` ((N,) bool each).
@@ -531,7 +540,7 @@ def results_markdown(report: EvalReport) -> str:
     rows = []
     for r in report.rows:
         s = r.scores
-        scores = map(_f, (s.accuracy, s.precision, s.recall, s.f1))
+        scores = map(_f, (s.accuracy, *s.shown()))
         paper = map(_f, r.paper or (math.nan,) * 4)
         rows.append((r.name, r.label, *scores, s.predicted, s.positives, *paper))
     return markdown_table(columns, rows)
@@ -560,8 +569,8 @@ def candidates_markdown(report: EvalReport) -> str:
     rows = []
     for c in report.candidates:
         s, v = c.scores, c.veto
-        vetoed = (number(v.precision, 4), number(v.recall, 4)) if v else ('-', '-')
-        alone = map(_f, (s.precision, s.recall, s.f1))
+        vetoed = tuple(map(_f, v.shown()[:2])) if v else ('-', '-')
+        alone = map(_f, s.shown())
         file = map(_f, (c.precision_at_file_recall, c.file_precision, c.file_recall))
         rows.append((c.candidate, c.model, *alone, *vetoed, *file, f'{c.decision_us:.1f}'))
     return markdown_table(columns, rows)
