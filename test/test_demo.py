@@ -21,6 +21,8 @@ def test_demo_initializes_on_the_near_sequence_and_judges_it_good(near_sequence,
     assert 'live (ROS 2 node)' in out if mode == '--live' else 'offline' in out
     assert '1/1 initializations good' in out
     assert 'first initialization at frame' in out
+    if mode == '--live':  # the node's count of frames, not of the statuses that came back
+        assert '     60  (frames received)' in out
 
 
 def test_demo_fails_loudly_when_nothing_initializes(static_sequence, capsys):

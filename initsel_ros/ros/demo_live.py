@@ -97,7 +97,8 @@ def run_live(
     for s in statuses:
         reasons[s.reason.value] = reasons.get(s.reason.value, 0) + 1
         by_stamp[s.stamp_ns] = s
-    reasons['(frames received)'] = len(statuses)
+    # the node's own count (a frame overwritten before it was processed has no status)
+    reasons['(frames received)'] = max((s.received_frames for s in statuses), default=0)
     reasons['(frames dropped)'] = max((s.dropped_frames for s in statuses), default=0)
     records = []
     for method, pose, cloud in zip(methods, poses, clouds, strict=False):
