@@ -360,3 +360,24 @@ def test_near_trajectory_file_is_bundled():
     stamps, _ = make_trajectory('near')
     assert Path(NEAR_FILE).is_file() and len(stamps) == 1099
     assert np.all(np.diff(stamps) > 0)
+
+
+def test_another_image_size_is_another_sensor_with_square_pixels(tmp_path):
+    # before: 1241x376 scaled fy by the height, pixels 2.5 times as tall as wide (the
+    # storeroom family's "KITTI size" saw 66 degrees vertically instead of about 29)
+    import math
+
+    fr3 = Intrinsics.tum_fr3()
+    kitti = render(tmp_path / 'k', trajectory='static', frames=1, width=1241, height=376)
+    cam = open_sequence(kitti.path).intrinsics
+    assert (cam.width, cam.height) == (1241, 376)
+    assert cam.fy / cam.fx == pytest.approx(fr3.fy / fr3.fx)
+    assert cam.fx == pytest.approx(fr3.fx * 1241 / 640)  # the horizontal field of view kept
+    assert cam.cy == pytest.approx(fr3.cy * 376 / 480)
+    wide = render(
+        tmp_path / 'w', trajectory='static', frames=1, width=1241, height=376, hfov_deg=82.0
+    )
+    cam = open_sequence(wide.path).intrinsics
+    assert cam.fx == pytest.approx(1241 / 2 / math.tan(math.radians(41.0)))
+    vertical = 2 * math.degrees(math.atan(376 / 2 / cam.fy))
+    assert 25.0 < vertical < 33.0

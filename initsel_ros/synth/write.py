@@ -67,9 +67,21 @@ def _camera(
 ) -> Intrinsics:
     cam = intrinsics or Intrinsics.tum_fr3()
     if width or height:
-        w = width or round((height or cam.height) * cam.width / cam.height)
-        h = height or round(w * cam.height / cam.width)
-        cam = cam.scaled(int(w), int(h))
+        w = int(width or round((height or cam.height) * cam.width / cam.height))
+        h = int(height or round(w * cam.height / cam.width))
+        # a sensor of another size, not the image stretched: the horizontal field of view
+        # and the pixels' aspect ratio are kept (Intrinsics.scaled would scale fy by the
+        # height, giving 1241x376 pixels 2.5 times as tall as wide)
+        s = w / cam.width
+        cam = replace(
+            cam,
+            fx=cam.fx * s,
+            fy=cam.fy * s,
+            cx=cam.cx * s,
+            cy=cam.cy * h / cam.height,
+            width=w,
+            height=h,
+        )
     if hfov_deg is not None:
         if not 10.0 <= hfov_deg <= 150.0:
             raise ConfigError(f'hfov_deg must be in [10, 150] degrees, got {hfov_deg}')
