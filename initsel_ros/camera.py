@@ -272,6 +272,23 @@ class Intrinsics:
             self.fisheye,
         )
 
+    def resized_sensor(self, width: int, height: int) -> Intrinsics:
+        """A camera like this one with a sensor of ``width`` x ``height``: the same horizontal
+        field of view and pixel aspect ratio (fx and fy scale with the width), the principal
+        point at the same place relative to each side. Equal to :meth:`scaled` for the same
+        aspect ratio; for another one, :meth:`scaled` stretches the image instead."""
+        s = width / self.width
+        return Intrinsics(
+            self.fx * s,
+            self.fy * s,
+            self.cx * s,
+            self.cy * height / self.height,
+            width,
+            height,
+            self.distortion,
+            self.fisheye,
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (for YAML/JSON); ``fisheye`` only when set."""
         data = asdict(self) | {'distortion': list(self.distortion)}

@@ -639,6 +639,18 @@ def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
     assert not status.intrinsics_guessed and status.intrinsics_warning == ''
 
 
+def test_guessed_intrinsics_of_another_aspect_ratio_are_a_sensor_with_square_pixels(
+    harness_factory, tmp_path
+):
+    # before: 752x480 frames got fx 629, fy 539 (the fr3 camera stretched to the frame)
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    status = h.send_array(texture(16, shape=(480, 752)), 1.0)
+    fr3 = Intrinsics.tum_fr3()
+    assert status.intrinsics_guessed
+    assert status.intrinsics['fy'] / status.intrinsics['fx'] == pytest.approx(fr3.fy / fr3.fx)
+    assert status.intrinsics['fx'] == pytest.approx(fr3.fx * 752 / 640)
+
+
 def test_set_camera_parameters_of_another_size_are_scaled_but_not_called_guessed(
     harness_factory, tmp_path
 ):

@@ -592,8 +592,10 @@ class SelectorNode(Node):
                     f'are for {base.width}x{base.height}: scaling the intrinsics',
                     throttle_duration_sec=WARN_THROTTLE_S,
                 )
-            try:
-                wanted = base.scaled(width, height)
+            try:  # a guess is a sensor of that size; given intrinsics, the image resized
+                wanted = (
+                    base.resized_sensor(width, height) if guessed else base.scaled(width, height)
+                )
             except ConfigError as exc:
                 raise ImageConversionError(
                     f'a {width}x{height} image does not fit the intrinsics: {exc}'

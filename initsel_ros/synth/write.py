@@ -69,19 +69,9 @@ def _camera(
     if width or height:
         w = int(width or round((height or cam.height) * cam.width / cam.height))
         h = int(height or round(w * cam.height / cam.width))
-        # a sensor of another size, not the image stretched: the horizontal field of view
-        # and the pixels' aspect ratio are kept (Intrinsics.scaled would scale fy by the
-        # height, giving 1241x376 pixels 2.5 times as tall as wide)
-        s = w / cam.width
-        cam = replace(
-            cam,
-            fx=cam.fx * s,
-            fy=cam.fy * s,
-            cx=cam.cx * s,
-            cy=cam.cy * h / cam.height,
-            width=w,
-            height=h,
-        )
+        # a sensor of another size, not the image stretched (Intrinsics.scaled would give
+        # 1241x376 pixels 2.5 times as tall as wide)
+        cam = cam.resized_sensor(w, h)
     if hfov_deg is not None:
         if not 10.0 <= hfov_deg <= 150.0:
             raise ConfigError(f'hfov_deg must be in [10, 150] degrees, got {hfov_deg}')
