@@ -238,6 +238,25 @@ def _unit_depth_scale(points: np.ndarray) -> float:
     return 1.0 / depth if depth > 0 else 1.0
 
 
+#: Mean disparity, pixels, under which the camera has not moved for any method: the parallax
+#: floors (min_parallax_deg, 1 degree: 9 px of flow at the TUM focal length, 4 px at 320x240)
+#: are out of reach, so no fire-path run is made (on a still camera a model's yes ran it on
+#: every third frame, and the frames said 'rotation').
+STILL_DISPARITY_PX = 1.0
+
+
+def _still(decision: Decision) -> Decision:
+    """A model's yes on a camera that has not moved: low parallax, nothing to try."""
+    fired = ', '.join(decision.fired)
+    return replace(
+        decision,
+        reason=Reason.LOW_PARALLAX,
+        candidates=(),
+        detail=f'{fired} fired, but the camera has hardly moved: mean disparity '
+        f'{decision.mean_disparity:.2f} px < {STILL_DISPARITY_PX:g} px',
+    )
+
+
 def _verified_choice(chosen: _Candidate, rivals: Sequence[_Candidate]) -> _Candidate:
     """Of poses that all held on every verification frame, ``chosen`` (the fire path's),
     unless the rival with the lowest mean RMS is under :data:`RIVAL_MAX_RMS_RATIO` of
@@ -523,6 +542,8 @@ class Selector:
         decision = decide_pair(
             self.models, self.thresholds, self.config.policy, ref, cur, w, h, camera
         )
+        if decision.positive and decision.mean_disparity < STILL_DISPARITY_PX:
+            decision = _still(decision)
         if decision.reason is Reason.TOO_FEW_TRACKS:
             if self._candidate is not None:
                 decision = replace(
@@ -952,8 +973,19 @@ class Selector:
         tracked = (tracks.ids[pos] == ids) if len(tracks.ids) else np.zeros(len(ids), bool)
         pixels = np.zeros((len(ids), 2))
         pixels[tracked] = cur[pos[tracked]]
-        points = candidate.initialization.points
-        return check_frame(points, pixels, tracked, self.intrinsics.K, self.config.verify)
+        init = candidate.initialization
+        return check_frame(
+            init.points,
+            pixels,
+            tracked,
+            self.intrinsics.K,
+            self.config.verify,
+            (self.intrinsics.width, self.intrinsics.height),
+            float(np.linalg.norm(init.t)),
+            # at a steady speed, the distance ratio is the frames' (never what a wrong map's
+            # pose makes of it)
+            self.tracker.frames_since_reference / max(init.frames_since_reference, 1),
+        )
 
     def _initialization(
         self,

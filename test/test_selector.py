@@ -69,6 +69,28 @@ def test_a_new_reference_taken_because_the_old_one_was_dropped_says_why():
     assert first.endswith('new reference: the intrinsics changed')
 
 
+def test_a_camera_that_has_not_moved_runs_no_fire_path_and_says_so(monkeypatch):
+    # before: a still camera's frames said 'rotation', after a fire-path run each time a
+    # model said yes
+    sel = Selector(constant_models(E=0.9, F=0.9), CAMERA)
+    runs = []
+    fire = Selector._fire
+    monkeypatch.setattr(
+        Selector, '_fire', lambda self, *a, **k: runs.append(1) or fire(self, *a, **k)
+    )
+    img = texture(5)
+    sel.process(img, ns(0.0))
+    still = sel.process(shifted(img, 0.3, 0.0), ns(0.1))
+    assert still.decision.reason is Reason.LOW_PARALLAX and not runs
+    assert 'the camera has hardly moved: mean disparity 0.30 px < 1 px' in still.decision.detail
+    assert still.decision.probabilities['E'] == pytest.approx(0.9)  # still said
+    moved = sel.process(shifted(img, 4.0, 0.0), ns(0.2))
+    assert moved.decision.reason is not Reason.LOW_PARALLAX or 'hardly moved' not in (
+        moved.decision.detail
+    )
+    assert runs
+
+
 def test_rotation_model_vetoes_and_says_so():
     sel = Selector(constant_models(E=0.9, F=0.9, R=0.9), CAMERA)
     img = texture(5)
@@ -931,7 +953,7 @@ def test_a_re_check_just_short_of_its_bar_comes_back_on_the_frame_it_should_pass
     monkeypatch.setattr(selector_module, 'initialize_pair', fire_path)
     img = texture(3)
     sel = Selector(constant_models(R=0.99), CAMERA, SelectorConfig())
-    results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(11)]
+    results = [sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30)) for i in range(11)]
     assert calls == [3, 6, 9, 10]
     assert results[9].decision.detail.endswith(
         'the fire path runs again in 1 frame(s), when H parallax 0.49 of 0.5 deg should pass'
@@ -941,7 +963,7 @@ def test_a_re_check_just_short_of_its_bar_comes_back_on_the_frame_it_should_pass
     sel.restart()
     calls.clear()
     for i in range(11, 16):
-        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+        sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30))
     assert calls == [3]
 
 
@@ -965,7 +987,7 @@ def test_a_model_s_yes_waits_for_the_frame_its_last_rotation_test_scheduled(monk
     img = texture(6)
     models = constant_models(E=0.9, H=0.9, R=0.01)
     sel = Selector(models, CAMERA, SelectorConfig())
-    results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(9)]
+    results = [sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30)) for i in range(9)]
     assert calls == [1, 2, 3, 6, 7]  # (frames 1 and 2: 2.6 x their frame count is 2 and 5)
     # ~/status's fire_path_due_in: 3 after the run on frame 3, 2 on held frame 4, 1 on 6
     assert [r.fire_path_due_in for r in results[3:8]] == [3, 2, 1, 1, 2]
@@ -987,7 +1009,7 @@ def test_a_model_s_yes_waits_for_the_frame_its_last_rotation_test_scheduled(monk
     calls.clear()
     sel = Selector(models, CAMERA, SelectorConfig(rotation_recheck_frames=0))
     for i in range(5):
-        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+        sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30))
     assert calls == [1, 2, 3, 4]
 
 
@@ -1009,7 +1031,7 @@ def test_the_re_check_cadence_follows_a_live_change_of_the_setting(monkeypatch):
     sel.process(shifted(img, 0.5, 0.0), ns(1 / 30))
     sel.update_config(SelectorConfig(rotation_recheck_frames=3))  # switched on, live
     for i in range(2, 8):
-        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+        sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30))
     assert calls == [3, 6]
 
 
@@ -1035,13 +1057,13 @@ def test_a_schedule_from_before_a_new_reference_holds_nothing(monkeypatch):
     models = constant_models(E=0.9, H=0.9, R=0.01)
     sel = holder[0] = Selector(models, CAMERA, SelectorConfig())
     for i in range(5):
-        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+        sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30))
     assert calls == [1, 2, 3]  # (then held: frame 4, before the cadence's 6)
     sel.restart()
     sel.update_config(SelectorConfig(rotation_recheck_frames=0))
     calls.clear()
     for i in range(5, 10):  # a new reference, then its frames 1-4
-        sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30))
+        sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30))
     sel.update_config(SelectorConfig())
     result = sel.process(shifted(img, 5.0, 0.0), ns(10 / 30))  # its frame 5
     assert calls == [1, 2, 3, 4, 5]
@@ -1063,7 +1085,7 @@ def test_a_held_frame_names_the_test_that_stopped_the_run(monkeypatch):
     _stub_fire_path(monkeypatch, calls, holder, stopped)
     img = texture(9)
     sel = holder[0] = Selector(constant_models(E=0.9, H=0.9, R=0.01), CAMERA, SelectorConfig())
-    results = [sel.process(shifted(img, 0.5 * i, 0.0), ns(i / 30)) for i in range(6)]
+    results = [sel.process(shifted(img, 1.5 * i, 0.0), ns(i / 30)) for i in range(6)]
     assert calls == [1, 2, 3]
     assert results[4].decision.detail == (
         'E/H fired, but the rotation test 1 frame(s) ago found the tracks the winner left out '

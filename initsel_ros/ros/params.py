@@ -390,13 +390,14 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         'verify_min_fraction',
         _VERIFY.min_fraction,
-        'share of the map points that must stay PnP inliers in every verification frame',
+        'share of the map points in view that must stay PnP inliers in every verification frame',
         Number(0.01, 1.0),
     ),
     ParameterSpec(
         'verify_max_rms_px',
         _VERIFY.max_rms_px,
-        'largest PnP reprojection RMS of those inliers in a verification frame, pixels',
+        'largest PnP reprojection RMS of those inliers in a verification frame, pixels (k/2 '
+        "times it at k > 2 times the initializing frame's distance from the reference)",
         Number(0.01, 100.0),
     ),
     ParameterSpec(
