@@ -216,36 +216,23 @@ def test_replay_warns_once_when_frames_exceed_the_shared_memory_segment(sources,
     env = _environment()
     env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(profile)
     env.pop('FASTDDS_DEFAULT_PROFILES_FILE', None)
-    proc = subprocess.Popen(
-        [
-            _initsel(),
-            'replay',
-            str(sources['tum']),
-            '--rate',
-            '4',
-            '--image-topic',
-            '/shm_probe/image_raw',
-        ],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
+    code, output = _replay_output(
+        sources['tum'], '--image-topic', '/shm_probe/image_raw', env=env, rate='4'
     )
-    try:
-        output, _ = proc.communicate(timeout=TIMEOUT_S)
-    finally:
-        stop_process(proc)
-    assert proc.returncode == 0, output
+    assert code == 0, output
     warnings = [ln for ln in output.splitlines() if 'shared-memory segment' in ln]
     assert len(warnings) == 1, output  # 20 oversized frames, one warning
     assert '0.88 MiB' in warnings[0] and '0.25 MiB' in warnings[0]
     assert str(profile) in warnings[0]
 
 
-def _replay_output(source: Path, *options: str) -> tuple[int, str]:
+def _replay_output(
+    source: Path, *options: str, env: dict[str, str] | None = None, rate: str = '8'
+) -> tuple[int, str]:
+    """Exit code and output of ``initsel replay SOURCE --rate RATE OPTIONS``."""
     proc = subprocess.Popen(
-        [_initsel(), 'replay', str(source), '--rate', '8', *options],
-        env=_environment(),
+        [_initsel(), 'replay', str(source), '--rate', rate, *options],
+        env=_environment() if env is None else env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
