@@ -208,3 +208,12 @@ def test_the_bench_decides_with_the_camera_a_model_file_reads(caplog):
         decision_fn(models, 640, 480, camera)(*pairs[0])
     assert 'no camera' not in caplog.text
     assert np.isfinite(models.input_values(*pairs[0], 640, 480, camera)[0][-1])
+
+
+def test_the_dataset_speed_repeats_the_sequence_under_names_of_its_own(static_sequence):
+    # before: the repeats were one sequence given three times, which the pair table refuses
+    from initsel_ros.benchmarks.micro import dataset_speed
+
+    once = dataset_speed(static_sequence, jobs=1, batch=10)
+    twice = dataset_speed(static_sequence, jobs=1, batch=10, repeat=2)
+    assert once.pairs > 0 and twice.pairs == 2 * once.pairs

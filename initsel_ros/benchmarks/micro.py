@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import gc
 import logging
+import os
+import shutil
 import time
 import tracemalloc
 from collections.abc import Callable
@@ -405,21 +407,36 @@ class DatasetResult:
         return self.pairs / self.seconds if self.seconds > 0 else float('nan')
 
 
+def _link_or_copy(source: str, target: str) -> None:
+    """A hard link, or a copy where the two are on different file systems."""
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
 def dataset_speed(folder: Path, jobs: int, batch: int = 30, repeat: int = 1) -> DatasetResult:
     """Build the pair table of one sequence, ``repeat`` times over, with ``jobs`` processes
     (learn.pairs; the repeats amortize the workers' start-up as a longer dataset would)."""
+    import tempfile
+
     from initsel_ros.learn.build import build_table
     from initsel_ros.learn.pairs import DatasetConfig
 
     stats: list[Any] = []
-    start = time.perf_counter()
-    table = build_table(
-        [folder] * max(1, repeat),
-        DatasetConfig(batch=batch, jobs=jobs),
-        progress=False,
-        on_stats=stats.append,
-    )
-    seconds = stats[0].seconds if stats else time.perf_counter() - start
+    with tempfile.TemporaryDirectory(prefix='initsel-bench-dataset-') as tmp:
+        # the repeats under names of their own (a pair table refuses one name twice), as
+        # hard links: no frame is copied
+        sources = [Path(folder)]
+        for k in range(1, max(1, repeat)):
+            copy = Path(tmp) / f'{Path(folder).resolve().name}_{k}'
+            shutil.copytree(Path(folder).resolve(), copy, copy_function=_link_or_copy)
+            sources.append(copy)
+        start = time.perf_counter()
+        table = build_table(
+            sources, DatasetConfig(batch=batch, jobs=jobs), progress=False, on_stats=stats.append
+        )
+        seconds = stats[0].seconds if stats else time.perf_counter() - start
     return DatasetResult(jobs, len(table), seconds)
 
 
