@@ -333,10 +333,18 @@ def test_parameters_the_selector_does_not_have_are_named_with_what_was_meant(
 def test_a_params_file_with_no_section_for_the_node_is_said(context, tmp_path, capfd):
     from initsel_ros.ros.node import SelectorNode, _warn_of_unused_params_files
 
-    elsewhere = tmp_path / 'elsewhere.yaml'
-    elsewhere.write_text('/**/selectr:\n  ros__parameters:\n    min_tracks: 5\n')
-    mine = tmp_path / 'mine.yaml'
-    mine.write_text('/robot/selector:\n  ros__parameters:\n    min_tracks: 5\n')
+    files = {
+        'typo.yaml': '/**/selectr:\n  ros__parameters:\n    min_tracks: 5\n',
+        'other_ns.yaml': '/robot/selector:\n  ros__parameters:\n    min_tracks: 5\n',
+        'bare.yaml': 'selector:\n  ros__parameters:\n    min_tracks: 5\n',
+        'nested.yaml': 'sections:\n  selector:\n    ros__parameters:\n      min_tracks: 5\n',
+        'wildcard.yaml': '/*/selector:\n  ros__parameters:\n    min_tracks: 5\n',
+        'any.yaml': '/**:\n  ros__parameters:\n    min_tracks: 5\n',
+    }
+    argv = ['selector', '--ros-args']
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+        argv += ['--params-file', str(tmp_path / name)]
     node = SelectorNode(
         context=context,
         namespace='/sections',
@@ -344,10 +352,12 @@ def test_a_params_file_with_no_section_for_the_node_is_said(context, tmp_path, c
     )
     try:
         capfd.readouterr()
-        argv = ['selector', '--ros-args', '--params-file', str(elsewhere)]
-        _warn_of_unused_params_files([*argv, '--params-file', str(mine)], node)
+        _warn_of_unused_params_files(argv, node)
         err = capfd.readouterr().err
-        assert "elsewhere.yaml: no section for node 'selector' (sections: /**/selectr)" in err
-        assert 'mine.yaml' not in err
+        # as rcl matches them (checked against rclpy): a section for another name or another
+        # namespace sets nothing; the nested form and the wildcards set this node's
+        said = {name for name in files if f'{name}: no section for node /sections/selector' in err}
+        assert said == {'typo.yaml', 'other_ns.yaml', 'bare.yaml'}
+        assert 'typo.yaml: no section for node /sections/selector (sections: /**/selectr)' in err
     finally:
         node.destroy_node()

@@ -58,6 +58,7 @@ from initsel_ros.ros.params import (
     SPECS,
     ImageTransport,
     NodeSettings,
+    parameter_sections,
     read_params_yaml,
     section_applies,
     unknown_parameters_note,
@@ -805,13 +806,13 @@ def _check_ros_arguments(argv: Sequence[str]) -> None:
 
 def _warn_of_unused_params_files(argv: Sequence[str], node: Node) -> None:
     """A ``--params-file`` none of whose sections names this node sets nothing: say so."""
+    name = node.get_fully_qualified_name()
     for path in params_files(argv):
-        data = read_params_yaml(path)
-        keys = list(data) if isinstance(data, dict) else []
-        if not any(section_applies(key, node.get_name()) for key in keys):
+        sections = parameter_sections(read_params_yaml(path))
+        if not any(section_applies(section, name) for section in sections):
             node.get_logger().warning(
-                f'{path}: no section for node {node.get_name()!r} (sections: '
-                f'{", ".join(map(str, keys)) or "none"}): none of its parameters are applied'
+                f'{path}: no section for node {name} (sections: '
+                f'{", ".join(sections) or "none"}): none of its parameters are applied'
             )
 
 

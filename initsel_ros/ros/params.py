@@ -697,11 +697,39 @@ def unknown_parameters_note(names: Sequence[str]) -> str:
     return ', '.join(parts)
 
 
-def section_applies(key: str, node_name: str) -> bool:
-    """Whether a parameter file's top-level ``key`` can name a node called ``node_name`` (in
-    any namespace): ``node``, ``/ns/node``, ``/**/node``, ``/**``, ``/*`` and the like."""
-    last = str(key).rstrip('/').rsplit('/', 1)[-1]
-    return last in (node_name, '*', '**')
+def parameter_sections(data: Any) -> list[str]:
+    """The node names a parameter file's sections are for, fully qualified as written (each
+    a ``/``-separated path to a ``ros__parameters`` key: ``/**/selector``, and the nested form
+    ``robot: {selector: {ros__parameters: ...}}`` as ``/robot/selector``)."""
+    names: list[str] = []
+
+    def walk(tree: Any, path: list[str]) -> None:
+        if not isinstance(tree, Mapping):
+            return
+        if 'ros__parameters' in tree and path:
+            names.append('/' + '/'.join(path))
+        for key, value in tree.items():
+            if key != 'ros__parameters':
+                walk(value, [*path, *(t for t in str(key).split('/') if t)])
+
+    walk(data, [])
+    return names
+
+
+def section_applies(section: str, node: str) -> bool:
+    """Whether a section for ``section`` (:func:`parameter_sections`) sets the parameters
+    of the node whose fully qualified name is ``node``: as rcl matches them, ``*`` stands
+    for one name and ``**`` for any number of them (none included)."""
+
+    def match(pattern: list[str], name: list[str]) -> bool:
+        if not pattern:
+            return not name
+        head, rest = pattern[0], pattern[1:]
+        if head == '**':
+            return any(match(rest, name[k:]) for k in range(len(name) + 1))
+        return bool(name) and head in ('*', name[0]) and match(rest, name[1:])
+
+    return match([t for t in section.split('/') if t], [t for t in node.split('/') if t])
 
 
 def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
@@ -728,6 +756,7 @@ __all__ = [
     'ParameterSpec',
     'default_params_file',
     'load_params_file',
+    'parameter_sections',
     'read_params_yaml',
     'section_applies',
     'unknown_parameters_note',
