@@ -116,6 +116,8 @@ def test_batches_start_on_their_first_frame_with_a_ground_truth_pose():
     has_pose[:40] = False
     windows, moved = batch_windows(has_pose, 60, 30)
     assert windows == [(40, 50), (60, 40)] and moved == 1  # one batch, not two, at frame 40
+    has_pose[30:] = True  # the first batch moves onto the second: one batch, none moved
+    assert batch_windows(has_pose, 60, 30) == ([(30, 60), (60, 40)], 0)
     has_pose[:] = False  # no ground truth at all: the batches keep their starts (unjudged)
     assert batch_windows(has_pose, 60, 30) == ([(0, 60), (30, 60), (60, 40)], 0)
     has_pose[59] = True  # the last frame of the first batch: nothing to pair it with there

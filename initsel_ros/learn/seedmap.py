@@ -575,16 +575,15 @@ def batch_windows(
     how many batches were moved)."""
     n = len(has_pose)
     windows: dict[int, int] = {}  # first frame -> frames (two batches moved to one frame: one)
-    moved = 0
     for s in range(0, max(n - length // 2, 1), step):
         stop = min(s + length, n)
         posed = np.flatnonzero(has_pose[s:stop])
         first = s + int(posed[0]) if posed.size else s
         if stop - first < 2:
             continue
-        moved += first != s and first not in windows
         windows[first] = stop - first
-    return list(windows.items()), moved
+    starts = set(range(0, max(n - length // 2, 1), step))
+    return list(windows.items()), sum(first not in starts for first in windows)
 
 
 def _options(baselines: bool | BaselineOptions) -> BaselineOptions:
@@ -653,10 +652,13 @@ def evaluate_sequences(
     ]
     if jobs <= 1:
         results: Iterable = (evaluate_batch(*a) for a in args)
-        for k, res in enumerate(results):
-            outcomes += res
-            if progress:
-                progress(k + 1, len(args))
+        try:
+            for k, res in enumerate(results):
+                outcomes += res
+                if progress:
+                    progress(k + 1, len(args))
+        finally:
+            _OPENED.clear()  # (in this process: the next call reads the sequences afresh)
         return outcomes
     import multiprocessing
 
