@@ -29,13 +29,11 @@ fi
 export VIRTUAL_ENV=$venv
 export PATH="$venv/bin:$PATH"
 export AMENT_PREFIX_PATH=$venv
-# Keep DDS discovery on this machine, on a domain of our own; ROS logs go to one folder of
-# this user's (as ~/.ros/log would: one file per process, named by its pid and time), not a
-# new folder per call.
+# Keep DDS discovery on this machine, on a domain of our own. ROS logs go where ROS puts
+# them (ROS_LOG_DIR when set, else ~/.ros/log: one file per process), not to a new folder
+# per call.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( RANDOM % 100 + 100 ))}
-export ROS_LOG_DIR=${ROS_LOG_DIR:-${TMPDIR:-/tmp}/initsel-ros-log-$(id -u)}
-mkdir -p "$ROS_LOG_DIR"
 # Shared-memory segment large enough for full camera frames (see README, Transport).
 export INITSEL_ENV=1
 export FASTRTPS_DEFAULT_PROFILES_FILE=${FASTRTPS_DEFAULT_PROFILES_FILE:-$root/config/fastdds_shm.xml}

@@ -581,8 +581,8 @@ class SelectorNode(Node):
             if guessed:
                 self._intrinsics_warning = (
                     f'no camera_info and camera.* are the TUM fr3 defaults: the pose uses '
-                    f'guessed intrinsics (fr3 scaled from {base.width}x{base.height} to '
-                    f'{width}x{height}); {CALIBRATE_HINT}'
+                    f'guessed intrinsics (the fr3 camera, {base.width}x{base.height}, as a '
+                    f'{width}x{height} sensor of its field of view); {CALIBRATE_HINT}'
                 )
                 if not self._guess_logged:
                     self._guess_logged = True
