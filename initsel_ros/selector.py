@@ -245,6 +245,14 @@ def _unit_depth_scale(points: np.ndarray) -> float:
 STILL_DISPARITY_PX = 1.0
 
 
+def _elapsed_ratio(since_ns: int, fired_after_ns: int, frames: float) -> float:
+    """This frame's time since the reference over the initializing frame's; ``frames`` (the
+    same ratio of frame counts) where the stamps cannot say (not increasing)."""
+    if fired_after_ns > 0 and since_ns >= fired_after_ns:
+        return since_ns / fired_after_ns
+    return frames
+
+
 def _still(decision: Decision) -> Decision:
     """A model's yes on a camera that has not moved: low parallax, nothing to try."""
     fired = ', '.join(decision.fired)
@@ -799,7 +807,8 @@ class Selector:
         assert self._candidate is not None
         # Every rival pose of the pair is checked on this frame; the first that holds leads.
         checked = [
-            (c, self._check(c, tracks, cur)) for c in (self._candidate, *self._candidate.rivals)
+            (c, self._check(c, tracks, cur, stamp_ns))
+            for c in (self._candidate, *self._candidate.rivals)
         ]
         holding = [(c, s) for c, s in checked if s.ok]
         candidate, step = holding[0] if holding else checked[0]
@@ -966,7 +975,9 @@ class Selector:
                 return again, ''
         return None, ''
 
-    def _check(self, candidate: _Candidate, tracks: Tracks, cur: np.ndarray) -> VerifyStep:
+    def _check(
+        self, candidate: _Candidate, tracks: Tracks, cur: np.ndarray, stamp_ns: int
+    ) -> VerifyStep:
         """PnP of one candidate's map points against their tracks in this frame."""
         ids = candidate.track_ids
         pos = np.minimum(np.searchsorted(tracks.ids, ids), max(len(tracks.ids) - 1, 0))
@@ -982,9 +993,13 @@ class Selector:
             self.config.verify,
             (self.intrinsics.width, self.intrinsics.height),
             float(np.linalg.norm(init.t)),
-            # at a steady speed, the distance ratio is the frames' (never what a wrong map's
-            # pose makes of it)
-            self.tracker.frames_since_reference / max(init.frames_since_reference, 1),
+            # at a steady speed, the distance ratio is the elapsed times' (never what a wrong
+            # map's pose makes of it; frames dropped before the fire would inflate a count)
+            _elapsed_ratio(
+                stamp_ns - init.reference_stamp_ns,
+                init.stamp_ns - init.reference_stamp_ns,
+                self.tracker.frames_since_reference / max(init.frames_since_reference, 1),
+            ),
         )
 
     def _initialization(

@@ -119,10 +119,10 @@ def check_frame(
             inlier threshold and the RMS bound grow with this frame's distance over it, as
             the PnP pose puts it, beyond :data:`ALLOWANCE_FROM_RATIO` (None: fixed).
         max_distance_ratio: the most that ratio may be, from a measure that does not
-            depend on the map under test (the selector's: frames since the reference over
-            the initializing frame's). A wrong map's PnP pose can put the camera anywhere:
-            the spoiled depths of a test map put it 43 times as far, which would have let
-            any error pass.
+            depend on the map under test (the selector's: the time since the reference over
+            the initializing frame's, which a steady motion makes the distance ratio). A
+            wrong map's PnP pose can put the camera anywhere: a spoiled test map's put it 43
+            times as far, which would have let any error pass.
     """
     m = int(points.shape[0])
     n_tracked = int(np.count_nonzero(tracked))

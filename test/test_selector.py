@@ -1108,3 +1108,35 @@ def test_a_lens_wider_than_80_degrees_tracks_only_inside_its_field():
     config = SelectorConfig(tracker=dataclasses.replace(sel.config.tracker, max_features=200))
     sel.update_config(config)  # a rebuilt tracker keeps the lens's field
     assert sel.tracker.region is not None
+
+
+def test_verification_is_given_the_image_the_pair_s_baseline_and_the_elapsed_time_ratio(
+    near_sequence, monkeypatch
+):
+    # the allowance of verify.check_frame needs these three (a car driving forward never
+    # initialized without them); the time ratio is the cap a wrong map's pose cannot move
+    import initsel_ros.selector as selector_module
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import default_model_path
+
+    calls = []
+    real = selector_module.check_frame
+    monkeypatch.setattr(
+        selector_module,
+        'check_frame',
+        lambda *args: calls.append(args) or real(*args),
+    )
+    seq = open_sequence(near_sequence)
+    sel = Selector(ModelSet.load(default_model_path()), seq.intrinsics, SelectorConfig())
+    stamps = [int(t) for t in seq.stamps_ns]
+    for i, stamp in enumerate(stamps):
+        candidate = sel._candidate
+        sel.process(seq.image(i), stamp)
+        if calls and candidate is not None:
+            break
+    init = candidate.initialization
+    *_, size, baseline, ratio = calls[0]
+    assert size == (seq.intrinsics.width, seq.intrinsics.height)
+    assert baseline == pytest.approx(float(np.linalg.norm(init.t)))
+    elapsed = (stamps[i] - init.reference_stamp_ns) / (init.stamp_ns - init.reference_stamp_ns)
+    assert ratio == pytest.approx(elapsed) and ratio > 1.0
