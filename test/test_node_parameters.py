@@ -331,7 +331,11 @@ def test_parameters_the_selector_does_not_have_are_named_with_what_was_meant(
 
 
 def test_a_params_file_with_no_section_for_the_node_is_said(context, tmp_path, capfd):
-    from initsel_ros.ros.node import SelectorNode, _warn_of_unused_params_files
+    from initsel_ros.ros.node import (
+        SelectorNode,
+        _check_ros_arguments,
+        _warn_of_unused_params_files,
+    )
 
     files = {
         'typo.yaml': '/**/selectr:\n  ros__parameters:\n    min_tracks: 5\n',
@@ -352,7 +356,7 @@ def test_a_params_file_with_no_section_for_the_node_is_said(context, tmp_path, c
     )
     try:
         capfd.readouterr()
-        _warn_of_unused_params_files(argv, node)
+        _warn_of_unused_params_files(_check_ros_arguments(argv), node)
         err = capfd.readouterr().err
         # as rcl matches them (checked against rclpy): a section for another name or another
         # namespace sets nothing; the nested form and the wildcards set this node's

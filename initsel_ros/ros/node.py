@@ -794,21 +794,22 @@ def _first_line(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
-def _check_ros_arguments(argv: Sequence[str]) -> None:
-    """Parse every ``--params-file`` before rcl does, for a one-line syntax error.
+def _check_ros_arguments(argv: Sequence[str]) -> dict[str, Any]:
+    """Parse every ``--params-file`` before rcl does, for a one-line syntax error; their
+    contents by path.
 
     Raises:
         ConfigError: an unreadable or syntactically invalid parameter file.
     """
-    for path in params_files(argv):
-        read_params_yaml(path)
+    return {path: read_params_yaml(path) for path in params_files(argv)}
 
 
-def _warn_of_unused_params_files(argv: Sequence[str], node: Node) -> None:
-    """A ``--params-file`` none of whose sections names this node sets nothing: say so."""
+def _warn_of_unused_params_files(files: dict[str, Any], node: Node) -> None:
+    """A ``--params-file`` (``files``: contents by path, :func:`_check_ros_arguments`) none
+    of whose sections names this node sets nothing: say so."""
     name = node.get_fully_qualified_name()
-    for path in params_files(argv):
-        sections = parameter_sections(read_params_yaml(path))
+    for path, data in files.items():
+        sections = parameter_sections(data)
         if not any(section_applies(section, name) for section in sections):
             node.get_logger().warning(
                 f'{path}: no section for node {name} (sections: '
@@ -826,7 +827,7 @@ def main(args: Sequence[str] | None = None) -> int:
     argv = list(sys.argv if args is None else args)
     logger = get_logger(NODE_NAME)
     try:
-        _check_ros_arguments(argv)
+        files = _check_ros_arguments(argv)
         non_ros = remove_ros_args(argv)
     except ConfigError as exc:
         logger.error(f'cannot start: {exc}')
@@ -849,7 +850,7 @@ def main(args: Sequence[str] | None = None) -> int:
             logger.error(f'cannot start: invalid ROS arguments: {_first_line(exc)}')
             return 1
         node = SelectorNode()
-        _warn_of_unused_params_files(argv, node)
+        _warn_of_unused_params_files(files, node)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.is_set() and rclpy.ok():
