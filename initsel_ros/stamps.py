@@ -84,20 +84,19 @@ class StampMonitor:
         issues = []
         if stamp_ns < 0:
             issues.append(StampIssue.NEGATIVE)
-        if stamp_ns == 0:
-            issues.append(StampIssue.ZERO)
         back_ns = 0
         if stamp_ns == 0:  # not stamped: no time to compare, and none to remember
-            pass
-        elif self._last_ns is not None:
-            if stamp_ns == self._last_ns and stamp_ns != 0:
-                issues.append(StampIssue.DUPLICATE)
-            elif stamp_ns < self._last_ns:
-                back_ns = self._last_ns - stamp_ns
-                late = back_ns <= self.restart_tolerance_ns
-                issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
-        if stamp_ns != 0 and StampIssue.OUT_OF_ORDER not in issues:
-            self._last_ns = stamp_ns
+            issues.append(StampIssue.ZERO)
+        else:
+            if self._last_ns is not None:
+                if stamp_ns == self._last_ns:
+                    issues.append(StampIssue.DUPLICATE)
+                elif stamp_ns < self._last_ns:
+                    back_ns = self._last_ns - stamp_ns
+                    late = back_ns <= self.restart_tolerance_ns
+                    issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
+            if StampIssue.OUT_OF_ORDER not in issues:
+                self._last_ns = stamp_ns
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
         for issue in issues:
             self.counts[issue.value] += 1

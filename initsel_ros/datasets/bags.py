@@ -119,7 +119,7 @@ def _frame_stamps(
             len(header_ns),
             topic,
         )
-    repeated = int(np.count_nonzero(np.diff(np.sort(in_reception)) == 0))
+    repeated = int(np.count_nonzero(np.diff(np.sort(header_ns)) == 0))
     if repeated:
         _LOG.warning(
             '%s: %d of %d frames on %s carry the header stamp of another frame: such frames '
