@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.euroc import EurocSequence, is_euroc_folder
 from initsel_ros.datasets.kitti import KittiSequence, is_kitti_root, is_kitti_sequence
 from initsel_ros.datasets.poses import interpolate_poses, pose_matrices
@@ -46,6 +47,27 @@ def sequence_kind(path: Path | str) -> str | None:
     if is_bag(path):
         return 'bag'
     return None
+
+
+def reader_options(
+    path: Path | str,
+    *,
+    nearest_tolerance: float | None = None,
+    image_topic: str | None = None,
+    intrinsics: Intrinsics | None = None,
+) -> dict[str, Any]:
+    """The :func:`open_sequence` options a tool's settings give the reader of ``path``:
+    ``nearest_tolerance`` for TUM, EuRoC and bags, ``image_topic`` for bags, ``intrinsics``
+    as given (:func:`open_sequence` refuses it where it does not apply); unset ones left out."""
+    kind = sequence_kind(Path(path))
+    options: dict[str, Any] = {}
+    if nearest_tolerance is not None and kind in ('tum', 'euroc', 'bag'):
+        options['nearest_tolerance'] = nearest_tolerance
+    if image_topic is not None and kind == 'bag':
+        options['image_topic'] = image_topic
+    if intrinsics is not None:
+        options['intrinsics'] = intrinsics
+    return options
 
 
 def open_sequence(path: Path | str, sequence: str | None = None, **options: Any) -> Sequence:
@@ -111,5 +133,6 @@ __all__ = [
     'open_sequence',
     'pose_matrices',
     'read_trajectory',
+    'reader_options',
     'sequence_kind',
 ]

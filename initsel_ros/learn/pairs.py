@@ -249,17 +249,15 @@ def open_cached(path: str, config: DatasetConfig) -> Any:
     image_topic, intrinsics = config.image_topic, config.intrinsics
     key = f'{path}\0{nearest_tolerance}\0{sequence}\0{image_topic}\0{intrinsics}'
     if key not in _SEQUENCES:
-        from initsel_ros.datasets import open_sequence, sequence_kind
+        from initsel_ros.datasets import open_sequence, reader_options, sequence_kind
 
-        kind = sequence_kind(Path(path))
-        options: dict[str, Any] = {}
-        if nearest_tolerance is not None and kind in ('tum', 'euroc', 'bag'):
-            options['nearest_tolerance'] = nearest_tolerance
-        if image_topic is not None and kind == 'bag':
-            options['image_topic'] = image_topic
-        if intrinsics is not None:  # (open_sequence refuses it for EuRoC and KITTI)
-            options['intrinsics'] = intrinsics
-        kitti = kind in ('kitti', 'kitti_root')  # --sequence concerns KITTI sources only
+        options = reader_options(
+            path,
+            nearest_tolerance=nearest_tolerance,
+            image_topic=image_topic,
+            intrinsics=intrinsics,
+        )
+        kitti = sequence_kind(Path(path)) in ('kitti', 'kitti_root')  # --sequence: KITTI only
         _SEQUENCES[key] = open_sequence(path, sequence=sequence if kitti else None, **options)
     return _SEQUENCES[key]
 

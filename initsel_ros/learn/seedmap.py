@@ -536,19 +536,10 @@ def evaluate_batch(
 _OPENED: dict[tuple[str, float | None], object] = {}
 
 
-def _reader_options(path: Path | str, nearest_tolerance: float | None) -> dict[str, float]:
-    from initsel_ros.datasets import sequence_kind
-
-    kind = sequence_kind(Path(path))
-    if nearest_tolerance is None or kind not in ('tum', 'euroc', 'bag'):
-        return {}
-    return {'nearest_tolerance': nearest_tolerance}
-
-
 def _open_quietly(path: str, nearest_tolerance: float | None):
     """A batch worker's sequence: opened once per process, without the readers' warnings
     (:func:`evaluate_sequences` has said them once already)."""
-    from initsel_ros.datasets import open_sequence
+    from initsel_ros.datasets import open_sequence, reader_options
 
     key = (path, nearest_tolerance)
     if key not in _OPENED:
@@ -556,7 +547,8 @@ def _open_quietly(path: str, nearest_tolerance: float | None):
         level = readers.level
         readers.setLevel(logging.ERROR)
         try:
-            _OPENED[key] = open_sequence(path, **_reader_options(path, nearest_tolerance))
+            options = reader_options(path, nearest_tolerance=nearest_tolerance)
+            _OPENED[key] = open_sequence(path, **options)
         finally:
             readers.setLevel(level)
     return _OPENED[key]
@@ -574,15 +566,15 @@ def batch_windows(
     one without any pose keeps its start (its initializations go unjudged). Returns (windows,
     how many batches were moved)."""
     n = len(has_pose)
+    starts = range(0, max(n - length // 2, 1), step)
     windows: dict[int, int] = {}  # first frame -> frames (two batches moved to one frame: one)
-    for s in range(0, max(n - length // 2, 1), step):
+    for s in starts:
         stop = min(s + length, n)
         posed = np.flatnonzero(has_pose[s:stop])
         first = s + int(posed[0]) if posed.size else s
         if stop - first < 2:
             continue
         windows[first] = stop - first
-    starts = set(range(0, max(n - length // 2, 1), step))
     return list(windows.items()), sum(first not in starts for first in windows)
 
 
@@ -621,7 +613,7 @@ def evaluate_sequences(
     Raises:
         ValueError: a group is not one of :data:`GROUPS`.
     """
-    from initsel_ros.datasets import open_sequence
+    from initsel_ros.datasets import open_sequence, reader_options
 
     config = config or SelectorConfig()
     options = _options(baselines)
@@ -630,8 +622,11 @@ def evaluate_sequences(
     if bad:
         raise ValueError(f'unknown groups {sorted(bad)}: choose from {GROUPS}')
     tasks = []
+    _OPENED.clear()  # (what an earlier call left, had it failed: read the sequences afresh)
     for path in paths:
-        sequence = open_sequence(path, **_reader_options(path, nearest_tolerance))
+        sequence = open_sequence(path, **reader_options(path, nearest_tolerance=nearest_tolerance))
+        if jobs <= 1:  # the batches run in this process: they read this very sequence
+            _OPENED[(str(path), nearest_tolerance)] = sequence
         windows, moved = batch_windows(sequence.has_pose, length, step)
         if moved:
             LOG.warning(
