@@ -241,7 +241,8 @@ def _unit_depth_scale(points: np.ndarray) -> float:
 #: Mean disparity, pixels, under which the camera has not moved for any method: the parallax
 #: floors (min_parallax_deg, 1 degree: 9 px of flow at the TUM focal length, 4 px at 320x240)
 #: are out of reach, so no fire-path run is made (on a still camera a model's yes ran it on
-#: every third frame, and the frames said 'rotation').
+#: every third frame, and the frames said 'rotation'; model R's re-check waits for the first
+#: frame that moves).
 STILL_DISPARITY_PX = 1.0
 
 
@@ -562,6 +563,14 @@ class Selector:
             return replace(result, reference_stamp_ns=stamp_ns)
 
         recheck = self._recheck_rotation(decision, since)
+        if recheck and decision.mean_disparity < STILL_DISPARITY_PX:
+            recheck = False  # no flow to test: the first frame that moves runs it (still due)
+            waits = (
+                'the rotation test waits: the camera has hardly moved (mean disparity '
+                f'{decision.mean_disparity:.2f} px < {STILL_DISPARITY_PX:g} px)'
+            )
+            detail = f'{decision.detail}; {waits}' if decision.detail else waits
+            decision = replace(decision, detail=detail)
         held = decision.positive and self._rotation_holds(since)
         if self._candidate is not None or (decision.positive and not held) or recheck:
             # geometry is estimated on this frame: from each point measured against the
