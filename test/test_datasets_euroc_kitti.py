@@ -224,6 +224,28 @@ def test_broken_euroc_folders_give_one_dataset_error_naming_the_file(tmp_path, c
         open_sequence(root)
 
 
+def test_euroc_distortion_under_kalibrs_key_is_read_and_a_named_model_needs_it(tmp_path):
+    # before: a sensor.yaml with Kalibr's 'distortion_coeffs' was read as a lens without
+    # distortion, without a word (H labels flipped on 15 of 49 pairs of a probe's folder)
+    rows = ['1400000000,0,0,0,1,0,0,0', '1600000000,1,0,0,1,0,0,0']
+    root = _write_minimal_euroc(tmp_path, rows, np.eye(4))
+    yaml_path = root / 'mav0' / 'cam0' / 'sensor.yaml'
+    text = yaml_path.read_text()
+    yaml_path.write_text(text.replace('distortion_coefficients:', 'distortion_coeffs:'))
+    expected = (-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05)
+    assert open_sequence(root).intrinsics.distortion == expected
+    both = text + 'distortion_coeffs: [0.1, 0.0, 0.0, 0.0]\n'
+    yaml_path.write_text(both)
+    with pytest.raises(DatasetError, match='distortion_coefficients and distortion_coeffs differ'):
+        open_sequence(root)
+    without = '\n'.join(ln for ln in text.splitlines() if 'distortion_coefficients' not in ln)
+    yaml_path.write_text(without + '\n')
+    with pytest.raises(DatasetError, match="distortion_model 'radial-tangential' without its"):
+        open_sequence(root)
+    yaml_path.write_text(without.replace('radial-tangential', 'none') + '\n')
+    assert open_sequence(root).intrinsics.distortion == ()
+
+
 # ------------------------------------------------------------------------------------ KITTI
 def test_kitti_reads_back_from_the_root_or_the_sequence_folder(near_sequence, kitti_root):
     source = TumSequence(near_sequence)
@@ -329,6 +351,40 @@ def test_broken_kitti_sequences_give_one_dataset_error_naming_the_file(
         (root / 'poses' / '03.txt').write_text('\n'.join(lines) + '\n')
     with pytest.raises(DatasetError, match=match):
         open_sequence(root, sequence='03')
+
+
+def test_relative_paths_find_kitti_poses_and_name_sequences(kitti_root, euroc_folder, monkeypatch):
+    # before: from sequences/, '00' looked for ./../poses (its parent taken as typed), found
+    # no poses and said only 'no poses/03.txt'; '.' was named 'kitti_'
+    monkeypatch.chdir(kitti_root / 'sequences')
+    seq = open_sequence('03')
+    assert seq.name == 'kitti_03' and seq.has_pose.all()
+    monkeypatch.chdir(kitti_root / 'sequences' / '03')
+    seq = open_sequence('.')
+    assert seq.name == 'kitti_03' and seq.has_pose.all()
+    monkeypatch.chdir(euroc_folder / 'mav0')
+    assert open_sequence('.').name == open_sequence(euroc_folder).name == 'MH_synth'
+
+
+def test_wrong_folders_say_what_they_probably_are(kitti_root, euroc_folder, tmp_path):
+    cases = {
+        euroc_folder / 'mav0' / 'cam0': f'it is inside the sequence {euroc_folder / "mav0"}',
+        kitti_root / 'sequences' / '03' / 'image_0': 'it is inside the sequence',
+        kitti_root / 'sequences': r'it holds sequences \(03\): give one of them',
+        euroc_folder.parent: r'it holds sequences \(MH_synth\)',
+    }
+    for path, match in cases.items():
+        with pytest.raises(DatasetError, match=match):
+            open_sequence(path)
+    root = tmp_path / 'copy'
+    shutil.copytree(kitti_root, root)
+    (root / 'sequences' / '03' / 'calib.txt').unlink()
+    with pytest.raises(
+        DatasetError, match=r'sequences/03: not a KITTI odometry sequence: no calib'
+    ):
+        open_sequence(root, sequence='03')
+    with pytest.raises(DatasetError, match=r'a KITTI sequence, but no calib\.txt'):
+        open_sequence(root / 'sequences' / '03')
 
 
 # ------------------------------------------------------------------ labelling without depth

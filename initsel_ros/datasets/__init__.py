@@ -9,12 +9,18 @@ given ``sequence='NN'``), a ``.bag`` file a ROS 1 bag, a folder with ``metadata.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.euroc import EurocSequence, is_euroc_folder
-from initsel_ros.datasets.kitti import KittiSequence, is_kitti_root, is_kitti_sequence
+from initsel_ros.datasets.kitti import (
+    KittiSequence,
+    is_kitti_root,
+    is_kitti_sequence,
+    missing_kitti_parts,
+)
 from initsel_ros.datasets.poses import interpolate_poses, pose_matrices
 from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.tum import TumSequence, is_tum_folder, read_trajectory
@@ -92,6 +98,8 @@ def open_sequence(path: Path | str, sequence: str | None = None, **options: Any)
     if not path.exists():
         raise DatasetError(f'{path}: no such file or directory')
     kind = sequence_kind(path)
+    if kind is None and sequence is not None and (path / 'sequences').is_dir():
+        kind = 'kitti_root'  # whose sequences are all broken: the reader says how
     if sequence is not None and kind not in ('kitti', 'kitti_root'):
         raise DatasetError(f'{path}: --sequence {sequence} applies to KITTI odometry only')
     if options.get('intrinsics') is not None and kind not in ('tum', 'bag'):
@@ -109,11 +117,32 @@ def open_sequence(path: Path | str, sequence: str | None = None, **options: Any)
         from initsel_ros.datasets.bags import BagSequence
 
         return BagSequence(path, **options)
+    hint = layout_hint(path)
     raise DatasetError(
         f'{path}: not a TUM folder (no rgb.txt), EuRoC folder (no mav0/cam0/data.csv), KITTI '
         'odometry sequence (no times.txt, calib.txt, image_0/) nor a bag (.bag file, or '
-        'folder with metadata.yaml)'
+        'folder with metadata.yaml)' + (f'; {hint}' if hint else '')
     )
+
+
+def layout_hint(path: Path) -> str:
+    """What a path that no reader opens is probably meant to be ('' when nothing fits): a
+    folder inside a sequence, a folder of sequences, or a sequence missing a part."""
+    path = Path(os.path.abspath(path))
+    if not path.is_dir():
+        return ''
+    inside = sorted(p.name for p in path.iterdir() if p.is_dir() and sequence_kind(p))
+    if inside:
+        shown = ', '.join(inside[:5]) + (', ...' if len(inside) > 5 else '')
+        return f'it holds sequences ({shown}): give one of them'
+    for parent in list(path.parents)[:3]:  # cam0/, mav0/cam0/data, image_0/ and the like
+        if sequence_kind(parent) not in (None, 'kitti_root'):
+            return f'it is inside the sequence {parent}: give that folder'
+    if (path / 'mav0').is_dir() or path.name == 'mav0':
+        return 'a EuRoC folder needs mav0/cam0/data.csv and mav0/cam0/data/'
+    if any((path / name).exists() for name in ('times.txt', 'calib.txt', 'image_0', 'image_2')):
+        return f'a KITTI sequence, but no {", ".join(missing_kitti_parts(path))}'
+    return ''
 
 
 __all__ = [
@@ -130,6 +159,7 @@ __all__ = [
     'is_kitti_root',
     'is_kitti_sequence',
     'is_tum_folder',
+    'layout_hint',
     'open_sequence',
     'pose_matrices',
     'read_trajectory',

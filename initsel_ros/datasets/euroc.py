@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -130,6 +131,18 @@ def _matrix(node: Any, source: Path, key: str) -> np.ndarray:
     return out
 
 
+#: Keys of the distortion coefficients in a camera's yaml: EuRoC's, then Kalibr's.
+DISTORTION_KEYS = ('distortion_coefficients', 'distortion_coeffs')
+
+
+def _distortion_coefficients(data: dict, path: Path) -> list:
+    """The coefficients under EuRoC's or Kalibr's key ([] when neither is there)."""
+    present = [key for key in DISTORTION_KEYS if data.get(key) is not None]
+    if len(present) > 1 and list(data[present[0]]) != list(data[present[1]]):
+        raise DatasetError(f'{path}: {present[0]} and {present[1]} differ; keep one')
+    return list(data[present[0]]) if present else []
+
+
 def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
     """``cam0/sensor.yaml`` -> (intrinsics with radial-tangential or equidistant (fisheye)
     distortion, T_BS (4, 4), rate in Hz or None).
@@ -164,7 +177,7 @@ def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
     try:
         fu, fv, cu, cv = (float(v) for v in data['intrinsics'])
         width, height = (int(v) for v in data['resolution'])
-        coeffs = tuple(float(v) for v in data.get('distortion_coefficients') or ())
+        coeffs = tuple(float(v) for v in _distortion_coefficients(data, path))
     except (KeyError, TypeError, ValueError) as exc:
         raise DatasetError(
             f'{path}: needs intrinsics [fu, fv, cu, cv] and resolution [width, height]: {exc}'
@@ -172,6 +185,12 @@ def read_sensor_yaml(path: Path) -> tuple[Intrinsics, np.ndarray, float | None]:
     fisheye = distortion_model == EQUIDISTANT
     if distortion_model == 'none':
         coeffs = ()
+    if 'distortion_model' in data and distortion_model != 'none' and not coeffs:
+        raise DatasetError(
+            f'{path}: distortion_model {distortion_model!r} without its coefficients '
+            f'({" or ".join(DISTORTION_KEYS)}); write distortion_model: none for a lens '
+            'without distortion'
+        )
     if len(coeffs) not in ((4,) if fisheye else (0, 4, 5)):
         kind = 'equidistant distortion needs 4 coefficients k1 k2 k3 k4'
         if not fisheye:
@@ -259,7 +278,8 @@ class EurocSequence(Sequence):
             Frame(i, ns_to_seconds(ns), poses[i], None, stamp_ns=ns)
             for i, ns in enumerate(stamps_ns)
         ]
-        name = root.parent.name if root.name == 'mav0' else root.name
+        named = Path(os.path.abspath(root))  # ('.' names nothing)
+        name = named.parent.name if named.name == 'mav0' else named.name
         super().__init__(name or 'euroc', intrinsics, frames, root)
         self.image_files = [cam_dir / 'data' / n for n in names]
 

@@ -17,6 +17,7 @@ start at 0). There is no depth.
 from __future__ import annotations
 
 import logging
+import os
 import struct
 from pathlib import Path
 
@@ -44,6 +45,16 @@ def is_kitti_sequence(path: Path) -> bool:
     )
 
 
+def missing_kitti_parts(path: Path) -> list[str]:
+    """What a folder lacks of a KITTI odometry sequence (``times.txt``, ``calib.txt``, an
+    ``image_N/`` folder); empty for a sequence."""
+    path = Path(path)
+    missing = [name for name in ('times.txt', 'calib.txt') if not (path / name).is_file()]
+    if not any((path / f'image_{n}').is_dir() for n in range(4)):
+        missing.append('image_0/ (or image_1/-image_3/)')
+    return missing
+
+
 def kitti_sequences(root: Path) -> list[str]:
     """Names of the sequences under ``<root>/sequences`` (sorted), empty when none."""
     seq_dir = Path(root) / 'sequences'
@@ -63,16 +74,20 @@ def resolve_sequence_folder(path: Path, sequence: str | None) -> Path:
     Raises:
         DatasetError: neither layout, or a root without a valid ``sequence``.
     """
-    path = Path(path)
+    path = Path(os.path.abspath(path))  # (its parents hold poses/ and name it: not '.')
     if is_kitti_sequence(path):
         if sequence is not None and path.name != str(sequence):
             raise DatasetError(f'{path}: is KITTI sequence {path.name}, not {sequence}')
         return path
     available = kitti_sequences(path)
+    requested = path / 'sequences' / str(sequence) if sequence is not None else None
+    if requested is not None and requested.is_dir() and not is_kitti_sequence(requested):
+        missing = ', '.join(missing_kitti_parts(requested))
+        raise DatasetError(f'{requested}: not a KITTI odometry sequence: no {missing}')
     if not available:
         raise DatasetError(
-            f'{path}: not a KITTI odometry sequence (times.txt, calib.txt, '
-            'image_0/) nor a root with sequences/NN'
+            f'{path}: not a KITTI odometry sequence (no {", ".join(missing_kitti_parts(path))}) '
+            'nor a root with sequences/NN'
         )
     if sequence is None:
         raise DatasetError(
