@@ -246,3 +246,84 @@ def _warnings_of(path, caplog):
     caplog.clear()
     BagSequence(path)
     return caplog.text
+
+
+def _pose_topic_as(src, dst, msgtype):
+    """A copy of the ROS 1 bag ``src`` whose /groundtruth/pose carries ``msgtype`` with the
+    same stamps and poses (a PointStamped: the positions alone)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+    with AnyReader([src]) as reader, Writer(dst) as writer:
+        out = {
+            c.id: writer.add_connection(
+                c.topic, msgtype if c.topic == '/groundtruth/pose' else c.msgtype, typestore=store
+            )
+            for c in reader.connections
+        }
+        for conn, t, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            kind = conn.msgtype
+            if conn.topic == '/groundtruth/pose':
+                kind, h, pose = msgtype, msg.header, msg.pose
+                covariance = np.zeros(36)
+                if msgtype.endswith('PoseWithCovarianceStamped'):
+                    msg = T[msgtype](
+                        h, T['geometry_msgs/msg/PoseWithCovariance'](pose, covariance)
+                    )
+                elif msgtype.endswith('Odometry'):
+                    twist = T['geometry_msgs/msg/TwistWithCovariance'](
+                        T['geometry_msgs/msg/Twist'](
+                            T['geometry_msgs/msg/Vector3'](0.0, 0.0, 0.0),
+                            T['geometry_msgs/msg/Vector3'](0.0, 0.0, 0.0),
+                        ),
+                        covariance,
+                    )
+                    msg = T[msgtype](
+                        h,
+                        'camera',
+                        T['geometry_msgs/msg/PoseWithCovariance'](pose, covariance),
+                        twist,
+                    )
+                elif msgtype.endswith('TransformStamped'):
+                    p, o = pose.position, pose.orientation
+                    msg = T[msgtype](
+                        h,
+                        'camera',
+                        T['geometry_msgs/msg/Transform'](
+                            T['geometry_msgs/msg/Vector3'](p.x, p.y, p.z), o
+                        ),
+                    )
+                else:  # PointStamped
+                    msg = T[msgtype](h, pose.position)
+            writer.write(out[conn.id], t, store.serialize_ros1(msg, kind))
+    return dst
+
+
+@pytest.mark.parametrize(
+    'msgtype',
+    [
+        'geometry_msgs/msg/PoseWithCovarianceStamped',
+        'nav_msgs/msg/Odometry',
+        'geometry_msgs/msg/TransformStamped',
+    ],
+)
+def test_pose_topics_of_the_common_ground_truth_types_are_read(near_bag_ros1, tmp_path, msgtype):
+    # before: anything but a PoseStamped made the bag unopenable (AttributeError), for replay too
+    original = BagSequence(near_bag_ros1)
+    bag = BagSequence(_pose_topic_as(near_bag_ros1, tmp_path / 'gt.bag', msgtype))
+    assert bag.groundtruth_source == 'pose' and bag.has_pose.all()
+    np.testing.assert_allclose(bag.poses(), original.poses(), atol=1e-12)
+
+
+def test_a_pose_topic_that_holds_no_pose_is_ignored_and_named(near_bag_ros1, tmp_path, caplog):
+    caplog.set_level('INFO')
+    path = _pose_topic_as(near_bag_ros1, tmp_path / 'points.bag', 'geometry_msgs/msg/PointStamped')
+    bag = BagSequence(path)
+    assert len(bag) > 0 and not bag.has_pose.any()
+    assert '/groundtruth/pose is geometry_msgs/msg/PointStamped, not a pose' in caplog.text
+    assert 'pose-like topics: /groundtruth/pose (geometry_msgs/msg/PointStamped)' in caplog.text
+    assert "write the camera's (body pose times body-to-camera) to groundtruth.txt" in caplog.text

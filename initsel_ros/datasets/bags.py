@@ -85,6 +85,25 @@ def read_error_reason(exc: BaseException) -> str:
     return text if text else type(exc).__name__
 
 
+#: Message types a pose topic may carry (camera-to-world); others are ignored with a warning.
+POSE_TYPES = ('PoseStamped', 'PoseWithCovarianceStamped', 'Odometry', 'TransformStamped')
+
+
+def _type_name(msgtype: str) -> str:
+    """'geometry_msgs/msg/PoseStamped' (or ROS 1's 'geometry_msgs/PoseStamped') ->
+    'PoseStamped'."""
+    return msgtype.rsplit('/', 1)[-1]
+
+
+def _position_orientation(msg: Any, msgtype: str) -> tuple[Any, Any]:
+    """The position and the orientation quaternion of a :data:`POSE_TYPES` message."""
+    name = _type_name(msgtype)
+    if name == 'TransformStamped':
+        return msg.transform.translation, msg.transform.rotation
+    pose = msg.pose.pose if name in ('PoseWithCovarianceStamped', 'Odometry') else msg.pose
+    return pose.position, pose.orientation
+
+
 def _stamp_ns(header: Any) -> int:
     return stamp_ns(header.stamp.sec, header.stamp.nanosec)
 
@@ -292,7 +311,7 @@ class BagSequence(Sequence):
                     gt_source,
                 )
         else:
-            _LOG.info('%s: no ground truth found', path)
+            _LOG.info('%s: no ground truth found%s', path, self._pose_topics_hint(pose_topic))
         self.groundtruth_source = gt_source if gt is not None else None
         if intrinsics is None and info is None:
             _LOG.warning(
@@ -307,6 +326,23 @@ class BagSequence(Sequence):
         name = path.stem if path.is_file() else path.name
         super().__init__(name, intrinsics, frames, path)
         self._depth_topic = depth_topic
+
+    def _pose_topics_hint(self, pose_topic: str) -> str:
+        """The bag's pose-like topics, and where camera ground truth goes ('' when the bag has
+        none)."""
+        found = sorted(
+            f'{c.topic} ({c.msgtype})'
+            for c in self._reader.connections
+            if _type_name(c.msgtype) in (*POSE_TYPES, 'PointStamped')
+        )
+        if not found:
+            return ''
+        return (
+            f' on {pose_topic} (camera-to-world) nor in a groundtruth.txt beside the bag; '
+            f"pose-like topics: {', '.join(found)}. For a body's poses (EuRoC's Vicon or "
+            "Leica), write the camera's (body pose times body-to-camera) to groundtruth.txt "
+            '(TUM format)'
+        )
 
     def _scan(
         self,
@@ -329,6 +365,16 @@ class BagSequence(Sequence):
             for c in reader.connections
             if c.topic in (image_topic, depth_topic, info_topic, pose_topic, tf_topic)
         ]
+        for c in [c for c in conns if c.topic == pose_topic]:
+            if _type_name(c.msgtype) not in POSE_TYPES:
+                _LOG.warning(
+                    '%s: %s is %s, not a pose (%s): not used as ground truth',
+                    self.path,
+                    c.topic,
+                    c.msgtype,
+                    ', '.join(POSE_TYPES),
+                )
+                conns.remove(c)
         self._img_conns = [c for c in conns if c.topic == image_topic]
         self._depth_conns = [c for c in conns if c.topic == depth_topic]
         for c in (*self._img_conns, *self._depth_conns):
@@ -377,7 +423,7 @@ class BagSequence(Sequence):
                         raise DatasetError(f'bad CameraInfo: {exc}') from exc
             elif topic == pose_topic:
                 msg = reader.deserialize(raw, conn.msgtype)
-                p, o = msg.pose.position, msg.pose.orientation
+                p, o = _position_orientation(msg, conn.msgtype)
                 pose_rows.append([_stamp(msg.header), p.x, p.y, p.z, o.x, o.y, o.z, o.w])
             elif topic == tf_topic:
                 msg = reader.deserialize(raw, conn.msgtype)
