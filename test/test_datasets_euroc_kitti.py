@@ -366,6 +366,26 @@ def test_relative_paths_find_kitti_poses_and_name_sequences(kitti_root, euroc_fo
     assert open_sequence('.').name == open_sequence(euroc_folder).name == 'MH_synth'
 
 
+def test_a_colour_only_kitti_download_reads_its_colour_camera(kitti_root, tmp_path, caplog):
+    # before: a download with image_2/ and no image_0/ was refused ('image_0: no PNG images')
+    caplog.set_level('INFO')
+    root = tmp_path / 'colour'
+    shutil.copytree(kitti_root, root)
+    folder = root / 'sequences' / '03'
+    (folder / 'image_0').rename(folder / 'image_2')
+    lines = (folder / 'calib.txt').read_text().splitlines()
+    p2 = [float(v) for v in lines[0].split()[1:]]
+    p2[3] = -0.06 * p2[0]  # camera 2 is 6 cm to the right of camera 0
+    text = '\n'.join([*lines, 'P2: ' + ' '.join(repr(v) for v in p2)])
+    (folder / 'calib.txt').write_text(text.replace('P2:', 'P9:', 1) + '\n')
+    seq = open_sequence(root, sequence='03')
+    reference = open_sequence(kitti_root, sequence='03')
+    assert len(seq) == len(reference) and 'reading image_2/' in caplog.text
+    offset = np.eye(4)
+    offset[0, 3] = 0.06
+    np.testing.assert_allclose(seq.poses(), reference.poses() @ offset, atol=1e-9)
+
+
 def test_wrong_folders_say_what_they_probably_are(kitti_root, euroc_folder, tmp_path):
     cases = {
         euroc_folder / 'mav0' / 'cam0': f'it is inside the sequence {euroc_folder / "mav0"}',

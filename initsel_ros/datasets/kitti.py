@@ -204,14 +204,29 @@ def png_size(path: Path) -> tuple[int, int] | None:
     return int(width), int(height)
 
 
+def _default_camera(folder: Path) -> int:
+    """0, or the first ``image_N`` holding PNGs when ``image_0`` holds none."""
+    with_images = [n for n in range(4) if any((folder / f'image_{n}').glob('*.png'))]
+    if not with_images or with_images[0] == 0:
+        return 0
+    _LOG.info(
+        '%s: no images in image_0/: reading image_%d/ (P%d; the poses moved to that camera)',
+        folder,
+        with_images[0],
+        with_images[0],
+    )
+    return with_images[0]
+
+
 class KittiSequence(Sequence):
     """A KITTI odometry sequence, loaded lazily.
 
     Args:
         path: ``sequences/NN``, or the dataset root together with ``sequence``.
         sequence: 'NN' when ``path`` is the root.
-        camera: 0-3, the ``image_<camera>`` folder and the ``P<camera>`` matrix (default 0:
-            the left grey camera, which the poses describe).
+        camera: 0-3, the ``image_<camera>`` folder and the ``P<camera>`` matrix (default: 0,
+            the left grey camera, which the poses describe; the first camera with images in a
+            download without ``image_0``, such as the colour-only one, with a note).
         poses: a pose file overriding the one found beside the sequence.
 
     Attributes:
@@ -223,10 +238,12 @@ class KittiSequence(Sequence):
         path: Path | str,
         *,
         sequence: str | None = None,
-        camera: int = 0,
+        camera: int | None = None,
         poses: Path | str | None = None,
     ) -> None:
         folder = resolve_sequence_folder(Path(path), sequence)
+        if camera is None:
+            camera = _default_camera(folder)
         if camera not in (0, 1, 2, 3):
             raise ConfigError(f'KITTI camera must be 0-3, got {camera}')
         image_dir = folder / f'image_{camera}'
