@@ -1,4 +1,4 @@
-"""Frame selection and timing of ``initsel replay`` (no DDS)."""
+"""Frame selection, timing and publishing order of ``initsel replay`` (no DDS)."""
 
 from __future__ import annotations
 
@@ -121,3 +121,42 @@ def test_an_unreadable_intrinsics_file_is_one_line(static_sequence, tmp_path):
     options = _replay_options([str(static_sequence), '--intrinsics', str(tmp_path / 'bad.yaml')])
     with pytest.raises(ConfigError, match=r'bad.yaml: cannot read intrinsics: \S.*'):
         open_source(options)
+
+
+def test_each_frames_camera_info_is_published_before_the_frame(static_sequence, monkeypatch):
+    # a node that gets the frame first processes it with the intrinsics it had: the replay
+    # publishes the calibration first, each frame (before: replays differed run to run)
+    pytest.importorskip('rclpy')
+    import rclpy
+
+    from initsel_ros.ros import replay
+
+    calls: list[tuple[str, int]] = []
+
+    class Recorder:
+        def __init__(self, kind: str, topic: str) -> None:
+            self.kind, self.topic_name = kind, topic
+
+        def publish(self, message) -> None:
+            stamp = message.header.stamp
+            calls.append((self.kind, stamp.sec * 10**9 + stamp.nanosec))
+
+    class FakeNode:
+        def create_publisher(self, msgtype, topic, qos):
+            return Recorder(msgtype.__name__, topic)
+
+        def destroy_node(self) -> None:
+            pass
+
+    monkeypatch.setattr(rclpy, 'init', lambda args=None: None)
+    monkeypatch.setattr(rclpy, 'ok', lambda: True)
+    monkeypatch.setattr(rclpy, 'try_shutdown', lambda: None)
+    monkeypatch.setattr(rclpy, 'create_node', lambda name: FakeNode())
+    monkeypatch.setattr(replay, 'LINGER_S', 0.0)
+    options = _replay_options(
+        [str(static_sequence), '--rate', '100', '--duration', '0.2', '--wait-for-subscriber', '0']
+    )
+    assert replay.run(options) == 0
+    kinds = [kind for kind, _ in calls]
+    assert len(calls) >= 4 and kinds == ['CameraInfo', 'Image'] * (len(calls) // 2)
+    assert all(a[1] == b[1] for a, b in zip(calls[::2], calls[1::2], strict=True))
