@@ -324,6 +324,19 @@ def test_an_installed_package_finds_its_share_without_the_ament_prefix_path(tmp_
     assert _install_prefixes(tmp_path / 'src' / 'initsel_ros' / 'x.py') == []
 
 
+def test_config_dirs_look_in_the_prefix_the_package_is_installed_under(tmp_path, monkeypatch):
+    from initsel_ros import config_files
+
+    site = tmp_path / 'install' / 'lib' / 'python3.11' / 'site-packages'
+    monkeypatch.setattr(config_files, '__file__', str(site / 'initsel_ros' / 'config_files.py'))
+    monkeypatch.delenv('AMENT_PREFIX_PATH', raising=False)
+    share = tmp_path / 'install' / 'share' / 'initsel_ros' / 'config'
+    assert config_files.config_dirs()[0] == share
+    share.mkdir(parents=True)
+    (share / 'families.yaml').write_text('families: {}\n')
+    assert config_files.find_config_file('families.yaml') == share / 'families.yaml'
+
+
 def test_each_config_folder_is_looked_in_once(monkeypatch):
     import sys
 
