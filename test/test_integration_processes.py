@@ -94,6 +94,8 @@ def test_replayed_bag_initializes_the_installed_selector(
     )
 
     selector_log, replay_log = tmp_path / 'selector.log', tmp_path / 'replay.log'
+    other_node_params = tmp_path / 'camera.yaml'  # a section for another node: said at start
+    other_node_params.write_text('camera_driver:\n  ros__parameters:\n    fps: 30\n')
     selector = replay = None
     try:
         with selector_log.open('w') as out:
@@ -105,6 +107,8 @@ def test_replayed_bag_initializes_the_installed_selector(
                     f'__ns:={ns}',
                     '--params-file',
                     str(ROOT / 'config' / 'selector.yaml'),
+                    '--params-file',
+                    str(other_node_params),
                 ],
                 env=env,
                 stdout=out,
@@ -163,3 +167,6 @@ def test_replayed_bag_initializes_the_installed_selector(
     assert got['points'][0].width >= 50
     assert got['status'], 'no ~/status received'
     assert 'initialized with' in selector_log.read_text()
+    assert f'camera.yaml: no section for node {ns}/selector (sections: /camera_driver)' in (
+        selector_log.read_text()
+    )
