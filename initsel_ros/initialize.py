@@ -48,6 +48,7 @@ from initsel_ros.geometry import (
     sampson_fundamental,
     skew,
     transfer_px,
+    triangulate_pair,
 )
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.policy import (
@@ -485,6 +486,24 @@ def _estimate_and_choose(
                 selection,
                 background=background,
             )
+    if residual is not None and config.background_test:
+        support = motion_support(
+            winner, ref, cur, K, residual.noise_px, config.ransac_threshold_px
+        )
+        if _second_motion(support, len(ref)):
+            name = selection.winner.value
+            return FireResult(
+                Reason.POSE_FAILED,
+                f'{name} failed (two motions: of the {support.measurable} tracks with '
+                f'parallax, {support.contradicting} contradict its motion, behind the cameras '
+                f'or off its epipolar lines, against {support.supporting} that support it: it '
+                'fits an object moving on its own, or the rest of the scene does)',
+                residual,
+                estimates,
+                checks,
+                selection,
+                background=background,
+            )
     plane = _better_model_not_ready(selection, estimates, checks)
     if plane is not None:
         return FireResult(
@@ -564,6 +583,17 @@ OFF_PLANE_MIN_RATIO = 3.0
 #: ... and the other misses them clearly: its median at least (this x the RANSAC threshold)
 #: squared, not by a tracking error.
 OFF_PLANE_MIN_MISS = 2.0
+
+
+def _second_motion(support: MotionSupport, n_tracks: int) -> bool:
+    """Do the tracks that contradict a winner's motion outnumber those that support it, and
+    are they a motion's worth (:data:`BACKGROUND_MIN_TRACKS`, :data:`BACKGROUND_MIN_SHARE` of
+    the tracks), not mistracks?"""
+    against = support.contradicting
+    return (
+        against > support.supporting
+        and against >= max(BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_tracks)
+    )
 
 
 def _decomposition_by_the_rest(
@@ -697,6 +727,66 @@ def _direction_known(seed: SeedMap, config: FireConfig) -> bool:
     return seed.translation_sigma_deg <= bound
 
 
+@dataclass(frozen=True)
+class MotionSupport:
+    """How the tracks with parallax side with one estimate's motion (:func:`motion_support`).
+
+    Attributes:
+        supporting: tracks with parallax on the motion's epipolar lines and in front of both
+            cameras.
+        contradicting: tracks with parallax off its lines or behind a camera: a second motion
+            when they are many (an object moving on its own, or the background while the
+            estimate fits the object), else mistracks.
+        measurable: tracks whose flow left after the estimate's rotation is above
+            :data:`MOTION_MIN_PARALLAX_SIGMA` times the noise (and 1 px): the others cannot
+            say which way the camera moved.
+    """
+
+    supporting: int
+    contradicting: int
+    measurable: int
+
+
+#: A track takes part in :func:`motion_support` when the flow the estimate's rotation leaves
+#: is at least this many times the tracking noise (and at least 1 px): under it, the sign of
+#: its depth is the noise's.
+MOTION_MIN_PARALLAX_SIGMA = 3.0
+
+
+def motion_support(
+    estimate: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    noise_px: float,
+    inlier_px: float = 1.0,
+) -> MotionSupport:
+    """Count the tracks with parallax that support ``estimate``'s motion and those that
+    contradict it (see :class:`MotionSupport`): on its epipolar lines means a squared Sampson
+    error within ``(2 inlier_px)^2`` (twice the estimators' RANSAC threshold).
+
+    The epipolar lines alone cannot tell a camera sliding left past a static scene from one
+    sliding right along an object that overtakes it: both flows lie on the same lines. The
+    depths can: the tracks of the motion not estimated triangulate behind the cameras.
+    """
+    R, t = estimate.R, estimate.t
+    a, b = np.asarray(ref, dtype=np.float64), np.asarray(cur, dtype=np.float64)
+    rotated = (np.column_stack([a, np.ones(len(a))]) @ np.linalg.inv(K).T) @ R.T @ K.T
+    with np.errstate(divide='ignore', invalid='ignore'):
+        left = np.linalg.norm(b - rotated[:, :2] / rotated[:, 2:3], axis=1)
+    floor = max(MOTION_MIN_PARALLAX_SIGMA * noise_px, 1.0) if math.isfinite(noise_px) else 1.0
+    measurable = np.nan_to_num(left, nan=0.0) >= floor
+    if not np.any(measurable) or not np.linalg.norm(t) > 0:
+        return MotionSupport(0, 0, int(np.count_nonzero(measurable)))
+    a, b = a[measurable], b[measurable]
+    on_lines = sampson_fundamental(fundamental_from_essential(skew(t) @ R, K), a, b) <= (
+        2.0 * inlier_px
+    ) ** 2
+    agrees = on_lines & triangulate_pair(R, t, K, a, b).in_front
+    supporting = int(np.count_nonzero(agrees))
+    return MotionSupport(supporting, len(a) - supporting, len(a))
+
+
 def background_test(
     winner: PoseEstimate,
     ref: np.ndarray,
@@ -732,12 +822,15 @@ __all__ = [
     'BACKGROUND_MIN_TRACKS',
     'ESTIMATES_ONLY',
     'MAP_MAX_REPROJECTION_PX',
+    'MOTION_MIN_PARALLAX_SIGMA',
     'FireConfig',
     'FireResult',
+    'MotionSupport',
     'SeedMap',
     'background_test',
     'fire_methods',
     'initialize_pair',
+    'motion_support',
     'plane_is_the_scene',
     'seed_map',
     'usable_seed',
