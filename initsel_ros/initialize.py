@@ -590,9 +590,8 @@ def _second_motion(support: MotionSupport, n_tracks: int) -> bool:
     are they a motion's worth (:data:`BACKGROUND_MIN_TRACKS`, :data:`BACKGROUND_MIN_SHARE` of
     the tracks), not mistracks?"""
     against = support.contradicting
-    return (
-        against > support.supporting
-        and against >= max(BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_tracks)
+    return against > support.supporting and against >= max(
+        BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_tracks
     )
 
 
@@ -779,9 +778,10 @@ def motion_support(
     if not np.any(measurable) or not np.linalg.norm(t) > 0:
         return MotionSupport(0, 0, int(np.count_nonzero(measurable)))
     a, b = a[measurable], b[measurable]
-    on_lines = sampson_fundamental(fundamental_from_essential(skew(t) @ R, K), a, b) <= (
-        2.0 * inlier_px
-    ) ** 2
+    on_lines = (
+        sampson_fundamental(fundamental_from_essential(skew(t) @ R, K), a, b)
+        <= (2.0 * inlier_px) ** 2
+    )
     agrees = on_lines & triangulate_pair(R, t, K, a, b).in_front
     supporting = int(np.count_nonzero(agrees))
     return MotionSupport(supporting, len(a) - supporting, len(a))

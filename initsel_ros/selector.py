@@ -108,7 +108,10 @@ class SelectorConfig:
             :meth:`Selector.reset`; CONTINUOUS re-anchors on the initializing frame and keeps
             going.
         max_frames_since_reference: a frame this many frames after the reference becomes the
-            new reference when nothing initialized.
+            new reference when nothing initialized (the paper's batch length at 30 Hz) ...
+        min_seconds_since_reference: ... and at least this many seconds after it, by the
+            stamps (where they rise): a 60 Hz camera keeps the 3 s window of 90 frames at 30
+            Hz, not half of it (slower cameras are unchanged). 0 = frames only.
         ransac_threshold_px: RANSAC inlier threshold of the pose estimators, pixels.
         refine: bundle-adjust the chosen pose and points before publishing (refine.py).
         snap_to_plane: publish the points of an H initialization that agree with one plane
@@ -141,6 +144,7 @@ class SelectorConfig:
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     mode: Mode = Mode.ONCE
     max_frames_since_reference: int = 90
+    min_seconds_since_reference: float = 3.0
     ransac_threshold_px: float = 1.0
     refine: bool = True
     snap_to_plane: bool = True
@@ -156,6 +160,11 @@ class SelectorConfig:
         object.__setattr__(self, 'mode', Mode(self.mode))  # 'once' -> Mode.ONCE
         if self.max_frames_since_reference < 1:
             raise ConfigError('max_frames_since_reference must be at least 1')
+        if not 0.0 <= self.min_seconds_since_reference < math.inf:
+            raise ConfigError(
+                'min_seconds_since_reference must be a finite number of seconds, 0 or more, '
+                f'got {self.min_seconds_since_reference!r}'
+            )
         if self.rotation_recheck_frames < 0:
             raise ConfigError('rotation_recheck_frames must be 0 (never) or more')
         if isinstance(self.bit_depth, bool) or self.bit_depth not in (0, *range(8, 17)):
@@ -244,6 +253,19 @@ def _unit_depth_scale(points: np.ndarray) -> float:
 #: every third frame, and the frames said 'rotation'; model R's re-check waits for the first
 #: frame that moves).
 STILL_DISPARITY_PX = 1.0
+
+
+#: A view has turned away from its reference (:meth:`Selector._rotated_away`) only when its
+#: mean flow is at least this share of the image's shorter side. A slide along repeated
+#: tiles loses 30 % of its tracks in place (the forward-backward check) within 3 frames,
+#: at 11 px of flow, while its 1-3 cm of baseline still passes for a rotation: it took a new
+#: reference every 3 frames and initialized at frame 48 instead of 14. A noisy pan with
+#: moving boards (the planar-arc stress set's seed 18) had moved 36 px when it lost as many.
+TURNED_AWAY_MIN_FLOW = 0.05
+
+#: Stamps a millisecond short of ``min_seconds_since_reference`` count as reaching it (90
+#: frames of a 30 Hz stream whose stamps are rounded to the nanosecond are 3.0 s less 30 ns).
+_STAMP_SLACK_S = 1e-3
 
 
 def _elapsed_ratio(since_ns: int, fired_after_ns: int, frames: float) -> float:
@@ -594,12 +616,15 @@ class Selector:
             self.initialized = self.config.mode is Mode.ONCE
             if self.config.mode is Mode.CONTINUOUS:  # re-anchor on the initializing frame
                 result = self._reanchor(result, gray, stamp_ns)
-        elif since >= self.config.max_frames_since_reference and self._candidate is None:
+        elif self._candidate is None and (aged := self._aged(since, stamp_ns)):
+            detail = f'{result.decision.detail}; {aged}: this frame is the new reference'
+            result = replace(result, decision=replace(result.decision, detail=detail.lstrip('; ')))
             result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and self._rotated_away(result):
             detail = (
                 f"{result.decision.detail}; {self.tracker.n_tracks} of the reference's "
-                f'{self.tracker.reference_tracks} tracks are left and the camera only rotated: '
+                f'{self.tracker.reference_tracks} tracks are left, the view has moved '
+                f'{result.decision.mean_disparity:.0f} px and the camera only rotated: '
                 'this frame is the new reference (no baseline lost)'
             )
             result = replace(result, decision=replace(result.decision, detail=detail))
@@ -608,6 +633,20 @@ class Selector:
             due = self._schedule.next_run(self.config.rotation_recheck_frames)
             result = replace(result, fire_path_due_in=max(due - since, 0))
         return result
+
+    def _aged(self, since: int, stamp_ns: int) -> str:
+        """Why the reference is too old to keep ('' while it is not): at least
+        ``max_frames_since_reference`` frames and ``min_seconds_since_reference`` seconds
+        (by the stamps; frames alone where they do not rise)."""
+        config = self.config
+        if since < config.max_frames_since_reference:
+            return ''
+        reference_ns = self._reference_stamp_ns
+        elapsed_s = 0.0 if reference_ns is None else (stamp_ns - reference_ns) * 1e-9
+        if elapsed_s > 0.0 and elapsed_s < config.min_seconds_since_reference - _STAMP_SLACK_S:
+            return ''
+        when = f' ({elapsed_s:.1f} s)' if elapsed_s > 0.0 else ''
+        return f'{since} frames{when} since the reference (max_frames_since_reference)'
 
     def _reanchor(self, result: FrameResult, gray: np.ndarray, stamp_ns: int) -> FrameResult:
         """Make this frame, already decided on, the reference; ``result`` says so."""
@@ -618,15 +657,19 @@ class Selector:
     def _rotated_away(self, result: FrameResult) -> bool:
         """This frame's fire-path run found a rotation at the noise level, and the view has
         turned away from the reference: at most ``rotation_rereference_share`` of its tracks
-        are left (see :class:`SelectorConfig`)."""
+        are left (see :class:`SelectorConfig`), and the view has moved
+        (:data:`TURNED_AWAY_MIN_FLOW`): tracks lost in place (repeated texture, blur) while a
+        short baseline still passes for a rotation are not a view turned away."""
         share = self.config.rotation_rereference_share
         test = result.rotation
+        shorter_side = min(self.intrinsics.width, self.intrinsics.height)
         return (
             share > 0.0
             and result.decision.reason is Reason.ROTATION
             and test is not None
             and test.statistic <= 0.5 * self.config.policy.min_rotation_residual_sigma
             and self.tracker.n_tracks <= share * self.tracker.reference_tracks
+            and result.decision.mean_disparity >= TURNED_AWAY_MIN_FLOW * shorter_side
         )
 
     def _recheck_rotation(self, decision: Decision, since: int) -> bool:

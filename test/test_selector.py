@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -182,11 +183,41 @@ def test_losing_the_tracks_starts_a_new_reference():
 
 
 def test_reference_is_renewed_after_max_frames():
-    sel = Selector(constant_models(), CAMERA, SelectorConfig(max_frames_since_reference=3))
+    config = SelectorConfig(max_frames_since_reference=3, min_seconds_since_reference=0.0)
+    sel = Selector(constant_models(), CAMERA, config)
     img = texture(8)
     results = [sel.process(shifted(img, 0.5 * k, 0.0), ns(0.1 * k)) for k in range(5)]
     assert [r.new_reference for r in results] == [True, False, False, True, False]
     assert results[4].reference_stamp_ns == ns(0.3)
+    assert results[3].decision.detail.endswith(
+        '3 frames (0.3 s) since the reference (max_frames_since_reference): this frame is the '
+        'new reference'
+    )
+
+
+@pytest.mark.parametrize(
+    ('rate_hz', 'renewed_at'),
+    [(30.0, 6), (60.0, 12), (10.0, 6), (0.0, 6)],  # 0: every stamp the same: frames alone
+)
+def test_a_faster_camera_keeps_its_reference_as_long_in_seconds(rate_hz, renewed_at):
+    # before: a 60 Hz camera moving slowly lost its reference after 90 frames (1.5 s), half
+    # the window of a 30 Hz one, and never had the baseline to initialize
+    config = SelectorConfig(max_frames_since_reference=6, min_seconds_since_reference=0.2)
+    sel = Selector(constant_models(), CAMERA, config)
+    img = texture(8)
+    stamp = (lambda k: ns(k / rate_hz)) if rate_hz else (lambda k: ns(1.0))
+    renewed = [
+        k
+        for k in range(14)
+        if sel.process(shifted(img, 0.2 * k, 0.0), stamp(k)).new_reference and k > 0
+    ]
+    assert renewed[0] == renewed_at
+
+
+def test_min_seconds_since_reference_must_be_finite_and_not_negative():
+    for bad in (-1.0, math.inf, math.nan):
+        with pytest.raises(ConfigError, match='min_seconds_since_reference'):
+            SelectorConfig(min_seconds_since_reference=bad)
 
 
 def test_bad_images_raise_without_changing_state():
@@ -537,6 +568,25 @@ def test_boards_moving_in_front_of_a_pan_do_not_pass_for_parallax(tmp_path):
     assert not any(r.initialization for r in results)
     assert not any(r.decision.reason is Reason.VERIFYING for r in results)
     assert any(r.decision.reason is Reason.ROTATION for r in results)
+
+
+@pytest.mark.parametrize(('flow_px', 'renewed'), [(11.0, False), (36.0, True)])
+def test_tracks_lost_in_place_are_not_a_view_turned_away(monkeypatch, flow_px, renewed):
+    # before: a slide along repeated tiles lost 30 % of its tracks in place within 3 frames
+    # (11 px of flow, 1-3 cm passing for a rotation) and took a new reference every 3 frames
+    from initsel_ros.tracking import KltTracker
+
+    sel = Selector(constant_models(R=0.99), CAMERA)
+    img = texture(6)
+    sel.process(img, ns(0.0))
+    result = sel.process(shifted(img, 1.0, 0.0), ns(1 / 30))
+    monkeypatch.setattr(KltTracker, 'n_tracks', property(lambda self: 180))
+    sel.tracker.reference_tracks = 300
+    decision = dataclasses.replace(result.decision, reason=Reason.ROTATION, mean_disparity=flow_px)
+    result = dataclasses.replace(
+        result, decision=decision, rotation=RotationTest(0.1, 0.1, 1.0, 1.0)
+    )
+    assert sel._rotated_away(result) is renewed
 
 
 def test_a_pan_re_references_when_its_background_leaves_the_view_behind_moving_boards(

@@ -341,8 +341,17 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         'max_frames_since_reference',
         _SELECTOR.max_frames_since_reference,
-        "frames after which a new reference frame is taken (the paper's batch length)",
+        "frames after which a new reference frame is taken (the paper's batch length), "
+        'once min_seconds_since_reference have passed too',
         Number(1, 1_000_000, integer=True),
+    ),
+    ParameterSpec(
+        'min_seconds_since_reference',
+        _SELECTOR.min_seconds_since_reference,
+        'a new reference for age is taken only this many seconds after the reference, by the '
+        'image stamps: a 60 Hz camera keeps the 3 s that 90 frames are at 30 Hz (0 = frames '
+        'only)',
+        Number(0.0, 1e6),
     ),
     ParameterSpec(
         'rotation_recheck_frames',
@@ -515,6 +524,7 @@ class NodeSettings:
     min_plane_residual_sigma: float
     max_translation_sigma_deg: float
     max_frames_since_reference: int
+    min_seconds_since_reference: float
     rotation_recheck_frames: int
     rotation_rereference_share: float
     mode: Mode
@@ -622,6 +632,7 @@ class NodeSettings:
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
+            min_seconds_since_reference=self.min_seconds_since_reference,
             rotation_recheck_frames=self.rotation_recheck_frames,
             rotation_rereference_share=self.rotation_rereference_share,
             refine=self.refine,
