@@ -20,6 +20,7 @@ from initsel_ros.features import Camera
 from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import (
+    RECHECK_METHODS,
     FireConfig,
     FireResult,
     SeedMap,
@@ -67,9 +68,6 @@ LAST_FRAME_MORE_CERTAIN_MAX_E_T = 0.3
 #: changes sides from frame to frame (straight motion toward a wall: 11-13 % less on
 #: average, on the last frame from 1 % less to 12 % more).
 RIVAL_MAX_RMS_RATIO = 0.9
-#: What the fire path tries when the rotation test re-checks model R's veto: E (the general
-#: model of a calibrated camera) and H (a plane), GRIC choosing.
-RECHECK_METHODS = (Method.E, Method.H)
 
 
 @dataclass(frozen=True)
