@@ -16,7 +16,10 @@ for the live selector and for the offline tools alike (labels, seed-map judging,
    and the winner fits an object moving on its own, a board held by a person or a passing
    car, which the first test cannot see once such objects hold most of the tracks; or the
    winner fits one plane of a scene whose other parts show no parallax yet. Either way the
-   pair is refused as a rotation and the next frames decide;
+   pair is refused as a rotation and the next frames decide; and the two-motions test: the
+   tracks with parallax that contradict the winner's motion (off its epipolar lines, or
+   behind the cameras) must not outnumber those that support it (:func:`motion_support`: a
+   winner that fits an object moving past a translating camera);
 6. the better-model test: an E or F winner is refused when an H that failed the pose check
    scores a lower GRIC (the tracks are a plane, where E and F are degenerate), and an H
    winner when a failed E or F does (the tracks have depth): the pair waits for that model;
