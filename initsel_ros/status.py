@@ -25,10 +25,11 @@ if TYPE_CHECKING:  # the selector pulls in OpenCV; readers of the status need no
     from initsel_ros.selector import FrameResult
     from initsel_ros.verify import VerifyStep
 
-#: Reasons reported with level WARN (every other reason is OK).
-WARN_REASONS = frozenset(
-    {Reason.TOO_FEW_TRACKS, Reason.POSE_FAILED, Reason.SKIPPED_IMAGE, Reason.INTERNAL_ERROR}
-)
+#: Reasons reported with level WARN (every other reason is OK): the node lost something
+#: (its tracks, a frame) or failed. 'pose estimation failed' is OK: the fire path refusing
+#: a pair whose baseline is too short, or ambiguous, is the ordinary wait before a good
+#: initialization (25 WARNs of it before one in a probe's run flooded /diagnostics).
+WARN_REASONS = frozenset({Reason.TOO_FEW_TRACKS, Reason.SKIPPED_IMAGE, Reason.INTERNAL_ERROR})
 
 
 def _split_ns(ns: int | None) -> tuple[int | None, int | None]:

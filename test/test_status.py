@@ -147,6 +147,8 @@ def test_the_node_reasons_are_reasons_and_warn():
     assert Reason('internal error') is Reason.INTERNAL_ERROR
     assert {Reason.SKIPPED_IMAGE, Reason.INTERNAL_ERROR} <= WARN_REASONS
     assert _status(reason=Reason.INTERNAL_ERROR, detail='x').level == 'WARN'
+    # the fire path refusing a pair is the ordinary wait, not a fault (it flooded diagnostics)
+    assert _status(reason=Reason.POSE_FAILED, detail='H failed').level == 'OK'
 
 
 def test_diagnostic_values_are_the_published_key_values():
