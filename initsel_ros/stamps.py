@@ -1,4 +1,5 @@
-"""Checks on a stream's image stamps (integer nanoseconds): negative, zero, repeated, backwards.
+"""Checks on a stream's image stamps (integer nanoseconds): negative, zero, repeated, backwards,
+and gaps where frames are missing.
 
 Time going back by at most a tolerance (:data:`DEFAULT_RESTART_TOLERANCE_NS`, the node's
 ``restart_tolerance_s``) is jitter: the frame is *out of order* and skipped, and the stream's
@@ -12,6 +13,8 @@ counts them in ``~/status``.
 
 from __future__ import annotations
 
+import statistics
+from collections import deque
 from dataclasses import dataclass
 from enum import Enum
 
@@ -24,6 +27,7 @@ class StampIssue(str, Enum):
     DUPLICATE = 'duplicate'  # the same stamp as the previous frame
     OUT_OF_ORDER = 'out_of_order'  # earlier than the latest frame, within the tolerance
     RESTART = 'restart'  # earlier than the latest frame by more than the tolerance
+    GAP = 'gap'  # later than the latest frame by over GAP_PERIODS of the stream's period
 
 
 #: What each issue means for the selector, for the log line.
@@ -36,7 +40,19 @@ CONSEQUENCES: dict[StampIssue, str] = {
         'a replay restart or clock reset (further back than restart_tolerance_s): a new '
         'reference is taken, but in mode once an initialization is kept until ~/reset'
     ),
+    StampIssue.GAP: (
+        'frames are missing before this one: lost on the way (a best-effort image QoS under '
+        'load drops them before the node sees them) or a camera that paused; processed as '
+        'usual'
+    ),
 }
+
+#: A frame whose stamp follows the previous one by more than this many times the stream's
+#: period (the median of its last :data:`PERIOD_WINDOW` intervals) has frames missing before
+#: it; a stream of varying rate (15-30 Hz) stays under it.
+GAP_PERIODS = 2.5
+#: Intervals the period is the median of; at least a third of them are needed to judge.
+PERIOD_WINDOW = 30
 
 #: Default largest jump back in time that is still jitter, nanoseconds (1 s).
 DEFAULT_RESTART_TOLERANCE_NS = 1_000_000_000
@@ -78,6 +94,7 @@ class StampMonitor:
         self.counts: dict[str, int] = {issue.value: 0 for issue in StampIssue}
         self.restart_tolerance_ns = int(restart_tolerance_ns)
         self._last_ns: int | None = None
+        self._intervals: deque[int] = deque(maxlen=PERIOD_WINDOW)
 
     def check(self, stamp_ns: int) -> StampCheck:
         """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order)."""
@@ -95,6 +112,12 @@ class StampMonitor:
                     back_ns = self._last_ns - stamp_ns
                     late = back_ns <= self.restart_tolerance_ns
                     issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
+                    if not late:
+                        self._intervals.clear()  # (another stream, maybe another rate)
+                else:
+                    if self._gap(stamp_ns - self._last_ns):
+                        issues.append(StampIssue.GAP)
+                    self._intervals.append(stamp_ns - self._last_ns)
             if StampIssue.OUT_OF_ORDER not in issues:
                 self._last_ns = stamp_ns
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
@@ -102,14 +125,24 @@ class StampMonitor:
             self.counts[issue.value] += 1
         return StampCheck(tuple(issues), new, back_ns)
 
+    def _gap(self, interval_ns: int) -> bool:
+        """Is ``interval_ns`` over :data:`GAP_PERIODS` of the stream's period (once a third
+        of :data:`PERIOD_WINDOW` intervals give one)?"""
+        if len(self._intervals) < PERIOD_WINDOW // 3:
+            return False
+        return interval_ns > GAP_PERIODS * statistics.median(self._intervals)
+
     def forget_last(self) -> None:
         """Forget the previous stamp (after a reset, any next stamp is fine)."""
         self._last_ns = None
+        self._intervals.clear()
 
 
 __all__ = [
     'CONSEQUENCES',
     'DEFAULT_RESTART_TOLERANCE_NS',
+    'GAP_PERIODS',
+    'PERIOD_WINDOW',
     'StampCheck',
     'StampIssue',
     'StampMonitor',

@@ -260,6 +260,7 @@ def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kin
         'duplicate': 1,
         'out_of_order': 1,
         'restart': 1,
+        'gap': 0,
     }
     err = capfd.readouterr().err
     for kind in ('out_of_order', 'duplicate', 'zero'):

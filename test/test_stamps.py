@@ -1,4 +1,4 @@
-"""Stamp checks of a stream (ROS-free): negative, zero, duplicate and backwards stamps."""
+"""Stamp checks of a stream (ROS-free): negative, zero, duplicate, backwards stamps and gaps."""
 
 from __future__ import annotations
 
@@ -41,7 +41,28 @@ def test_each_kind_is_new_only_the_first_time_and_counted_every_time():
         'duplicate': 1,
         'out_of_order': 1,
         'restart': 1,
+        'gap': 0,
     }
+
+
+def test_a_gap_of_several_periods_says_frames_are_missing():
+    # before: frames a best-effort QoS lost under load vanished without a word (a probe sent
+    # 360 and the node received 281)
+    monitor = StampMonitor()
+    period = 33_333_333
+    t = 1_700_000_000 * SECOND
+    for _ in range(12):  # the period is known after 10 intervals
+        t += period
+        assert monitor.check(t).issues == ()
+    t += 3 * period  # two frames missing
+    gap = monitor.check(t)
+    assert gap.issues == gap.new == (StampIssue.GAP,)
+    for jitter in (0.5, 1.9, 2.4, 1.0):  # a varying rate (15-30 Hz) is no gap
+        t += int(jitter * period)
+        assert monitor.check(t).issues == ()
+    assert monitor.counts['gap'] == 1
+    monitor.forget_last()  # after a reset the period is measured afresh
+    assert monitor.check(t + 10 * period).issues == ()
 
 
 def test_jitter_within_the_tolerance_is_out_of_order_and_keeps_the_latest_stamp():
