@@ -190,29 +190,18 @@ class FireResult:
         return next((e for e in self.estimates if e.method is method), None)
 
 
-#: What the fire path tries when the rotation test re-checks model R's veto: E (the general
-#: model of a calibrated camera) and H (a plane), GRIC choosing.
-RECHECK_METHODS = (Method.E, Method.H)
-
-
 def fire_methods(
     decision: Decision, thresholds: Mapping[str, float], policy: PolicyConfig
 ) -> tuple[Method, ...]:
     """The methods a positive decision tries: its candidates, plus H unless R vetoes H.
 
-    H is cheap, and GRIC needs it to see a plane. Where R's yes vetoed E, E is tried too, as
-    the re-check of R's veto tries it (:data:`RECHECK_METHODS`): the fire path's rotation
-    test judges R's yes first, and E goes on only where that test measures parallax for E
-    (``min_rotation_residual_sigma``). (Before, R and H firing together tried H alone, while
-    R alone tried E and H: a scene with depth waited for R's probability to fall.)
+    H is cheap, and GRIC needs it to see a plane.
     """
     methods = list(decision.candidates)
     rotation = decision.probabilities.get('R', 0.0) >= thresholds.get('R', 0.5)
     h_vetoed = rotation and 'H' in policy.r_veto
     if Method.H not in methods and not h_vetoed:
         methods.append(Method.H)
-    if rotation and 'E' in decision.vetoed and Method.E not in methods:
-        methods.insert(0, Method.E)
     return tuple(methods)
 
 
@@ -837,7 +826,6 @@ __all__ = [
     'ESTIMATES_ONLY',
     'MAP_MAX_REPROJECTION_PX',
     'MOTION_MIN_PARALLAX_SIGMA',
-    'RECHECK_METHODS',
     'FireConfig',
     'FireResult',
     'MotionSupport',

@@ -20,7 +20,6 @@ from initsel_ros.features import Camera
 from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import (
-    RECHECK_METHODS,
     FireConfig,
     FireResult,
     SeedMap,
@@ -68,6 +67,9 @@ LAST_FRAME_MORE_CERTAIN_MAX_E_T = 0.3
 #: changes sides from frame to frame (straight motion toward a wall: 11-13 % less on
 #: average, on the last frame from 1 % less to 12 % more).
 RIVAL_MAX_RMS_RATIO = 0.9
+#: What the fire path tries when the rotation test re-checks model R's veto: E (the general
+#: model of a calibrated camera) and H (a plane), GRIC choosing.
+RECHECK_METHODS = (Method.E, Method.H)
 
 
 @dataclass(frozen=True)
@@ -248,8 +250,7 @@ def _unit_depth_scale(points: np.ndarray) -> float:
 #: Mean disparity, pixels, under which the camera has not moved for any method: the parallax
 #: floors (min_parallax_deg, 1 degree: 9 px of flow at the TUM focal length, 4 px at 320x240)
 #: are out of reach, so no fire-path run is made (on a still camera a model's yes ran it on
-#: every third frame, and the frames said 'rotation'; model R's re-check waits for the first
-#: frame that moves).
+#: every third frame, and the frames said 'rotation').
 STILL_DISPARITY_PX = 1.0
 
 
@@ -583,14 +584,6 @@ class Selector:
             return replace(result, reference_stamp_ns=stamp_ns)
 
         recheck = self._recheck_rotation(decision, since)
-        if recheck and decision.mean_disparity < STILL_DISPARITY_PX:
-            recheck = False  # no flow to test: the first frame that moves runs it (still due)
-            waits = (
-                'the rotation test waits: the camera has hardly moved (mean disparity '
-                f'{decision.mean_disparity:.2f} px < {STILL_DISPARITY_PX:g} px)'
-            )
-            detail = f'{decision.detail}; {waits}' if decision.detail else waits
-            decision = replace(decision, detail=detail)
         held = decision.positive and self._rotation_holds(since)
         if self._candidate is not None or (decision.positive and not held) or recheck:
             # geometry is estimated on this frame: from each point measured against the

@@ -76,19 +76,6 @@ def test_fire_methods_add_h_unless_r_vetoes_it(veto, p_r, expected):
     assert fire_methods(decision, {'R': 0.5}, PolicyConfig(r_veto=veto)) == expected
 
 
-def test_an_e_that_r_vetoed_is_tried_when_h_fires_as_the_re_check_tries_it():
-    # before: R and H firing together tried H alone, while R alone tried E and H; a probe's
-    # scene with depth measured 5-8 x the noise for 20 frames and waited for p_R to fall
-    probabilities = {'E': 0.9, 'H': 0.9, 'R': 0.9}
-    decision = Decision(
-        Reason.INITIALIZED, probabilities, candidates=(Method.H,), vetoed=('E', 'F')
-    )
-    policy = PolicyConfig(r_veto=frozenset({'E', 'F'}))
-    assert fire_methods(decision, {'R': 0.5}, policy) == (Method.E, Method.H)
-    not_fired = replace(decision, vetoed=('F',))
-    assert fire_methods(not_fired, {'R': 0.5}, policy) == (Method.H,)
-
-
 def _arc_on_a_wall(
     baseline: float = 0.2, distance: float = 3.5, noise_px: float = 0.2, n: int = 300
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

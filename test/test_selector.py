@@ -92,30 +92,6 @@ def test_a_camera_that_has_not_moved_runs_no_fire_path_and_says_so(monkeypatch):
     assert runs
 
 
-def test_a_still_camera_defers_the_re_check_of_r_to_the_first_frame_that_moves(monkeypatch):
-    # before: a still camera whose model R said rotation ran the fire path every third frame
-    sel = Selector(constant_models(R=0.99), CAMERA)
-    runs = []
-    fire = Selector._fire
-    monkeypatch.setattr(
-        Selector,
-        '_fire',
-        lambda self, *a, **k: (
-            runs.append(self.tracker.frames_since_reference) or fire(self, *a, **k)
-        ),
-    )
-    img = texture(5)
-    sel.process(img, ns(0.0))
-    still = [sel.process(shifted(img, 0.3, 0.0), ns(i / 30)) for i in range(1, 8)]
-    assert not runs
-    assert all(r.decision.reason is Reason.ROTATION for r in still)
-    due = [r for r in still if 'the rotation test waits' in r.decision.detail]
-    assert [r.frames_since_reference for r in due] == [3, 4, 5, 6, 7]  # due from frame 3 on
-    assert 'mean disparity 0.30 px < 1 px' in due[0].decision.detail
-    sel.process(shifted(img, 4.0, 0.0), ns(8 / 30))
-    assert runs == [8]
-
-
 def test_rotation_model_vetoes_and_says_so():
     sel = Selector(constant_models(E=0.9, F=0.9, R=0.9), CAMERA)
     img = texture(5)
