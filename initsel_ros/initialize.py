@@ -51,7 +51,6 @@ from initsel_ros.geometry import (
     sampson_fundamental,
     skew,
     transfer_px,
-    triangulate_pair,
 )
 from initsel_ros.model_selection import Selection, select_method
 from initsel_ros.policy import (
@@ -785,9 +784,22 @@ def motion_support(
         sampson_fundamental(fundamental_from_essential(skew(t) @ R, K), a, b)
         <= (2.0 * inlier_px) ** 2
     )
-    agrees = on_lines & triangulate_pair(R, t, K, a, b).in_front
+    agrees = on_lines & _in_front(R, t, K, a, b)
     supporting = int(np.count_nonzero(agrees))
     return MotionSupport(supporting, len(a) - supporting, len(a))
+
+
+def _in_front(R: np.ndarray, t: np.ndarray, K: np.ndarray, a: np.ndarray, b: np.ndarray):
+    """(N,) bool: the depths ``d0 R x0 - d1 x1 = -t`` of each pair of rays are positive
+    (least squares by cross products; :func:`geometry.triangulate_pair`'s sign, without its
+    points and errors)."""
+    K_inv = np.linalg.inv(K)
+    x0 = np.column_stack([a, np.ones(len(a))]) @ K_inv.T @ R.T  # reference rays, rotated
+    x1 = np.column_stack([b, np.ones(len(b))]) @ K_inv.T
+    n = np.cross(x1, x0)  # crossed with x1: d0 (R x0 x x1) = -(t x x1); with R x0: likewise
+    d0 = -np.einsum('ij,ij->i', np.cross(x1, t), n)
+    d1 = np.einsum('ij,ij->i', np.cross(t, x0), n)
+    return (d0 > 0) & (d1 > 0)
 
 
 def background_test(
