@@ -96,8 +96,12 @@ class StampMonitor:
         self._last_ns: int | None = None
         self._intervals: deque[int] = deque(maxlen=PERIOD_WINDOW)
 
-    def check(self, stamp_ns: int) -> StampCheck:
-        """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order)."""
+    def check(self, stamp_ns: int, unchecked: int = 0) -> StampCheck:
+        """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order).
+
+        ``unchecked``: frames received since the last check but not checked (the node dropped
+        them for want of time): the interval then spans them, and is neither a gap nor a period.
+        """
         issues = []
         if stamp_ns < 0:
             issues.append(StampIssue.NEGATIVE)
@@ -114,7 +118,7 @@ class StampMonitor:
                     issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
                     if not late:
                         self._intervals.clear()  # (another stream, maybe another rate)
-                else:
+                elif not unchecked:
                     if self._gap(stamp_ns - self._last_ns):
                         issues.append(StampIssue.GAP)
                     self._intervals.append(stamp_ns - self._last_ns)

@@ -155,6 +155,7 @@ class SelectorNode(Node):
         self._reset_requested = False
         self._received = 0
         self._dropped = 0
+        self._dropped_checked = 0  # the dropped count at the last stamp check
         self._skipped = 0
         self._processed = 0
         # Worker-only state.
@@ -454,7 +455,7 @@ class SelectorNode(Node):
         """Worker: one frame ends processed, or skipped with a status saying why."""
         stamp = msg.header.stamp
         stamp_ns = conv.stamp_to_ns(stamp)
-        check = self._check_stamp(stamp, stamp_ns)
+        check = self._check_stamp(stamp, stamp_ns, dropped)
         if check.out_of_order:
             self._skipped += 1
             self._publish_status(
@@ -535,14 +536,17 @@ class SelectorNode(Node):
             )
         return image
 
-    def _check_stamp(self, stamp: Time, stamp_ns: int) -> StampCheck:
-        """Log each kind of unusual stamp once, and restarts (at most every 5 s).
+    def _check_stamp(self, stamp: Time, stamp_ns: int, dropped: int) -> StampCheck:
+        """Log each kind of unusual stamp once, and restarts (at most every 5 s); ``dropped``:
+        the node's dropped-frame count when it took this frame.
 
         A frame a little older than the latest (within ``restart_tolerance_s``) is out of order
         (the caller skips it); a jump back further is a restart: a new reference, but in mode
         once an initialization is kept until ``~/reset``.
         """
-        check = self._stamps.check(stamp_ns)
+        # the frames the node itself dropped before this one are no gap in the stream
+        check = self._stamps.check(stamp_ns, unchecked=dropped - self._dropped_checked)
+        self._dropped_checked = dropped
         back = f' by {check.back_ns / 1e9:.9f} s' if check.back_ns else ''
         for issue in check.new:
             if issue is not StampIssue.RESTART:
