@@ -90,7 +90,7 @@ def test_overlay_frames_as_png_folder_named_by_index(shift_sequence, tmp_path):
 
 
 def test_groundtruth_baseline_is_the_distance_to_the_reference(shift_sequence, tmp_path):
-    config = SelectorConfig(max_frames_since_reference=5)
+    config = SelectorConfig(max_frames_since_reference=5, min_seconds_since_reference=0.0)
     run = write_overlay_video(shift_sequence, constant_models(), tmp_path / 'o.mp4', config)
     base = groundtruth_baselines(shift_sequence, run.results, run.indices)
     # frame 0 and frame 5 become references (renewed after 5 frames)
