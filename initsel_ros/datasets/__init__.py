@@ -131,7 +131,10 @@ def layout_hint(path: Path) -> str:
     path = Path(os.path.abspath(path))
     if not path.is_dir():
         return ''
-    inside = sorted(p.name for p in path.iterdir() if p.is_dir() and sequence_kind(p))
+    try:
+        inside = sorted(p.name for p in path.iterdir() if p.is_dir() and sequence_kind(p))
+    except OSError:  # (unreadable: the error itself says enough)
+        return ''
     if inside:
         shown = ', '.join(inside[:5]) + (', ...' if len(inside) > 5 else '')
         return f'it holds sequences ({shown}): give one of them'
