@@ -278,6 +278,14 @@ def _elapsed_ratio(since_ns: int, fired_after_ns: int, frames: float) -> float:
     return frames
 
 
+def _noted(result: FrameResult, note: str) -> FrameResult:
+    """``result`` with ``note`` after its decision's detail (the note alone where there is
+    none)."""
+    decision = result.decision
+    detail = f'{decision.detail}; {note}' if decision.detail else note
+    return replace(result, decision=replace(decision, detail=detail))
+
+
 def _still(decision: Decision) -> Decision:
     """A model's yes on a camera that has not moved: low parallax, nothing to try."""
     fired = ', '.join(decision.fired)
@@ -525,8 +533,7 @@ class Selector:
         elif self._reference_dropped and result.decision.reason is Reason.NEW_REFERENCE:
             note = f'new reference: {self._reference_dropped}'
         if note:
-            detail = f'{result.decision.detail}; {note}' if result.decision.detail else note
-            result = replace(result, decision=replace(result.decision, detail=detail))
+            result = _noted(result, note)
         self._dropped = self._reference_dropped = ''
         # The tracks this frame was decided on; a new reference's fresh detections otherwise.
         # (``is None``: an empty Tracks is falsy.) ``thresholds`` is replaced, never mutated,
@@ -611,17 +618,16 @@ class Selector:
             if self.config.mode is Mode.CONTINUOUS:  # re-anchor on the initializing frame
                 result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and (aged := self._aged(since, stamp_ns)):
-            detail = f'{result.decision.detail}; {aged}: this frame is the new reference'
-            result = replace(result, decision=replace(result.decision, detail=detail.lstrip('; ')))
+            result = _noted(result, f'{aged}: this frame is the new reference')
             result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and self._rotated_away(result):
-            detail = (
-                f"{result.decision.detail}; {self.tracker.n_tracks} of the reference's "
-                f'{self.tracker.reference_tracks} tracks are left, the view has moved '
-                f'{result.decision.mean_disparity:.0f} px and the camera only rotated: '
-                'this frame is the new reference (no baseline lost)'
+            result = _noted(
+                result,
+                f"{self.tracker.n_tracks} of the reference's {self.tracker.reference_tracks} "
+                f'tracks are left, the view has moved {result.decision.mean_disparity:.0f} px '
+                'and the camera only rotated: this frame is the new reference (no baseline '
+                'lost)',
             )
-            result = replace(result, decision=replace(result.decision, detail=detail))
             result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and self.config.rotation_recheck_frames > 0:
             due = self._schedule.next_run(self.config.rotation_recheck_frames)
