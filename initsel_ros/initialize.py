@@ -46,6 +46,7 @@ from initsel_ros.geometry import (
     RotationTest,
     estimate_pose,
     fundamental_from_essential,
+    homogeneous,
     plane_perspective_test,
     rotation_test,
     sampson_fundamental,
@@ -772,33 +773,35 @@ def motion_support(
     """
     R, t = estimate.R, estimate.t
     a, b = np.asarray(ref, dtype=np.float64), np.asarray(cur, dtype=np.float64)
-    rotated = (np.column_stack([a, np.ones(len(a))]) @ np.linalg.inv(K).T) @ R.T @ K.T
+    K_inv = np.linalg.inv(K)
+    turned = homogeneous(a) @ K_inv.T @ R.T  # the reference rays, rotated by the estimate
+    rays = homogeneous(b) @ K_inv.T
+    projected = turned @ K.T
     with np.errstate(divide='ignore', invalid='ignore'):
-        left = np.linalg.norm(b - rotated[:, :2] / rotated[:, 2:3], axis=1)
+        left = np.linalg.norm(b - projected[:, :2] / projected[:, 2:3], axis=1)
     floor = max(MOTION_MIN_PARALLAX_SIGMA * noise_px, 1.0) if math.isfinite(noise_px) else 1.0
     measurable = np.nan_to_num(left, nan=0.0) >= floor
     if not np.any(measurable) or not np.linalg.norm(t) > 0:
         return MotionSupport(0, 0, int(np.count_nonzero(measurable)))
-    a, b = a[measurable], b[measurable]
     on_lines = (
-        sampson_fundamental(fundamental_from_essential(skew(t) @ R, K), a, b)
+        sampson_fundamental(
+            fundamental_from_essential(skew(t) @ R, K), a[measurable], b[measurable]
+        )
         <= (2.0 * inlier_px) ** 2
     )
-    agrees = on_lines & _in_front(R, t, K, a, b)
+    agrees = on_lines & _in_front(turned[measurable], rays[measurable], t)
     supporting = int(np.count_nonzero(agrees))
-    return MotionSupport(supporting, len(a) - supporting, len(a))
+    n = int(np.count_nonzero(measurable))
+    return MotionSupport(supporting, n - supporting, n)
 
 
-def _in_front(R: np.ndarray, t: np.ndarray, K: np.ndarray, a: np.ndarray, b: np.ndarray):
-    """(N,) bool: the depths ``d0 R x0 - d1 x1 = -t`` of each pair of rays are positive
-    (least squares by cross products; :func:`geometry.triangulate_pair`'s sign, without its
-    points and errors)."""
-    K_inv = np.linalg.inv(K)
-    x0 = np.column_stack([a, np.ones(len(a))]) @ K_inv.T @ R.T  # reference rays, rotated
-    x1 = np.column_stack([b, np.ones(len(b))]) @ K_inv.T
-    n = np.cross(x1, x0)  # crossed with x1: d0 (R x0 x x1) = -(t x x1); with R x0: likewise
-    d0 = -np.einsum('ij,ij->i', np.cross(x1, t), n)
-    d1 = np.einsum('ij,ij->i', np.cross(t, x0), n)
+def _in_front(turned: np.ndarray, rays: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """(N,) bool: the depths ``d0 R x0 - d1 x1 = -t`` of each pair of rays (``turned``: the
+    reference rays ``R x0``; ``rays``: ``x1``) are positive (least squares by cross products;
+    :func:`geometry.triangulate_pair`'s sign, without its points and errors)."""
+    n = np.cross(rays, turned)  # crossed with x1: d0 (R x0 x x1) = -(t x x1); with R x0: alike
+    d0 = -np.einsum('ij,ij->i', np.cross(rays, t), n)
+    d1 = np.einsum('ij,ij->i', np.cross(t, turned), n)
     return (d0 > 0) & (d1 > 0)
 
 
