@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import math
 import shutil
 from pathlib import Path
@@ -567,3 +569,55 @@ def test_intrinsics_given_for_euroc_or_kitti_are_refused_in_one_line(euroc_folde
     for folder, options in ((euroc_folder, {}), (kitti_root, {'sequence': '03'})):
         with pytest.raises(DatasetError, match='carry their own calibration'):
             open_sequence(folder, intrinsics=camera, **options)
+
+
+def _copy_with_broken_ground_truth(layout: str, request, tmp_path: Path) -> Path:
+    """A copy of the ``layout`` fixture whose ground-truth file is malformed."""
+    if layout == 'tum':
+        source = request.getfixturevalue('near_sequence')
+        folder = shutil.copytree(source, tmp_path / 'near', symlinks=True)
+        (folder / 'groundtruth.txt').write_text('1.0 0 0 0 not a pose\n')
+        return folder
+    if layout == 'euroc':
+        folder = shutil.copytree(request.getfixturevalue('euroc_folder'), tmp_path / 'mh')
+        truth = folder / 'mav0' / 'state_groundtruth_estimate0' / 'data.csv'
+        truth.write_text(truth.read_text().splitlines()[0] + '\n1,2,three\n')
+        return folder
+    if layout == 'kitti':
+        root = shutil.copytree(request.getfixturevalue('kitti_root'), tmp_path / 'dataset')
+        (root / 'poses' / '03.txt').write_text('1 0 0\n')
+        return root / 'sequences' / '03'
+    # a bag without poses of its own, its ground truth in a groundtruth.txt beside it
+    sequence = TumSequence(request.getfixturevalue('near_sequence'))
+    sequence.frames = [dataclasses.replace(f, pose=None) for f in sequence.frames[:30]]
+    bag = write_bag(sequence, tmp_path / 'near.bag', 'ros1')
+    (tmp_path / 'groundtruth.txt').write_text('1.0 0 0 0 not a pose\n')
+    return bag
+
+
+@pytest.mark.parametrize('layout', ['tum', 'euroc', 'kitti', 'bag'])
+def test_a_reader_asked_for_no_ground_truth_opens_a_sequence_whose_ground_truth_is_broken(
+    layout, request, tmp_path
+):
+    # a replay that does not publish the ground truth has no use for it: before, a malformed
+    # groundtruth.txt made the sequence unplayable
+    from initsel_ros.cli.options import options_from
+    from initsel_ros.cli.replay import add_arguments
+    from initsel_ros.ros.replay import ReplayOptions, open_source
+
+    path = _copy_with_broken_ground_truth(layout, request, tmp_path)
+    with pytest.raises(DatasetError):
+        open_sequence(path)
+    sequence = open_sequence(path, ground_truth=False)
+    assert len(sequence.frames) >= 30
+    assert all(frame.pose is None for frame in sequence.frames)
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+
+    def replay_source(*argv: str):
+        return open_source(options_from(parser.parse_args([str(path), *argv]), ReplayOptions))
+
+    assert len(replay_source().frames) == len(sequence.frames)
+    with pytest.raises(DatasetError):  # publishing it needs it
+        replay_source('--publish-groundtruth')

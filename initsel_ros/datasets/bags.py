@@ -215,6 +215,8 @@ class BagSequence(Sequence):
         intrinsics: overrides CameraInfo (default: CameraInfo, else TUM fr3).
         max_gap, nearest_tolerance: ground-truth interpolation (see ``interpolate_poses``).
         max_association_diff: colour/depth association tolerance, seconds.
+        ground_truth: False leaves every frame without a pose: no pose or /tf messages are
+            read, nor a trajectory file (a replay that does not publish it needs none).
     """
 
     def __init__(
@@ -233,6 +235,7 @@ class BagSequence(Sequence):
         max_gap: float = DEFAULT_MAX_GAP,
         nearest_tolerance: float = 0.0,
         max_association_diff: float = MAX_ASSOCIATION_DIFF,
+        ground_truth: bool = True,
     ) -> None:
         from rosbags.highlevel import AnyReader
         from rosbags.typesys import Stores, get_typestore
@@ -254,8 +257,8 @@ class BagSequence(Sequence):
                 image_topic,
                 depth_topic,
                 info_topic,
-                pose_topic,
-                tf_topic,
+                pose_topic if ground_truth else None,
+                tf_topic if ground_truth else None,
                 tf_parent.lstrip('/'),
                 tf_child.lstrip('/'),
             )
@@ -288,7 +291,9 @@ class BagSequence(Sequence):
         self._depth_match = match
 
         beside = path.parent / 'groundtruth.txt' if path.is_file() else path / 'groundtruth.txt'
-        if groundtruth is not None:
+        if not ground_truth:
+            gt = None
+        elif groundtruth is not None:
             gt = read_trajectory(Path(groundtruth))
             gt_source = str(groundtruth)
         elif gt_source == 'pose':
@@ -310,7 +315,7 @@ class BagSequence(Sequence):
                     len(poses),
                     gt_source,
                 )
-        else:
+        elif ground_truth:
             _LOG.info('%s: no ground truth found%s', path, self._pose_topics_hint(pose_topic))
         self.groundtruth_source = gt_source if gt is not None else None
         if intrinsics is None and info is None:
@@ -349,8 +354,8 @@ class BagSequence(Sequence):
         image_topic: str,
         depth_topic: str,
         info_topic: str,
-        pose_topic: str,
-        tf_topic: str,
+        pose_topic: str | None,
+        tf_topic: str | None,
         tf_parent: str,
         tf_child: str,
     ) -> tuple[Any, ...]:

@@ -225,6 +225,7 @@ class EurocSequence(Sequence):
         max_gap: largest gap (s) between ground-truth samples to interpolate across.
         nearest_tolerance: frames outside the ground truth take the nearest sample within this
             many seconds (0: no pose).
+        ground_truth: False leaves every frame without a pose and the ground truth unread.
 
     Attributes:
         T_BS: (4, 4) camera pose in the body frame, from ``sensor.yaml``.
@@ -238,6 +239,7 @@ class EurocSequence(Sequence):
         camera: str = 'cam0',
         max_gap: float = DEFAULT_MAX_GAP,
         nearest_tolerance: float = 0.0,
+        ground_truth: bool = True,
     ) -> None:
         path = Path(path)
         root = euroc_root(path)
@@ -252,7 +254,9 @@ class EurocSequence(Sequence):
         rel = np.array([(t - t0) * 1e-9 for t in stamps_ns])  # precise relative seconds
         poses: list[np.ndarray | None] = [None] * len(stamps_ns)
         gt_path = root / GROUNDTRUTH_DIR / 'data.csv'
-        if gt_path.is_file():
+        if not ground_truth:
+            _LOG.debug('%s: ground truth not read (not asked for)', root)
+        elif gt_path.is_file():
             gt_ns, positions, quats = read_groundtruth(gt_path)
             gt_rel = (gt_ns - t0).astype(np.float64) * 1e-9
             t, q = interpolate_poses(rel, gt_rel, positions, quats, max_gap, nearest_tolerance)

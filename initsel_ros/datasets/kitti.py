@@ -228,6 +228,7 @@ class KittiSequence(Sequence):
             the left grey camera, which the poses describe; the first camera with images in a
             download without ``image_0``, such as the colour-only one, with a note).
         poses: a pose file overriding the one found beside the sequence.
+        ground_truth: False leaves every frame without a pose and the pose file unread.
 
     Attributes:
         P: (3, 4) projection matrix of the camera.
@@ -240,6 +241,7 @@ class KittiSequence(Sequence):
         sequence: str | None = None,
         camera: int | None = None,
         poses: Path | str | None = None,
+        ground_truth: bool = True,
     ) -> None:
         folder = resolve_sequence_folder(Path(path), sequence)
         if camera is None:
@@ -268,7 +270,10 @@ class KittiSequence(Sequence):
 
         pose_file = Path(poses) if poses is not None else self._find_poses(folder)
         matrices: list[np.ndarray | None] = [None] * len(files)
-        if pose_file is not None:
+        if not ground_truth:
+            pose_file = None
+            _LOG.debug('%s: ground truth not read (not asked for)', folder)
+        elif pose_file is not None:
             loaded = read_poses(pose_file)
             if len(loaded) != len(files):
                 raise DatasetError(f'{pose_file}: {len(loaded)} poses for {len(files)} frames')

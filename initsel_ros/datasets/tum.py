@@ -229,6 +229,8 @@ class TumSequence(Sequence):
             pose when it is at most this far away (s); 0 (default) leaves them without a pose.
         max_association_diff: colour/depth association tolerance, seconds.
         depth_scale: depth PNG value per metre.
+        ground_truth: False leaves every frame without a pose and the trajectory file unread
+            (a replay that does not publish it needs none, malformed or not).
     """
 
     def __init__(
@@ -241,6 +243,7 @@ class TumSequence(Sequence):
         nearest_tolerance: float = 0.0,
         max_association_diff: float = MAX_ASSOCIATION_DIFF,
         depth_scale: float = DEPTH_SCALE,
+        ground_truth: bool = True,
     ) -> None:
         path = Path(path)
         if not path.is_dir():
@@ -272,7 +275,9 @@ class TumSequence(Sequence):
 
         gt_path = Path(groundtruth) if groundtruth is not None else path / 'groundtruth.txt'
         poses: list[np.ndarray | None] = [None] * len(rgb_stamps)
-        if groundtruth is not None or gt_path.exists():
+        if not ground_truth:
+            _LOG.debug('%s: ground truth not read (not asked for)', path)
+        elif groundtruth is not None or gt_path.exists():
             stamps, positions, quats = read_trajectory(gt_path)
             poses = pose_matrices(
                 *interpolate_poses(

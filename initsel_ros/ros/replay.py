@@ -153,11 +153,11 @@ def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarra
 
 def open_source(options: ReplayOptions) -> object:
     """The sequence of ``options.source`` (with its ``sequence``, ``bag_image_topic`` and
-    ``intrinsics``)."""
+    ``intrinsics``); its ground truth is read only when it is to be published."""
     from initsel_ros.camera import Intrinsics
     from initsel_ros.datasets import open_sequence, sequence_kind
 
-    reader: dict[str, object] = {}
+    reader: dict[str, object] = {'ground_truth': options.publish_groundtruth}
     if options.bag_image_topic is not None:
         if sequence_kind(options.source) != 'bag':
             raise ConfigError('--bag-image-topic applies to bags only')
