@@ -239,27 +239,21 @@ def pair_row(
 
 
 # ----------------------------------------------------------------------------- batch workers
-_SEQUENCES: dict[str, Any] = {}
-
-
 def open_cached(path: str, config: DatasetConfig) -> Any:
-    """``open_sequence`` with the reader options of ``config``, cached per process (bags are
-    slow to open)."""
-    nearest_tolerance, sequence = config.nearest_tolerance, config.sequence
-    image_topic, intrinsics = config.image_topic, config.intrinsics
-    key = f'{path}\0{nearest_tolerance}\0{sequence}\0{image_topic}\0{intrinsics}'
-    if key not in _SEQUENCES:
-        from initsel_ros.datasets import open_sequence, reader_options, sequence_kind
+    """The sequence at ``path`` with the reader options of ``config``, opened once per process
+    (:func:`initsel_ros.datasets.cache.open_cached`)."""
+    from initsel_ros.datasets import reader_options, sequence_kind
+    from initsel_ros.datasets.cache import open_cached as open_once
 
-        options = reader_options(
-            path,
-            nearest_tolerance=nearest_tolerance,
-            image_topic=image_topic,
-            intrinsics=intrinsics,
-        )
-        kitti = sequence_kind(Path(path)) in ('kitti', 'kitti_root')  # --sequence: KITTI only
-        _SEQUENCES[key] = open_sequence(path, sequence=sequence if kitti else None, **options)
-    return _SEQUENCES[key]
+    options = reader_options(
+        path,
+        nearest_tolerance=config.nearest_tolerance,
+        image_topic=config.image_topic,
+        intrinsics=config.intrinsics,
+    )
+    if sequence_kind(Path(path)) in ('kitti', 'kitti_root'):  # --sequence: KITTI only
+        options['sequence'] = config.sequence
+    return open_once(path, **options)
 
 
 @dataclass(frozen=True)

@@ -533,25 +533,15 @@ def evaluate_batch(
     return [replace(o, noise_seed=seed) for o in outcomes]
 
 
-_OPENED: dict[tuple[str, float | None], object] = {}
-
-
 def _open_quietly(path: str, nearest_tolerance: float | None):
     """A batch worker's sequence: opened once per process, without the readers' warnings
     (:func:`evaluate_sequences` has said them once already)."""
-    from initsel_ros.datasets import open_sequence, reader_options
+    from initsel_ros.datasets import reader_options
+    from initsel_ros.datasets.cache import open_cached
 
-    key = (path, nearest_tolerance)
-    if key not in _OPENED:
-        readers = logging.getLogger('initsel_ros.datasets')
-        level = readers.level
-        readers.setLevel(logging.ERROR)
-        try:
-            options = reader_options(path, nearest_tolerance=nearest_tolerance)
-            _OPENED[key] = open_sequence(path, **options)
-        finally:
-            readers.setLevel(level)
-    return _OPENED[key]
+    return open_cached(
+        path, quiet=True, **reader_options(path, nearest_tolerance=nearest_tolerance)
+    )
 
 
 def batch_windows(
@@ -614,6 +604,7 @@ def evaluate_sequences(
         ValueError: a group is not one of :data:`GROUPS`.
     """
     from initsel_ros.datasets import open_sequence, reader_options
+    from initsel_ros.datasets.cache import forget_sequences, keep_sequence
 
     config = config or SelectorConfig()
     options = _options(baselines)
@@ -622,11 +613,12 @@ def evaluate_sequences(
     if bad:
         raise ValueError(f'unknown groups {sorted(bad)}: choose from {GROUPS}')
     tasks = []
-    _OPENED.clear()  # (what an earlier call left, had it failed: read the sequences afresh)
+    forget_sequences()  # (what an earlier call left, had it failed: read the sequences afresh)
     for path in paths:
-        sequence = open_sequence(path, **reader_options(path, nearest_tolerance=nearest_tolerance))
+        reader = reader_options(path, nearest_tolerance=nearest_tolerance)
+        sequence = open_sequence(path, **reader)
         if jobs <= 1:  # the batches run in this process: they read this very sequence
-            _OPENED[(str(path), nearest_tolerance)] = sequence
+            keep_sequence(sequence, str(path), **reader)
         windows, moved = batch_windows(sequence.has_pose, length, step)
         if moved:
             LOG.warning(
@@ -653,7 +645,7 @@ def evaluate_sequences(
                 if progress:
                     progress(k + 1, len(args))
         finally:
-            _OPENED.clear()  # (in this process: the next call reads the sequences afresh)
+            forget_sequences()  # (in this process: the next call reads the sequences afresh)
         return outcomes
     import multiprocessing
 
