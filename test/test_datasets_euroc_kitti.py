@@ -621,3 +621,63 @@ def test_a_reader_asked_for_no_ground_truth_opens_a_sequence_whose_ground_truth_
     assert len(replay_source().frames) == len(sequence.frames)
     with pytest.raises(DatasetError):  # publishing it needs it
         replay_source('--publish-groundtruth')
+
+
+def test_the_camera_of_a_stereo_folder_is_chosen_by_name(kitti_root, euroc_folder, tmp_path):
+    # before: no command could read KITTI's image_2/ beside image_0/, nor EuRoC's cam1
+    root = shutil.copytree(kitti_root, tmp_path / 'stereo')
+    folder = root / 'sequences' / '03'
+    shutil.copytree(folder / 'image_0', folder / 'image_2')
+    lines = (folder / 'calib.txt').read_text().splitlines()
+    p2 = [float(v) for v in lines[0].split()[1:]]
+    p2[3] = -0.06 * p2[0]  # camera 2 is 6 cm to the right of camera 0
+    lines = [line for line in lines if not line.startswith('P2:')]
+    (folder / 'calib.txt').write_text('\n'.join([*lines, 'P2: ' + ' '.join(map(repr, p2))]))
+    left = open_sequence(root, sequence='03')
+    offset = np.eye(4)
+    offset[0, 3] = 0.06
+    for name in ('2', 'image_2'):
+        colour = open_sequence(root, sequence='03', camera=name)
+        assert colour.image_files[0].parent.name == 'image_2'
+        np.testing.assert_allclose(colour.poses(), left.poses() @ offset, atol=1e-9)
+    with pytest.raises(DatasetError, match=r'a KITTI camera is 0-3 .*got .4.'):
+        open_sequence(folder, camera='4')
+
+    assert len(open_sequence(euroc_folder, camera='0')) == len(open_sequence(euroc_folder))
+    with pytest.raises(DatasetError, match=r'no camera cam1 \(cameras: cam0\)'):
+        open_sequence(euroc_folder, camera='cam1')
+    with pytest.raises(DatasetError, match='--camera 1 applies to EuRoC and KITTI folders'):
+        open_sequence(_tum_folder(euroc_folder, tmp_path), camera='1')
+
+
+def _tum_folder(euroc_folder: Path, tmp_path: Path) -> Path:
+    """A TUM folder: the EuRoC frames listed in an rgb.txt."""
+    folder = tmp_path / 'tum'
+    folder.mkdir()
+    images = sorted((euroc_folder / 'mav0' / 'cam0' / 'data').glob('*.png'))
+    (folder / 'rgb.txt').write_text(
+        ''.join(f'{1.0 + 0.03 * k:.6f} {image}\n' for k, image in enumerate(images))
+    )
+    return folder
+
+
+def test_the_dataset_and_replay_commands_take_a_camera(kitti_root, tmp_path):
+    from initsel_ros.cli.options import options_from
+    from initsel_ros.cli.replay import add_arguments
+    from initsel_ros.learn.pairs import DatasetConfig, open_cached
+    from initsel_ros.ros.replay import ReplayOptions, open_source
+
+    root = shutil.copytree(kitti_root, tmp_path / 'stereo')
+    folder = root / 'sequences' / '03'
+    shutil.copytree(folder / 'image_0', folder / 'image_1')
+    calib = (folder / 'calib.txt').read_text()
+    assert 'P1:' in calib
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    replayed = open_source(
+        options_from(parser.parse_args([str(folder), '--camera', '1']), ReplayOptions)
+    )
+    assert replayed.image_files[0].parent.name == 'image_1'
+    labelled = open_cached(str(folder), DatasetConfig(camera='1'))
+    assert labelled.image_files[0].parent.name == 'image_1'
+    assert open_cached(str(folder), DatasetConfig()).image_files[0].parent.name == 'image_0'

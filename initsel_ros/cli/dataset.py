@@ -95,6 +95,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='bags: the image topic (Image or CompressedImage; default '
         '/camera/rgb/image_color, or <it>/compressed when absent)',
     )
+    options.add_camera_option(parser)
     options.add_intrinsics_option(parser)
     parser.add_argument(
         '--no-orbslam', action='store_true', help='skip the ORB-SLAM H/F scoring baseline (faster)'
@@ -126,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         stride=args.stride,
         nearest_tolerance=args.nearest_tolerance,
         sequence=args.sequence,
+        camera=args.camera,
         image_topic=args.image_topic,
         intrinsics=None if args.intrinsics is None else Intrinsics.load_yaml(args.intrinsics),
         chunk=max(0, args.chunk),

@@ -118,6 +118,17 @@ def add_kitti_sequence_option(parser: argparse.ArgumentParser, help_text: str) -
     parser.add_argument('--sequence', default=None, metavar='NN', help=help_text)
 
 
+def add_camera_option(parser: argparse.ArgumentParser) -> None:
+    """``--camera NAME``: which camera of a EuRoC or KITTI folder is read."""
+    parser.add_argument(
+        '--camera',
+        default=None,
+        metavar='NAME',
+        help='EuRoC: cam0 (default) or cam1; KITTI: 0-3, the image_N folder (default 0, or '
+        'the first with images)',
+    )
+
+
 def add_intrinsics_option(parser: argparse.ArgumentParser) -> None:
     """``--intrinsics FILE``: the camera of TUM folders and bags, replacing their own."""
     parser.add_argument(
@@ -213,6 +224,7 @@ def options_from(args: argparse.Namespace, cls: type[Options], **overrides: Any)
 
 __all__ = [
     'SCALE_RULES',
+    'add_camera_option',
     'add_inputs_argument',
     'add_jobs_option',
     'add_kitti_sequence_option',

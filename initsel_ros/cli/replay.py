@@ -30,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='bags: the image topic to read (Image or CompressedImage; default '
         '/camera/rgb/image_color, or <it>/compressed when absent)',
     )
+    options.add_camera_option(parser)
     options.add_intrinsics_option(parser)
     options.add_rate_option(parser, 'playback speed factor of the recorded timing (default 1)')
     parser.add_argument('--loop', action='store_true', help='start over at the end, until ^C')

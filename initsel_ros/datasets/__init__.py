@@ -61,12 +61,16 @@ def reader_options(
     nearest_tolerance: float | None = None,
     image_topic: str | None = None,
     intrinsics: Intrinsics | None = None,
+    camera: str | None = None,
 ) -> dict[str, Any]:
     """The :func:`open_sequence` options a tool's settings give the reader of ``path``:
     ``nearest_tolerance`` for TUM, EuRoC and bags, ``image_topic`` for bags, ``intrinsics``
-    as given (:func:`open_sequence` refuses it where it does not apply); unset ones left out."""
+    and ``camera`` as given (:func:`open_sequence` refuses them where they do not apply);
+    unset ones left out."""
     kind = sequence_kind(Path(path))
     options: dict[str, Any] = {}
+    if camera is not None:
+        options['camera'] = camera
     if nearest_tolerance is not None and kind in ('tum', 'euroc', 'bag'):
         options['nearest_tolerance'] = nearest_tolerance
     if image_topic is not None and kind == 'bag':
@@ -76,13 +80,17 @@ def reader_options(
     return options
 
 
-def open_sequence(path: Path | str, sequence: str | None = None, **options: Any) -> Sequence:
+def open_sequence(
+    path: Path | str, sequence: str | None = None, camera: str | None = None, **options: Any
+) -> Sequence:
     """Open a TUM, EuRoC or KITTI folder or a bag as a :class:`Sequence`.
 
     Args:
         path: TUM folder, EuRoC folder (holding ``mav0``, or ``mav0`` itself), KITTI
             ``sequences/NN`` folder or KITTI root, ROS 1 ``.bag`` file or ROS 2 bag.
         sequence: the KITTI sequence ('NN') when ``path`` is a KITTI root.
+        camera: which camera of a multi-camera folder: EuRoC ``cam0``/``cam1`` (or ``0``,
+            ``1``), KITTI ``0``-``3`` (or ``image_2``...); None for the reader's default.
         **options: passed to the reader (:class:`TumSequence`, :class:`EurocSequence`,
             :class:`KittiSequence`, ``bags.BagSequence``); e.g. ``nearest_tolerance``,
             ``max_gap``; for bags ``image_topic``, ``depth_topic``, ``info_topic``,
@@ -102,6 +110,8 @@ def open_sequence(path: Path | str, sequence: str | None = None, **options: Any)
         kind = 'kitti_root'  # whose sequences are all broken: the reader says how
     if sequence is not None and kind not in ('kitti', 'kitti_root'):
         raise DatasetError(f'{path}: --sequence {sequence} applies to KITTI odometry only')
+    if camera is not None:
+        options['camera'] = _camera_option(path, kind, str(camera))
     if options.get('intrinsics') is not None and kind not in ('tum', 'bag'):
         raise DatasetError(
             f'{path}: --intrinsics applies to TUM folders and bags; EuRoC and KITTI folders '
@@ -122,6 +132,23 @@ def open_sequence(path: Path | str, sequence: str | None = None, **options: Any)
         f'{path}: not a TUM folder (no rgb.txt), EuRoC folder (no mav0/cam0/data.csv), KITTI '
         'odometry sequence (no times.txt, calib.txt, image_0/) nor a bag (.bag file, or '
         'folder with metadata.yaml)' + (f'; {hint}' if hint else '')
+    )
+
+
+def _camera_option(path: Path, kind: str | None, camera: str) -> str | int:
+    """The reader's ``camera`` argument for ``--camera``: EuRoC ``camN``, KITTI ``N``."""
+    if kind == 'euroc':
+        return camera if camera.startswith('cam') else f'cam{camera}'
+    if kind in ('kitti', 'kitti_root'):
+        number = camera.removeprefix('image_')
+        if number not in ('0', '1', '2', '3'):
+            raise DatasetError(
+                f'{path}: a KITTI camera is 0-3 (image_0 ... image_3), got {camera!r}'
+            )
+        return int(number)
+    raise DatasetError(
+        f'{path}: --camera {camera} applies to EuRoC and KITTI folders (a TUM folder holds '
+        'one camera; a bag is read by its image topic)'
     )
 
 

@@ -246,6 +246,9 @@ class EurocSequence(Sequence):
         if root is None:
             raise DatasetError(f'{path}: not a EuRoC folder (no mav0/cam0/data.csv)')
         cam_dir = root / camera
+        if not (cam_dir / 'data.csv').is_file():
+            cameras = sorted(d.name for d in root.glob('cam*') if (d / 'data.csv').is_file())
+            raise DatasetError(f'{root}: no camera {camera} (cameras: {", ".join(cameras)})')
         intrinsics, self.T_BS, self.rate_hz = read_sensor_yaml(cam_dir / 'sensor.yaml')
         stamps_ns, names = read_image_listing(cam_dir / 'data.csv')
         if not stamps_ns:

@@ -78,6 +78,9 @@ class DatasetConfig:
             take the nearest pose within this many seconds (None = the reader's default).
         sequence: (str or None)
             KITTI sequence ('NN') for sources that are a KITTI odometry root.
+        camera: (str or None)
+            The camera of EuRoC and KITTI sources (``open_sequence``'s ``camera``; None = the
+            reader's default).
         image_topic: (str or None)
             Image topic of bag sources (None = the reader's default).
         intrinsics: (Intrinsics or None)
@@ -107,6 +110,7 @@ class DatasetConfig:
     stride: int = 1
     nearest_tolerance: float | None = None
     sequence: str | None = None
+    camera: str | None = None
     image_topic: str | None = None
     intrinsics: Intrinsics | None = None
     chunk: int = 10
@@ -250,6 +254,7 @@ def open_cached(path: str, config: DatasetConfig) -> Any:
         nearest_tolerance=config.nearest_tolerance,
         image_topic=config.image_topic,
         intrinsics=config.intrinsics,
+        camera=config.camera,
     )
     if sequence_kind(Path(path)) in ('kitti', 'kitti_root'):  # --sequence: KITTI only
         options['sequence'] = config.sequence

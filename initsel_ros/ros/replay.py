@@ -40,6 +40,7 @@ class ReplayOptions:
     Attributes:
         source: TUM, EuRoC or KITTI folder, ROS 1 .bag file or ROS 2 bag folder.
         sequence: KITTI: the sequence, when ``source`` is the odometry root.
+        camera: EuRoC and KITTI: which camera (``open_sequence``), or None for the default.
         bag_image_topic: bags: the image topic to read, or None for the default.
         intrinsics: TUM folders and bags: a YAML file of the camera's intrinsics (as
             ``intrinsics.yaml``) replacing the source's own, or None.
@@ -62,6 +63,7 @@ class ReplayOptions:
 
     source: Path
     sequence: str | None
+    camera: str | None
     bag_image_topic: str | None
     intrinsics: Path | None
     rate: float
@@ -164,7 +166,9 @@ def open_source(options: ReplayOptions) -> object:
         reader['image_topic'] = options.bag_image_topic
     if options.intrinsics is not None:
         reader['intrinsics'] = Intrinsics.load_yaml(options.intrinsics)
-    return open_sequence(options.source, sequence=options.sequence, **reader)
+    return open_sequence(
+        options.source, sequence=options.sequence, camera=options.camera, **reader
+    )
 
 
 def run(options: ReplayOptions) -> int:
