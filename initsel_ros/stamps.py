@@ -92,6 +92,8 @@ class StampMonitor:
 
     def __init__(self, restart_tolerance_ns: int = DEFAULT_RESTART_TOLERANCE_NS) -> None:
         self.counts: dict[str, int] = {issue.value: 0 for issue in StampIssue}
+        #: Frames missing from the stream, estimated from the gaps' lengths in periods.
+        self.missing = 0
         self.restart_tolerance_ns = int(restart_tolerance_ns)
         self._last_ns: int | None = None
         self._intervals: deque[int] = deque(maxlen=PERIOD_WINDOW)
@@ -100,7 +102,8 @@ class StampMonitor:
         """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order).
 
         ``unchecked``: frames received since the last check but not checked (the node dropped
-        them for want of time): the interval then spans them, and is neither a gap nor a period.
+        them for want of time): the interval spans them too, so it is no period, and a gap
+        only beyond them (:meth:`_missing`).
         """
         issues = []
         if stamp_ns < 0:
@@ -118,10 +121,14 @@ class StampMonitor:
                     issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
                     if not late:
                         self._intervals.clear()  # (another stream, maybe another rate)
-                elif not unchecked:
-                    if self._gap(stamp_ns - self._last_ns):
+                else:
+                    interval = stamp_ns - self._last_ns
+                    missing = self._missing(interval, unchecked)
+                    if missing:
                         issues.append(StampIssue.GAP)
-                    self._intervals.append(stamp_ns - self._last_ns)
+                        self.missing += missing
+                    if not unchecked:
+                        self._intervals.append(interval)
             if StampIssue.OUT_OF_ORDER not in issues:
                 self._last_ns = stamp_ns
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
@@ -129,12 +136,17 @@ class StampMonitor:
             self.counts[issue.value] += 1
         return StampCheck(tuple(issues), new, back_ns)
 
-    def _gap(self, interval_ns: int) -> bool:
-        """Is ``interval_ns`` over :data:`GAP_PERIODS` of the stream's period (once a third
-        of :data:`PERIOD_WINDOW` intervals give one)?"""
+    def _missing(self, interval_ns: int, unchecked: int) -> int:
+        """Frames missing within ``interval_ns``, which also spans ``unchecked`` frames: 0
+        unless it exceeds :data:`GAP_PERIODS` of the stream's period (the median of the last
+        :data:`PERIOD_WINDOW` intervals, once a third of them are there) beyond those frames'
+        periods; then the periods it spans, less one and less those frames (at least 1)."""
         if len(self._intervals) < PERIOD_WINDOW // 3:
-            return False
-        return interval_ns > GAP_PERIODS * statistics.median(self._intervals)
+            return 0
+        period = statistics.median(self._intervals)
+        if interval_ns <= (GAP_PERIODS + unchecked) * period:
+            return 0
+        return max(1, round(interval_ns / period) - 1 - unchecked)
 
     def forget_last(self) -> None:
         """Forget the previous stamp (after a reset, any next stamp is fine)."""

@@ -89,6 +89,8 @@ class NodeCounters:
             ``~/reset``.
         skipped_frames: images that could not be used (conversion errors, out-of-order
             stamps, internal errors).
+        missing_frames: images that never reached the node, estimated from the gaps in the
+            stamps (lost on the way, or a camera that paused).
         intrinsics_source: 'parameters' (camera.*) or 'camera_info'.
         intrinsics: the intrinsics in use (fx, fy, cx, cy, width, height), or None.
         intrinsics_warning: why the pose uses guessed intrinsics ('' when it does not).
@@ -103,6 +105,7 @@ class NodeCounters:
     processed_frames: int = 0
     dropped_frames: int = 0
     skipped_frames: int = 0
+    missing_frames: int = 0
     intrinsics_source: str = 'parameters'
     intrinsics: Mapping[str, Any] | None = None
     intrinsics_warning: str = ''
@@ -144,6 +147,7 @@ class FrameStatus:
     processed_frames: int
     dropped_frames: int
     skipped_frames: int
+    missing_frames: int
     intrinsics_source: str
     intrinsics: Mapping[str, Any] | None
     intrinsics_guessed: bool
@@ -229,6 +233,7 @@ class FrameStatus:
             processed_frames=int(counters.processed_frames),
             dropped_frames=int(counters.dropped_frames),
             skipped_frames=int(counters.skipped_frames),
+            missing_frames=int(counters.missing_frames),
             intrinsics_source=counters.intrinsics_source,
             intrinsics=None if counters.intrinsics is None else dict(counters.intrinsics),
             intrinsics_guessed=bool(counters.intrinsics_warning),

@@ -269,6 +269,19 @@ def test_backwards_zero_and_duplicate_stamps_are_handled_and_logged_once_per_kin
     assert 'negative image stamp' not in err
 
 
+def test_frames_missing_from_the_stream_are_counted_from_the_stamps(harness_factory, tmp_path):
+    # before: frames lost before the node were in no counter (a probe sent 90, the node said
+    # 68 received and 7 dropped; the stamps showed two gaps of 12 periods)
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(13)
+    t = 10 * 10**9
+    for k in range(12):  # the stream's period is known after 10 intervals
+        status = h.send_array(shifted(img, k % 3, 0.0), conv.ns_to_stamp(t + k * FRAME_NS))
+    assert status.missing_frames == 0 and status.stamp_issues['gap'] == 0
+    after = h.send_array(shifted(img, 1, 0.0), conv.ns_to_stamp(t + 15 * FRAME_NS))
+    assert after.missing_frames == 3 and after.stamp_issues['gap'] == 1
+
+
 def test_received_frames_add_up_under_a_reset_hammer(harness_factory, tmp_path):
     """Issue 22 case 4: a frame pending when ~/reset was called got no status and no count."""
     h = harness_factory(model_file=double_model_file(tmp_path))

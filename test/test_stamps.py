@@ -60,9 +60,15 @@ def test_a_gap_of_several_periods_says_frames_are_missing():
     for jitter in (0.5, 1.9, 2.4, 1.0):  # a varying rate (15-30 Hz) is no gap
         t += int(jitter * period)
         assert monitor.check(t).issues == ()
-    assert monitor.counts['gap'] == 1
+    assert monitor.counts['gap'] == 1 and monitor.missing == 2
     t += 4 * period  # three frames the node dropped for want of time: no gap in the stream
     assert monitor.check(t, unchecked=3).issues == ()
+    assert monitor.missing == 2
+    # a gap of 12 periods of which the node received 4 and dropped them: 7 frames never came
+    # (before: a gap spanning frames the node dropped went uncounted)
+    t += 12 * period
+    assert monitor.check(t, unchecked=4).issues == (StampIssue.GAP,)
+    assert monitor.counts['gap'] == 2 and monitor.missing == 2 + 7
     monitor.forget_last()  # after a reset the period is measured afresh
     assert monitor.check(t + 10 * period).issues == ()
 

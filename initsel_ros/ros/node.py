@@ -644,6 +644,7 @@ class SelectorNode(Node):
             processed_frames=self._processed,
             dropped_frames=dropped,
             skipped_frames=self._skipped,
+            missing_frames=self._stamps.missing,
             intrinsics_source=self._intrinsics_source,
             intrinsics=self._selector.intrinsics.to_dict(),
             intrinsics_warning=self._intrinsics_warning,
