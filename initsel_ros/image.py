@@ -51,6 +51,12 @@ ENCODINGS: dict[str, EncodingInfo] = {
     'bayer_bggr8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerRG2BGR),
     'bayer_gbrg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGR2BGR),
     'bayer_grbg8': EncodingInfo(1, 'uint8', cv2.COLOR_BayerGB2BGR),
+    # 4:2:2 YUV, two bytes a pixel (USB cameras): yuv422 and uyvy are U Y V Y, yuv422_yuy2 and
+    # yuyv Y U Y V (the ROS names of the same two layouts).
+    'yuv422': EncodingInfo(2, 'uint8', cv2.COLOR_YUV2BGR_UYVY),
+    'uyvy': EncodingInfo(2, 'uint8', cv2.COLOR_YUV2BGR_UYVY),
+    'yuv422_yuy2': EncodingInfo(2, 'uint8', cv2.COLOR_YUV2BGR_YUY2),
+    'yuyv': EncodingInfo(2, 'uint8', cv2.COLOR_YUV2BGR_YUY2),
 }
 
 #: Depth encodings, read only where asked (``decode_raw(..., depth=True)``: the bag reader).
@@ -126,6 +132,8 @@ def decode_raw(
     height, width, step = int(height), int(width), int(step)
     if height <= 0 or width <= 0:
         raise ImageConversionError(f'{encoding} image has zero size ({width}x{height})')
+    if info.channels == 2 and width % 2:  # (4:2:2 YUV: a U and a V for two pixels)
+        raise ImageConversionError(f'{encoding} image {width}x{height}: 4:2:2 needs an even width')
     itemsize = np.dtype(info.dtype).itemsize
     row_bytes = width * info.channels * itemsize
     if step < row_bytes:

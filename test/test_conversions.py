@@ -107,7 +107,7 @@ def _raw(encoding: str, width: int, height: int, step: int, nbytes: int) -> Imag
         (_raw('mono16', 4, 2, 7, 14), 'step 7'),
         (_raw('mono8', 4, 3, 4, 11), 'data has 11 bytes, expected step \\* height = 12'),
         (_raw('bgr8', 4, 2, 16, 20), 'data has 20 bytes'),
-        (_raw('yuv422', 4, 2, 8, 16), "unsupported image encoding 'yuv422'"),
+        (_raw('nv12', 4, 2, 8, 16), "unsupported image encoding 'nv12'"),
         (_raw('32FC1', 4, 2, 16, 32), 'unsupported'),
         (_raw('', 4, 2, 4, 8), 'unsupported'),
         (_raw('mono8', 0, 2, 0, 0), 'zero size'),

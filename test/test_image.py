@@ -28,7 +28,8 @@ def test_decode_raw_rgb8_to_cv_is_bgr():
 @pytest.mark.parametrize(
     ('args', 'words'),
     [
-        (('yuv422', 2, 2, 4), 'unsupported'),
+        (('nv12', 2, 2, 4), 'unsupported'),
+        (('yuv422', 1, 2, 4), 'even width'),
         (('mono8', 0, 2, 0), 'zero size'),
         (('mono8', 4, 2, 3), 'step'),
         (('mono8', 4, 4, 4), 'data has'),
@@ -142,3 +143,18 @@ def test_encoding_names_are_read_in_any_case_and_depth_only_where_asked():
     with pytest.raises(ImageConversionError, match='unsupported image encoding'):
         image.decode_raw(depth, '32FC1', 2, 1, 8)
     assert image.decode_raw(depth, '32fc1', 2, 1, 8, depth=True).dtype == np.float32
+
+
+@pytest.mark.parametrize('encoding', ['yuv422', 'UYVY', 'yuv422_yuy2', 'yuyv'])
+def test_usb_cameras_4_2_2_yuv_is_read(encoding):
+    # before: 'unsupported image encoding' on every frame of a usb_cam driver's stream
+    luma = np.arange(8 * 6, dtype=np.uint8).reshape(6, 8) * 5
+    chroma = np.full_like(luma, 128)  # no colour: every channel is the luma
+    first_is_chroma = encoding.lower() in ('yuv422', 'uyvy')
+    pairs = np.stack((chroma, luma) if first_is_chroma else (luma, chroma), axis=-1)
+    padded = np.zeros((6, 8 * 2 + 4), np.uint8)  # 4 bytes of row padding
+    padded[:, :16] = pairs.reshape(6, 16)
+    bgr = image.raw_to_cv(padded.tobytes(), encoding, 8, 6, 20)
+    assert bgr.shape == (6, 8, 3)
+    grey = np.clip(1.164 * (luma.astype(float) - 16.0), 0, 255)  # BT.601, video range
+    np.testing.assert_allclose(bgr, np.repeat(grey[..., None], 3, axis=2), atol=1.5)

@@ -44,7 +44,7 @@ from initsel_ros.ros.harness import NodeHarness
 from initsel_ros.status import FrameStatus
 
 #: Encodings tried besides the supported ones (unknown, odd, empty).
-FOREIGN_ENCODINGS = ('', '8UC3', 'rgb16', 'yuv422', '32FC1', 'MONO8', 'bgr8 ', 'jpeg\x00')
+FOREIGN_ENCODINGS = ('', '8UC3', 'rgb16', 'nv12', '32FC1', 'MONO8', 'bgr8 ', 'jpeg\x00')
 #: The one reason the node must never report for a fuzzed frame.
 INTERNAL_ERROR_REASON = Reason.INTERNAL_ERROR.value
 #: Largest side of fuzzed images, pixels (kept small so thousands of cases run quickly).
