@@ -35,10 +35,14 @@ CONSEQUENCES: dict[StampIssue, str] = {
     StampIssue.NEGATIVE: 'processed as usual; init/* carry the same negative stamps',
     StampIssue.ZERO: 'processed as usual, but init/* cannot tell frames apart by stamp',
     StampIssue.DUPLICATE: 'processed as usual, but init/* cannot tell these frames apart',
-    StampIssue.OUT_OF_ORDER: 'jitter (within restart_tolerance_s): the frame is skipped',
+    StampIssue.OUT_OF_ORDER: (
+        'jitter (within restart_tolerance_s): the frame is skipped (3 such frames in a row, '
+        'each later than the one before, are a restart)'
+    ),
     StampIssue.RESTART: (
-        'a replay restart or clock reset (further back than restart_tolerance_s): a new '
-        'reference is taken, but in mode once an initialization is kept until ~/reset'
+        'a replay restart or clock reset (further back than restart_tolerance_s, or frames '
+        'going on from a little back): a new reference is taken, but in mode once an '
+        'initialization is kept until ~/reset'
     ),
     StampIssue.GAP: (
         'frames are missing before this one: lost on the way (a best-effort image QoS under '
@@ -56,6 +60,11 @@ PERIOD_WINDOW = 30
 
 #: Default largest jump back in time that is still jitter, nanoseconds (1 s).
 DEFAULT_RESTART_TOLERANCE_NS = 1_000_000_000
+#: Frames in a row behind the latest stamp, each later than the one before, that make a
+#: restart though they are within the tolerance: a stream that started over a little back
+#: (a bag looped every 0.67 s had every later frame skipped as out of order). Jitter delays
+#: single frames.
+RESTART_AFTER_LATE_FRAMES = 3
 
 
 @dataclass(frozen=True)
@@ -97,6 +106,7 @@ class StampMonitor:
         self.restart_tolerance_ns = int(restart_tolerance_ns)
         self._last_ns: int | None = None
         self._intervals: deque[int] = deque(maxlen=PERIOD_WINDOW)
+        self._late: list[int] = []  # the frames in a row behind the latest stamp, rising
 
     def check(self, stamp_ns: int, unchecked: int = 0) -> StampCheck:
         """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order).
@@ -117,10 +127,13 @@ class StampMonitor:
                     issues.append(StampIssue.DUPLICATE)
                 elif stamp_ns < self._last_ns:
                     back_ns = self._last_ns - stamp_ns
-                    late = back_ns <= self.restart_tolerance_ns
+                    late = back_ns <= self.restart_tolerance_ns and not self._started_over(
+                        stamp_ns
+                    )
                     issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
                     if not late:
                         self._intervals.clear()  # (another stream, maybe another rate)
+                        self._late.clear()
                 else:
                     interval = stamp_ns - self._last_ns
                     missing = self._missing(interval, unchecked)
@@ -131,10 +144,19 @@ class StampMonitor:
                         self._intervals.append(interval)
             if StampIssue.OUT_OF_ORDER not in issues:
                 self._last_ns = stamp_ns
+                self._late.clear()
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
         for issue in issues:
             self.counts[issue.value] += 1
         return StampCheck(tuple(issues), new, back_ns)
+
+    def _started_over(self, stamp_ns: int) -> bool:
+        """Is ``stamp_ns``, behind the latest stamp, the :data:`RESTART_AFTER_LATE_FRAMES`-th
+        such frame in a row, each later than the one before?"""
+        if self._late and stamp_ns <= self._late[-1]:
+            self._late.clear()
+        self._late.append(stamp_ns)
+        return len(self._late) >= RESTART_AFTER_LATE_FRAMES
 
     def _missing(self, interval_ns: int, unchecked: int) -> int:
         """Frames missing within ``interval_ns``, which also spans ``unchecked`` frames: 0
@@ -152,6 +174,7 @@ class StampMonitor:
         """Forget the previous stamp (after a reset, any next stamp is fine)."""
         self._last_ns = None
         self._intervals.clear()
+        self._late.clear()
 
 
 __all__ = [
@@ -159,6 +182,7 @@ __all__ = [
     'DEFAULT_RESTART_TOLERANCE_NS',
     'GAP_PERIODS',
     'PERIOD_WINDOW',
+    'RESTART_AFTER_LATE_FRAMES',
     'StampCheck',
     'StampIssue',
     'StampMonitor',

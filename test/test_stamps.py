@@ -119,3 +119,25 @@ def test_params_stamps_and_transport_import_without_ros():
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == 'ok'
+
+
+def test_frames_going_on_from_a_little_back_are_a_restart():
+    # before: a bag looped every 0.67 s (within the 1 s tolerance) had every later frame
+    # skipped as out of order, and never initialized
+    monitor = StampMonitor()
+    period = 33_333_333
+    t = 1_700_000_000 * SECOND
+    for k in range(20):
+        monitor.check(t + k * period)
+    latest = t + 19 * period
+    assert monitor.check(latest - 2 * period).out_of_order  # one late frame: jitter
+    assert monitor.check(latest + period).issues == ()
+    latest += period
+    loop = [monitor.check(t + k * period) for k in range(4)]  # the loop: back 0.67 s
+    assert [c.out_of_order for c in loop[:2]] == [True, True]
+    assert loop[2].restart and not loop[2].out_of_order and loop[2].back_ns > 0
+    assert loop[3].issues == ()  # it goes on from there
+    assert monitor.counts['restart'] == 1 and monitor.counts['out_of_order'] == 3
+    # late frames that do not rise are jitter, however many
+    for k in range(5):
+        assert monitor.check(t + 2 * period - k).out_of_order

@@ -64,7 +64,13 @@ from initsel_ros.ros.params import (
     unknown_parameters_note,
 )
 from initsel_ros.selector import FrameResult, Initialization, Selector
-from initsel_ros.stamps import CONSEQUENCES, StampCheck, StampIssue, StampMonitor
+from initsel_ros.stamps import (
+    CONSEQUENCES,
+    RESTART_AFTER_LATE_FRAMES,
+    StampCheck,
+    StampIssue,
+    StampMonitor,
+)
 from initsel_ros.status import FrameStatus, NodeCounters
 
 try:  # tf2_msgs is not among the PyPI ROS wheels; /tf is broadcast only when it is installed
@@ -558,8 +564,13 @@ class SelectorNode(Node):
         if check.restart:
             kept = self._selector.initialized and self._settings.mode is Mode.ONCE
             self.get_logger().warning(
-                f'restart image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){back}, more '
-                f'than restart_tolerance_s = {self._settings.restart_tolerance_s:g} s: '
+                f'restart image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){back}, '
+                + (
+                    f'more than restart_tolerance_s = {self._settings.restart_tolerance_s:g} s'
+                    if check.back_ns > self._stamps.restart_tolerance_ns
+                    else f'{RESTART_AFTER_LATE_FRAMES} frames in a row went on from a little back'
+                )
+                + ': '
                 + (
                     'the initialization is kept (mode once) until ~/reset'
                     if kept
