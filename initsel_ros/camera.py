@@ -38,6 +38,12 @@ FISHEYE_MODEL = 'equidistant'
 #: 5.7 focal lengths from the centre, and at 90 degrees at infinity: tracks there carry little
 #: geometry and, beyond 90 degrees, none (a fisheye's undistortion returns nonsense).
 MAX_FIELD_ANGLE_DEG = 80.0
+#: A camera without distortion coefficients whose pinhole K gives more than this horizontal
+#: field of view is probably a wide lens whose distortion was not calibrated: few lenses this
+#: wide are pinholes, and an uncorrected one bends a pan's flow so that it passes for motion
+#: (a probe's 118-degree lens without its D initialized on a pure pan and published an orbit
+#: with its translation reversed).
+WIDE_PINHOLE_FOV_DEG = 100.0
 
 
 @dataclass(frozen=True)
@@ -91,6 +97,26 @@ class Intrinsics:
             other.width,
             other.height,
         ) and _effective(self) == _effective(other)
+
+    @property
+    def horizontal_fov_deg(self) -> float:
+        """The horizontal field of view of the pinhole K across the image width, degrees."""
+        left, right = math.atan(self.cx / self.fx), math.atan((self.width - self.cx) / self.fx)
+        return math.degrees(left + right)
+
+    def uncalibrated_lens_note(self) -> str:
+        """Why these intrinsics are probably a wide lens without its distortion ('' when
+        they are not): no distortion coefficients and a field of view over
+        :data:`WIDE_PINHOLE_FOV_DEG`."""
+        fov = self.horizontal_fov_deg
+        if self.fisheye or any(self.distortion) or fov <= WIDE_PINHOLE_FOV_DEG:
+            return ''
+        return (
+            f'a {fov:.0f}-degree field of view with no distortion coefficients: a lens this '
+            'wide is rarely a pinhole, and its uncorrected distortion can make a rotation pass '
+            'for motion; give its calibration (D, or distortion_model equidistant for a '
+            'fisheye)'
+        )
 
     @classmethod
     def tum_fr3(cls) -> Intrinsics:

@@ -614,6 +614,28 @@ def test_a_lens_wider_than_the_pinhole_horizon_is_warned_about(harness_factory, 
     assert 'the image corners are 90 degrees off the optical axis' in capfd.readouterr().err
 
 
+def test_a_wide_lens_without_distortion_is_warned_about(harness_factory, tmp_path, capfd):
+    # before: a 118-degree lens whose camera_info had an empty D said nothing, initialized on
+    # a pure pan and published an orbit's translation reversed
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_camera_info(Intrinsics(250.0, 250.0, 320.0, 240.0, 640, 480))  # 104 degrees
+    h.send_array(texture(14), 1.0)
+    err = capfd.readouterr().err
+    assert 'camera_info: a 104-degree field of view with no distortion coefficients' in err
+    h.send_camera_info(Intrinsics(250.0, 250.0, 320.0, 240.0, 640, 480, (-0.3, 0.1, 0.0, 0.0)))
+    h.send_array(shifted(texture(14), 1, 0.0), 1.033)
+    assert 'no distortion coefficients' not in capfd.readouterr().err  # calibrated: nothing
+
+
+def test_the_lens_note_needs_a_wide_pinhole_without_distortion():
+    assert Intrinsics.tum_fr3().uncalibrated_lens_note() == ''  # 62 degrees
+    wide = Intrinsics(250.0, 250.0, 320.0, 240.0, 640, 480)
+    assert round(wide.horizontal_fov_deg) == 104 and wide.uncalibrated_lens_note()
+    assert Intrinsics(250.0, 250.0, 320.0, 240.0, 640, 480, (0.0,) * 4).uncalibrated_lens_note()
+    fisheye = Intrinsics(250.0, 250.0, 320.0, 240.0, 640, 480, (0.0,) * 4, True)
+    assert fisheye.uncalibrated_lens_note() == ''
+
+
 def test_a_principal_point_outside_the_image_is_refused_and_the_intrinsics_are_kept(
     harness_factory, tmp_path, capfd
 ):

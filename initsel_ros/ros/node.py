@@ -130,6 +130,7 @@ class SelectorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
         self._settings = NodeSettings.from_values(self._declare_parameters())
+        self._warn_uncalibrated_lens(self._settings.intrinsics, 'camera.*')
         # rcl hands over every override of this node; a name the node does not declare would
         # be dropped without a word (a typo in a params file sets nothing)
         overrides = getattr(self, '_parameter_overrides', {})
@@ -310,6 +311,7 @@ class SelectorNode(Node):
                 f'camera.* changed the intrinsics to {settings.intrinsics}: '
                 + self._what_new_intrinsics_do()
             )
+            self._warn_uncalibrated_lens(settings.intrinsics, 'camera.*')
         self._tf_publisher()
 
     def _what_new_intrinsics_do(self) -> str:
@@ -441,6 +443,7 @@ class SelectorNode(Node):
         """Worker: intrinsics of a valid camera_info (another camera starts a new reference)."""
         if self._intrinsics_source != 'camera_info' or self._info_intrinsics is None:
             self.get_logger().info(f'intrinsics from camera_info: {intrinsics}')
+            self._warn_uncalibrated_lens(intrinsics, 'camera_info')
         elif not intrinsics.same_camera(self._info_intrinsics):
             self.get_logger().info(
                 f'camera_info changed the intrinsics from {self._info_intrinsics} to '
@@ -448,8 +451,15 @@ class SelectorNode(Node):
                 f'{WARN_THROTTLE_S:g} s)',
                 throttle_duration_sec=WARN_THROTTLE_S,
             )
+            self._warn_uncalibrated_lens(intrinsics, 'camera_info')
         self._intrinsics_source = 'camera_info'
         self._info_intrinsics = intrinsics
+
+    def _warn_uncalibrated_lens(self, intrinsics: Intrinsics, source: str) -> None:
+        """Warn of a wide lens given without its distortion (``Intrinsics``' note)."""
+        note = intrinsics.uncalibrated_lens_note()
+        if note:
+            self.get_logger().warning(f'{source}: {note}', throttle_duration_sec=WARN_THROTTLE_S)
 
     def _base_intrinsics(self) -> Intrinsics:
         """The intrinsics as given (camera_info or camera.*), before fitting the image size."""
