@@ -473,7 +473,11 @@ def _estimate_and_choose(
     if residual is not None and config.background_test:
         threshold = policy.min_rotation_residual_sigma
         background = background_test(winner, ref, cur, K, residual.noise_px, threshold)
-        if background is not None and background.statistic < threshold:
+        if (
+            background is not None
+            and background.statistic < threshold
+            and not _rest_moves_with_winner(winner, ref, cur, K, background, config)
+        ):
             n_out = int(np.count_nonzero(~np.asarray(winner.inliers, dtype=bool)))
             return FireResult(
                 Reason.ROTATION,
@@ -586,6 +590,32 @@ OFF_PLANE_MIN_RATIO = 3.0
 #: ... and the other misses them clearly: its median at least (this x the RANSAC threshold)
 #: squared, not by a tracking error.
 OFF_PLANE_MIN_MISS = 2.0
+
+
+def _rest_moves_with_winner(
+    winner: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    K: np.ndarray,
+    background: RotationTest,
+    config: FireConfig,
+) -> bool:
+    """Do the tracks ``winner`` left out, which a rotation explains to under the bar but at
+    least ``min_plane_residual_sigma`` of the noise (parallax, though little), move as its
+    motion says: a motion's worth of them with parallax beyond its rotation, on its epipolar
+    lines and in front of both cameras, more than contradict it? Then the rest of the scene
+    is static and seen with the winner's baseline (a plane's H leaving out a table below it),
+    not the background of an object moving on its own, whose flow a camera's rotation is."""
+    if background.statistic < config.policy.min_plane_residual_sigma:
+        return False
+    outside = ~np.asarray(winner.inliers, dtype=bool)
+    support = motion_support(
+        winner, ref[outside], cur[outside], K, background.noise_px, config.ransac_threshold_px
+    )
+    n_out = int(np.count_nonzero(outside))
+    return support.supporting > support.contradicting and support.supporting >= max(
+        BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_out
+    )
 
 
 def _second_motion(support: MotionSupport, n_tracks: int) -> bool:
