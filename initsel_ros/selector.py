@@ -67,6 +67,16 @@ LAST_FRAME_MORE_CERTAIN_MAX_E_T = 0.3
 #: changes sides from frame to frame (straight motion toward a wall: 11-13 % less on
 #: average, on the last frame from 1 % less to 12 % more).
 RIVAL_MAX_RMS_RATIO = 0.9
+#: Where a rival decomposition still holds after the verification frames, the verification
+#: goes on to this many times its frames (it publishes sooner if only one is left holding),
+#: and the choice by :data:`RIVAL_MAX_RMS_RATIO` is made then (where neither fits clearly
+#: better, the fire path's). Flying straight over flat ground, both decompositions of the
+#: ground plane held on 5 frames and the fire path's choice was the wrong one on 4 of 7
+#: flights (E_t 1.44, 3.5-4.1 degrees). The wrong map's misfit grows with the square of the
+#: baseline, so it shows once the baseline has grown a few times: on 5 frames the right one
+#: fitted 17 % worse by the maps' own noise, on 15 the wrong one's RMS had grown 0.09 -> 0.43
+#: px, the right one's stayed at 0.14-0.20.
+AMBIGUOUS_VERIFY_FACTOR = 3
 #: What the fire path tries when the rotation test re-checks model R's veto: E (the general
 #: model of a calibrated camera) and H (a plane), GRIC choosing.
 RECHECK_METHODS = (Method.E, Method.H)
@@ -298,20 +308,27 @@ def _still(decision: Decision) -> Decision:
     )
 
 
-def _verified_choice(chosen: _Candidate, rivals: Sequence[_Candidate]) -> _Candidate:
-    """Of poses that all held on every verification frame, ``chosen`` (the fire path's),
-    unless the rival with the lowest mean RMS is under :data:`RIVAL_MAX_RMS_RATIO` of
-    ``chosen``'s, on average and on the last frame."""
+def _verified_choice(chosen: _Candidate, rivals: Sequence[_Candidate]) -> _Candidate | None:
+    """Of poses that all held on every verification frame, the one whose RMS is under
+    :data:`RIVAL_MAX_RMS_RATIO` of every other's, on average and on the last frame: ``chosen``
+    (the fire path's) or the rival with the lowest mean RMS; ``chosen`` when there is no
+    rival, and None when neither fits better by that margin."""
     rival = min(rivals, key=_Candidate.mean_rms_px, default=None)
     if rival is None or not rival.steps or not chosen.steps:
         return chosen
-    ratio = RIVAL_MAX_RMS_RATIO
-    if (
-        rival.mean_rms_px() < ratio * chosen.mean_rms_px()
-        and rival.steps[-1].rms_px < ratio * chosen.steps[-1].rms_px
-    ):
+
+    def fits_better(one: _Candidate, other: _Candidate) -> bool:
+        ratio = RIVAL_MAX_RMS_RATIO
+        return (
+            one.mean_rms_px() < ratio * other.mean_rms_px()
+            and one.steps[-1].rms_px < ratio * other.steps[-1].rms_px
+        )
+
+    if fits_better(rival, chosen):
         return rival
-    return chosen
+    if all(fits_better(chosen, other) for other in rivals):
+        return chosen
+    return None
 
 
 @dataclass(frozen=True)
@@ -904,23 +921,32 @@ class Selector:
                 ),
             )
         steps = (*candidate.steps, step)
-        if done < wanted:
-            self._candidate = replace(candidate, steps=steps)
+        best = replace(candidate, steps=steps)
+        most = wanted * AMBIGUOUS_VERIFY_FACTOR
+        settled = _verified_choice(best, rivals) if done >= (most if rivals else wanted) else None
+        if settled is None and done < most:
+            self._candidate = best
+            if done < wanted:
+                note = f'frame {done} of {wanted} ok'
+                tail = f'; {len(rivals)} rival decomposition(s) hold too' if rivals else ''
+            else:
+                note = f'frame {done} ok'
+                tail = (
+                    f'; {len(rivals)} rival decomposition(s) hold too: verifying on to frame '
+                    f'{most}, where the longer baseline tells them apart'
+                )
             return replace(
                 base,
                 decision=replace(
                     decision,
                     reason=Reason.VERIFYING,
-                    detail=f'{init.method.value} candidate: frame {done} of {wanted} ok, '
-                    f'{step.detail}'
-                    + (f'; {len(rivals)} rival decomposition(s) hold too' if rivals else ''),
+                    detail=f'{init.method.value} candidate: {note}, {step.detail}{tail}',
                 ),
             )
         self._candidate = None
-        best = replace(candidate, steps=steps)
-        if rivals:  # more than one pose held on every frame
-            best = _verified_choice(best, rivals)
-            init, steps = best.initialization, best.steps
+        undecided = settled is None
+        best = best if settled is None else settled
+        init, steps = best.initialization, best.steps
         again, contradiction = self._on_last_frame(
             best, ref, cur, decision, stamp_ns, since, steps[-1]
         )
@@ -935,6 +961,11 @@ class Selector:
                 ),
             )
         detail = f'{init.method.value} verified on {len(steps)} frames (last: {step.detail})'
+        if undecided:
+            detail += (
+                f'; {len(rivals)} rival decomposition(s) held as well, none fitting '
+                f"{1 - RIVAL_MAX_RMS_RATIO:.0%} better: the fire path's choice"
+            )
         if again is not None and again.method is not init.method:
             detail += (
                 f'; published as {again.method.value} from this frame, whose pose agrees with '

@@ -626,13 +626,16 @@ def _held(rms: tuple[float, ...], tag: int) -> _Candidate:
     return _Candidate(init, np.arange(3), steps)
 
 
-def test_a_rival_decomposition_replaces_the_choice_only_when_it_reprojects_clearly_better():
+def test_a_decomposition_is_chosen_only_when_it_reprojects_clearly_better():
     chosen = _held((0.25, 0.24, 0.27), 1)
     slightly = _held((0.23, 0.22, 0.25), 2)  # 8 % lower: chance, on the same points
     clearly = _held((0.20, 0.19, 0.21), 3)  # 21 % lower
-    assert _verified_choice(chosen, (slightly,)) is chosen
+    # neither fits clearly better: undecided (before: the fire path's choice, which flying
+    # straight over flat ground was the wrong one on 4 of 7 flights)
+    assert _verified_choice(chosen, (slightly,)) is None
     assert _verified_choice(chosen, (slightly, clearly)) is clearly
     assert _verified_choice(clearly, (chosen,)) is clearly
+    assert _verified_choice(clearly, (chosen, slightly)) is clearly
     assert _verified_choice(chosen, ()) is chosen
 
 
@@ -643,10 +646,103 @@ def test_a_rival_decomposition_must_reproject_clearly_better_on_the_last_frame_t
     chosen = _held((0.26, 0.28, 0.21, 0.29, 0.22), 1)
     rival = _held((0.20, 0.22, 0.21, 0.23, 0.23), 2)
     assert rival.mean_rms_px() < 0.9 * chosen.mean_rms_px()
-    assert _verified_choice(chosen, (rival,)) is chosen
+    assert _verified_choice(chosen, (rival,)) is None
     growing = _held((0.30, 0.30, 0.31, 0.34, 0.32), 3)
     right = _held((0.31, 0.29, 0.27, 0.26, 0.22), 4)
     assert _verified_choice(growing, (right,)) is right
+
+
+def _verifying(rms_by_tag: dict[int, list[float]], monkeypatch) -> tuple[Selector, list]:
+    """A selector holding an H candidate (tag 1) and one rival decomposition (tag 2), whose
+    PnP checks give these RMS errors frame by frame (a NaN: the check fails), and the
+    verification frames it is then given (:meth:`Selector._verify`, one per call)."""
+    from initsel_ros.policy import Decision
+
+    sel = Selector(constant_models(), CAMERA)
+    frames = {tag: iter(rms) for tag, rms in rms_by_tag.items()}
+
+    def check(self, candidate, tracks, cur, stamp_ns):
+        rms = next(frames[candidate.initialization.stamp_ns])
+        ok = not math.isnan(rms)
+        return VerifyStep(ok, 100, 100 if ok else 10, 1.0, rms, np.eye(3), np.zeros(3), '')
+
+    monkeypatch.setattr(Selector, '_check', check)
+    monkeypatch.setattr(Selector, '_on_last_frame', lambda self, *a: (None, ''))
+    monkeypatch.setattr(Selector, '_published', lambda self, init: init)
+    chosen, rival = _held((), 1), _held((), 2)
+    sel._candidate = dataclasses.replace(chosen, rivals=(rival,))
+    decision = Decision(Reason.INITIALIZED, {})
+    results = []
+
+    def step(k: int):
+        results.append(sel._verify(None, None, None, decision, k, k, k))
+        return results[-1]
+
+    return step, results
+
+
+def test_two_decompositions_that_both_hold_are_verified_on_until_the_baseline_tells(
+    monkeypatch,
+):
+    # Flying straight over flat ground, both decompositions held on 5 frames within 10 % and
+    # the fire path's choice (tag 1) was the wrong one: its misfit grows with the square of
+    # the baseline, so 15 frames tell. Before, frame 5 published tag 1.
+    wrong = [
+        0.09,
+        0.15,
+        0.16,
+        0.11,
+        0.15,
+        0.15,
+        0.17,
+        0.19,
+        0.22,
+        0.25,
+        0.28,
+        0.31,
+        0.35,
+        0.39,
+        0.43,
+    ]
+    right = [
+        0.10,
+        0.14,
+        0.20,
+        0.17,
+        0.19,
+        0.15,
+        0.17,
+        0.15,
+        0.14,
+        0.15,
+        0.16,
+        0.17,
+        0.18,
+        0.19,
+        0.20,
+    ]
+    step, results = _verifying({1: wrong, 2: right}, monkeypatch)
+    for k in range(1, 15):
+        assert step(k).decision.reason is Reason.VERIFYING, k
+    assert 'verifying on to frame 15' in results[5].decision.detail
+    published = step(15)
+    assert published.decision.reason is Reason.INITIALIZED
+    assert published.initialization.stamp_ns == 2  # the rival
+
+
+def test_a_rival_that_fails_ends_the_longer_verification_at_once(monkeypatch):
+    same = [0.2] * 15
+    step, _ = _verifying({1: same, 2: [0.2] * 6 + [math.nan]}, monkeypatch)
+    reasons = [step(k).decision.reason for k in range(1, 8)]
+    assert reasons == [Reason.VERIFYING] * 6 + [Reason.INITIALIZED]
+
+
+def test_two_decompositions_never_told_apart_publish_the_fire_paths_choice(monkeypatch):
+    step, _ = _verifying({1: [0.2] * 15, 2: [0.21] * 15}, monkeypatch)
+    last = [step(k) for k in range(1, 16)][-1]
+    assert last.decision.reason is Reason.INITIALIZED
+    assert last.initialization.stamp_ns == 1
+    assert 'none fitting 10% better: the fire path' in last.decision.detail
 
 
 def _run_with(path, models, config):
