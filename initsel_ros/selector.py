@@ -968,8 +968,9 @@ class Selector:
             )
         if again is not None and again.method is not init.method:
             detail += (
-                f'; published as {again.method.value} from this frame, whose pose agrees with '
-                f'the verified map'
+                f'; published as {again.method.value} from this frame: its '
+                f'{again.method.value} seed map, from the longer baseline, agrees with the '
+                f'verified {init.method.value} map'
             )
         init = again or init
         verified = self._published(replace(init, verification=steps))
