@@ -135,3 +135,20 @@ def near_evaluation(near_pair_table: Path) -> tuple:
     table = read_table(near_pair_table)
     models = ModelSet.load(default_model_path())
     return table, models, evaluate(table, models)
+
+
+@pytest.fixture
+def opened_sequences(monkeypatch: pytest.MonkeyPatch) -> list[tuple[object, dict]]:
+    """Every ``datasets.open_sequence`` call of the test, as (path, reader options), in order
+    (the sequences are still opened)."""
+    import initsel_ros.datasets as datasets
+
+    calls: list[tuple[object, dict]] = []
+    open_sequence = datasets.open_sequence
+
+    def recording(path: object, **options: object) -> object:
+        calls.append((path, options))
+        return open_sequence(path, **options)
+
+    monkeypatch.setattr(datasets, 'open_sequence', recording)
+    return calls

@@ -9,24 +9,19 @@ import initsel_ros.datasets as datasets
 from initsel_ros.datasets.cache import forget_sequences, keep_sequence, open_cached
 
 
-def test_a_sequence_is_opened_once_per_path_and_reader_options(static_sequence, monkeypatch):
-    opened = []
-    open_sequence = datasets.open_sequence
-    monkeypatch.setattr(
-        datasets,
-        'open_sequence',
-        lambda path, **kw: opened.append(kw) or open_sequence(path, **kw),
-    )
+def test_a_sequence_is_opened_once_per_path_and_reader_options(static_sequence, opened_sequences):
     forget_sequences()
     first = open_cached(static_sequence)
     assert open_cached(str(static_sequence)) is first  # the same path, as text
     other = open_cached(static_sequence, nearest_tolerance=0.5)
-    assert other is not first and opened == [{}, {'nearest_tolerance': 0.5}]
+    assert other is not first
+    assert [options for _, options in opened_sequences] == [{}, {'nearest_tolerance': 0.5}]
     forget_sequences()
-    assert open_cached(static_sequence) is not first and len(opened) == 3
+    assert open_cached(static_sequence) is not first and len(opened_sequences) == 3
     kept = datasets.TumSequence(static_sequence)
     keep_sequence(kept, static_sequence, nearest_tolerance=0.5)
-    assert open_cached(static_sequence, nearest_tolerance=0.5) is kept and len(opened) == 3
+    assert open_cached(static_sequence, nearest_tolerance=0.5) is kept
+    assert len(opened_sequences) == 3
     forget_sequences()
 
 

@@ -17,19 +17,11 @@ from initsel_ros.learn.seedmap import (
 from initsel_ros.models import default_model_path
 
 
-def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence, monkeypatch):
-    import initsel_ros.datasets as datasets
-
-    opened = []
-    open_sequence = datasets.open_sequence
-    monkeypatch.setattr(
-        datasets,
-        'open_sequence',
-        lambda path, **kw: opened.append(path) or open_sequence(path, **kw),
-    )
+def test_seed_map_table_on_a_wall_and_a_desk(wall_arc_sequence, near_sequence, opened_sequences):
     outcomes = evaluate_sequences(
         [wall_arc_sequence, near_sequence], default_model_path(), length=60, step=60, jobs=1
     )
+    opened = [path for path, _ in opened_sequences]
     assert opened == [wall_arc_sequence, near_sequence]  # once each, batches included
     systems = {o.system for o in outcomes}
     assert systems == {'initsel', *RULE_SYSTEMS}
