@@ -393,7 +393,8 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         'verify_frames',
         _VERIFY.frames,
-        'frames that must confirm a candidate by PnP before it is published; 0 = off',
+        'frames that must confirm a candidate by PnP before it is published (3 times as '
+        'many while both decompositions of an H hold); 0 = off',
         Number(0, 100, integer=True),
     ),
     ParameterSpec(
