@@ -258,16 +258,10 @@ def decide(
         remaining = [m for m in fired if m not in config.r_veto]
     if len(remaining) > 1:  # largest margin above the threshold first; sort is stable, so
         remaining.sort(key=lambda m: t(m, 0.5) - p(m, 0.0))  # ties keep PREFERENCE order
-    detail = ''
     if remaining:
         reason = Reason.INITIALIZED
     elif rotation:
         reason = Reason.ROTATION
-        detail = (
-            f'model R says the camera only rotated (p {p("R", 0.0):.2f} >= {t("R", 0.5):.2f}'
-            + (f', vetoing {", ".join(vetoed)}' if vetoed else '')
-            + f'; mean disparity {mean_disparity:.1f} px)'
-        )
     else:
         reason = Reason.NO_MODEL_FIRED
     return Decision(
@@ -278,7 +272,6 @@ def decide(
         tuple(map(_METHODS.__getitem__, remaining)),
         n_tracks,
         mean_disparity,
-        detail=detail,
         referred=referred,
     )
 

@@ -296,6 +296,18 @@ def _noted(result: FrameResult, note: str) -> FrameResult:
     return replace(result, decision=replace(decision, detail=detail))
 
 
+def _rotation_said(decision: Decision, thresholds: Mapping[str, float]) -> Decision:
+    """A rotation by model R, with the detail saying so (the policy decides, the selector
+    explains: the decision's own cost stays the models')."""
+    vetoed = f', vetoing {", ".join(decision.vetoed)}' if decision.vetoed else ''
+    p_r, t_r = decision.probabilities.get('R', 0.0), thresholds.get('R', 0.5)
+    return replace(
+        decision,
+        detail=f'model R says the camera only rotated (p {p_r:.2f} >= {t_r:.2f}{vetoed}; mean '
+        f'disparity {decision.mean_disparity:.1f} px)',
+    )
+
+
 def _still(decision: Decision) -> Decision:
     """A model's yes on a camera that has not moved: low parallax, nothing to try."""
     fired = ', '.join(decision.fired)
@@ -601,6 +613,8 @@ class Selector:
         )
         if decision.positive and decision.mean_disparity < STILL_DISPARITY_PX:
             decision = _still(decision)
+        elif decision.reason is Reason.ROTATION:
+            decision = _rotation_said(decision, self.thresholds)
         if decision.reason is Reason.TOO_FEW_TRACKS:
             if self._candidate is not None:
                 decision = replace(

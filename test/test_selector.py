@@ -49,6 +49,18 @@ def test_first_frame_becomes_the_reference_and_later_frames_carry_reasons():
     assert second.reference_stamp_ns == ns(10.0) and second.frames_since_reference == 1
 
 
+def test_a_rotation_by_model_r_says_so():
+    # before: a still camera's frames said 'rotation' with an empty detail
+    sel = Selector(constant_models(R=0.9), CAMERA)
+    img = texture(4)
+    sel.process(img, ns(10.0))
+    still = sel.process(shifted(img, 0.2, 0.0), ns(10.033))
+    assert still.decision.reason is Reason.ROTATION
+    assert still.decision.detail == (
+        'model R says the camera only rotated (p 0.90 >= 0.50; mean disparity 0.2 px)'
+    )
+
+
 def test_a_new_reference_taken_because_the_old_one_was_dropped_says_why():
     sel = Selector(constant_models(), CAMERA)
     big, small = texture(4), texture(4, shape=(240, 320))
