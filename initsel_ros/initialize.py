@@ -612,20 +612,22 @@ def _rest_moves_with_winner(
     support = motion_support(
         winner, ref[outside], cur[outside], K, background.noise_px, config.ransac_threshold_px
     )
-    n_out = int(np.count_nonzero(outside))
-    return support.supporting > support.contradicting and support.supporting >= max(
-        BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_out
+    return support.supporting > support.contradicting and _a_motions_worth(
+        support.supporting, int(np.count_nonzero(outside))
     )
 
 
 def _second_motion(support: MotionSupport, n_tracks: int) -> bool:
     """Do the tracks that contradict a winner's motion outnumber those that support it, and
-    are they a motion's worth (:data:`BACKGROUND_MIN_TRACKS`, :data:`BACKGROUND_MIN_SHARE` of
-    the tracks), not mistracks?"""
+    are they a motion's worth (:func:`_a_motions_worth`), not mistracks?"""
     against = support.contradicting
-    return against > support.supporting and against >= max(
-        BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_tracks
-    )
+    return against > support.supporting and _a_motions_worth(against, n_tracks)
+
+
+def _a_motions_worth(count: int, n_tracks: int) -> bool:
+    """Are ``count`` of ``n_tracks`` tracks enough to be a motion of their own: at least
+    :data:`BACKGROUND_MIN_TRACKS` and :data:`BACKGROUND_MIN_SHARE` of them?"""
+    return count >= max(BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * n_tracks)
 
 
 def _decomposition_by_the_rest(
@@ -859,7 +861,7 @@ def background_test(
     if outside.shape != (len(ref),) or not math.isfinite(noise_px):
         return None  # (an estimate's inlier mask always has one entry per correspondence)
     n_out = int(np.count_nonzero(outside))
-    if n_out < max(BACKGROUND_MIN_TRACKS, BACKGROUND_MIN_SHARE * len(ref)):
+    if not _a_motions_worth(n_out, len(ref)):
         return None
     test = rotation_test(ref[outside], cur[outside], K, enough_below=threshold, noise_px=noise_px)
     return test if math.isfinite(test.statistic) else None
