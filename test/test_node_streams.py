@@ -495,7 +495,7 @@ def test_automatic_bit_depth_keeps_the_highest_bit_seen_so_far(harness_factory, 
 
 
 def test_automatic_bit_depth_ignores_a_hot_pixel_rises_on_several_frames_and_resets(
-    harness_factory, tmp_path
+    harness_factory, tmp_path, capfd
 ):
     """Issue 22 case 5: one 65535 pixel in a 12-bit mono16 stream used to switch the scaling
     to 16 bits for good, surviving ~/reset."""
@@ -509,7 +509,12 @@ def test_automatic_bit_depth_ignores_a_hot_pixel_rises_on_several_frames_and_res
     assert h.send_array(twelve, next(stamp)).bit_depth == 12
     sixteen = texture(13).astype(np.uint16) << 8
     # A real change of range needs several frames in a row.
-    assert [h.send_array(sixteen, next(stamp)).bit_depth for _ in range(3)] == [12, 12, 16]
+    rising = [h.send_array(sixteen, next(stamp)) for _ in range(3)]
+    assert [s.bit_depth for s in rising] == [12, 12, 16]
+    # the rise is logged as a warning, where the first range was info (rclpy refuses one
+    # call site that changes its severity: the frame failed with an internal error)
+    assert rising[-1].reason != 'internal error'
+    assert 'scaling 16 significant bits to 8' in capfd.readouterr().err
     assert h.send_array(twelve, next(stamp)).bit_depth == 16  # never falls by itself
     assert h.reset().success
     assert h.send_array(twelve, next(stamp)).bit_depth == 12  # ~/reset forgot it
@@ -558,7 +563,7 @@ def test_the_first_frame_waits_for_its_camera_info(harness_factory, tmp_path, ca
     first = h.statuses[0]
     assert first.new_reference and first.intrinsics_source == 'camera_info'
     assert h.send_array(shifted(img, 1, 0), 1.033).frames_since_reference == 1
-    assert 'no camera_info within' not in capfd.readouterr().err
+    assert 'camera_info within' not in capfd.readouterr().err
     # a camera_info that changes the camera later drops the reference, and says why
     h.send_camera_info(Intrinsics.tum_fr3())
     status = h.send_array(shifted(img, 2, 0), 1.066)
@@ -571,7 +576,21 @@ def test_without_camera_info_the_first_frame_goes_on_after_a_short_wait(
     h = harness_factory(model_file=double_model_file(tmp_path))
     status = h.send_array(texture(14), 1.0)
     assert status.new_reference and status.intrinsics_source == 'parameters'
-    assert 'no camera_info within 0.2 s of the first frame' in capfd.readouterr().err
+    assert 'no valid camera_info within 0.2 s of the first frame: the' in capfd.readouterr().err
+
+
+def test_a_refused_first_camera_info_is_named_in_the_wait_message_and_the_status(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    bad = conv.intrinsics_to_camera_info(Intrinsics(600.0, 600.0, 319.5, 239.5, 640, 480))
+    bad.k = [0.0] * 9
+    h.send_camera_info(bad)
+    status = h.send_array(texture(14), 1.0)
+    assert status.intrinsics_source == 'parameters' and status.intrinsics_guessed
+    assert status.intrinsics_warning.startswith('the last camera_info was refused (invalid K')
+    err = capfd.readouterr().err
+    assert 'no valid camera_info within 0.2 s of the first frame (one was refused: ' in err
 
 
 def test_an_equidistant_camera_info_is_a_fisheye_lens_and_another_model_is_refused(
@@ -654,7 +673,16 @@ def test_a_principal_point_outside_the_image_is_refused_and_the_intrinsics_are_k
     assert after.intrinsics == before.intrinsics and after.frames_since_reference == 1
     err = capfd.readouterr().err
     assert 'ignoring camera_info: principal point cx=1e+06 px is outside the 640x480' in err
-    assert err.count('ignoring camera_info') == 1  # throttled
+    assert 'principal point cy=480.5 px' in err  # each problem is logged, not hidden
+    assert err.count('ignoring camera_info') == 3
+    h.send_camera_info(bad)
+    again = h.send_array(shifted(img, 2, 0.0), 1.066)
+    assert capfd.readouterr().err.count('ignoring camera_info') == 0  # the same: throttled
+    assert 'the last camera_info was refused (principal point cy=480.5' in (
+        again.intrinsics_warning
+    )
+    h.send_camera_info(good)
+    assert h.send_array(shifted(img, 3, 0.0), 1.1).intrinsics_warning == ''
 
 
 def test_guessed_intrinsics_are_warned_once_loudly_and_reported_in_the_status(
@@ -819,3 +847,22 @@ def test_new_intrinsics_after_a_once_initialization_say_the_reference_waits_for_
     err = capfd.readouterr().err
     # before: 'new reference', while the frames stayed 'already initialized'
     assert 'a new reference once ~/reset starts over (mode once has initialized)' in err
+
+
+def test_frames_from_two_cameras_on_one_topic_are_warned_about(harness_factory, tmp_path, capfd):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    big, small = texture(14), texture(14, shape=(240, 320))
+    h.send_array(big, 1.0)
+    h.send_array(shifted(big, 1, 0), 1.033)
+    assert 'more than one camera' not in capfd.readouterr().err
+    other = h.image_message(small, 1.05, frame_id='camera_b')
+    h.send(other)
+    err = capfd.readouterr().err
+    assert "frame_id 'camera_b' 320x240 after" in err and 'more than one camera' in err
+    # one camera whose size changes once is not two cameras; back and forth is
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_array(big, 2.0)
+    h.send_array(small, 2.033)
+    assert 'more than one camera' not in capfd.readouterr().err
+    h.send_array(big, 2.066)
+    assert 'more than one camera' in capfd.readouterr().err

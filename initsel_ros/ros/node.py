@@ -12,9 +12,11 @@ docs/node.md for topics, parameters and QoS.
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -171,6 +173,10 @@ class SelectorNode(Node):
         self._intrinsics_warning = ''
         self._guess_logged = False
         self._tf_self_logged = False
+        self._info_refused = ''  # why the last camera_info was refused ('' when it was not)
+        self._warned_at: dict[str, float] = {}  # each warning's last time (monotonic)
+        # the last two frames' frame_id and size (a camera switching back and forth)
+        self._sources: tuple[tuple[str, int, int] | None, ...] = (None, None)
 
         self._method_pub = self.create_publisher(String, 'init/method', LATCHED_QOS)
         self._pose_pub = self.create_publisher(PoseStamped, 'init/pose', LATCHED_QOS)
@@ -340,11 +346,13 @@ class SelectorNode(Node):
         try:
             intrinsics = conv.camera_info_to_intrinsics(msg)
         except ConfigError as exc:
-            self.get_logger().warning(
+            self._info_refused = str(exc)
+            self._warn_each(
+                f'camera_info: {exc}',
                 f'ignoring camera_info: {exc}; keeping the {self._intrinsics_source} intrinsics',
-                throttle_duration_sec=WARN_THROTTLE_S,
             )
             return
+        self._info_refused = ''
         with self._lock:
             self._pending_intrinsics = intrinsics
         self._camera_info_seen = True
@@ -429,9 +437,11 @@ class SelectorNode(Node):
         """
         self._waited_for_camera_info = True
         if not self._camera_info_arrived.wait(CAMERA_INFO_WAIT_S):
+            refused = self._info_refused
             self.get_logger().info(
-                f'no camera_info within {CAMERA_INFO_WAIT_S:g} s of the first frame: the '
-                'camera.* parameters are used until one arrives'
+                f'no valid camera_info within {CAMERA_INFO_WAIT_S:g} s of the first frame'
+                + (f' (one was refused: {refused})' if refused else '')
+                + ': the camera.* parameters are used until one arrives'
             )
             return
         with self._lock:
@@ -454,6 +464,45 @@ class SelectorNode(Node):
             self._warn_uncalibrated_lens(intrinsics, 'camera_info')
         self._intrinsics_source = 'camera_info'
         self._info_intrinsics = intrinsics
+
+    def _warn_each(self, key: str, text: str) -> None:
+        """Log ``text`` as a warning at most every :data:`WARN_THROTTLE_S` per ``key`` (rclpy
+        throttles per call site, so one site's different problems would hide each other)."""
+        now = time.monotonic()
+        if now - self._warned_at.get(key, -math.inf) < WARN_THROTTLE_S:
+            return
+        if len(self._warned_at) > 64:
+            self._warned_at.clear()
+        self._warned_at[key] = now
+        self.get_logger().warning(text)
+
+    def _refused_note(self) -> str:
+        """The status' word on a refused camera_info ('' when the last was valid)."""
+        refused = self._info_refused
+        if not refused:
+            return ''
+        return (
+            f'the last camera_info was refused ({refused}): the {self._intrinsics_source} '
+            'intrinsics are used'
+        )
+
+    def _note_source(self, frame_id: str, width: int, height: int) -> None:
+        """Worker: warn when the frames come from more than one camera (another frame_id, or a
+        size back and forth): each switch of size starts a new reference, so two publishers
+        on one topic keep the selector from ever initializing."""
+        source = (frame_id, width, height)
+        before, last = self._sources
+        self._sources = (last, source)
+        if last is None or last == source:
+            return
+        if last[0] == frame_id and source != before:
+            return  # a size change alone, not back and forth: one camera reconfigured
+        self._warn_each(
+            'sources',
+            f"images from more than one camera on the image topic: frame_id '{frame_id}' "
+            f"{width}x{height} after '{last[0]}' {last[1]}x{last[2]}; the selector follows "
+            'one camera, and every switch of size starts a new reference',
+        )
 
     def _warn_uncalibrated_lens(self, intrinsics: Intrinsics, source: str) -> None:
         """Warn of a wide lens given without its distortion (``Intrinsics``' note)."""
@@ -485,6 +534,7 @@ class SelectorNode(Node):
             return
         try:
             image = self._to_image(msg)
+            self._note_source(msg.header.frame_id, image.shape[1], image.shape[0])
             self._fit_intrinsics(image.shape[1], image.shape[0])
             result = self._selector.process(image, stamp_ns)
         except ImageConversionError as exc:
@@ -545,11 +595,16 @@ class SelectorNode(Node):
             image = conv.image_to_cv(msg, bit_depth, max_pixels=max_pixels)
         if bit_depth.bits != before and not bit_depth.fixed:
             rise = f', up from {before}: {bit_depth.frames} frames in a row needed more'
-            (self.get_logger().warning if before else self.get_logger().info)(
+            text = (
                 f'16-bit images: scaling {bit_depth.bits} significant bits to 8 (bit_depth 0: '
                 f'the bits that hold all but {HOT_PIXEL_FRACTION:.1%} of the pixels'
                 f'{rise if before else ""}; set bit_depth to fix it)'
             )
+            # one severity per call site: rclpy refuses a call site that changes it
+            if before:
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
         return image
 
     def _check_stamp(self, stamp: Time, stamp_ns: int, dropped: int) -> StampCheck:
@@ -668,7 +723,7 @@ class SelectorNode(Node):
             missing_frames=self._stamps.missing,
             intrinsics_source=self._intrinsics_source,
             intrinsics=self._selector.intrinsics.to_dict(),
-            intrinsics_warning=self._intrinsics_warning,
+            intrinsics_warning=self._intrinsics_warning or self._refused_note(),
             bit_depth=self._selector.bit_depth.bits or None,
             stamp_issues=self._stamps.counts,
         )
