@@ -43,6 +43,10 @@ MAX_FIELD_ANGLE_DEG = 80.0
 #: wide are pinholes, and an uncorrected one bends a pan's flow so that it passes for motion
 #: (a probe's 118-degree lens without its D initialized on a pure pan and published an orbit
 #: with its translation reversed).
+#: Undistorted, the image's border must span at least this share of its width and height.
+#: Barrel distortion spreads it, pincushion shrinks it by tens of per cent; a calibration
+#: that folds it much further is a wrong one.
+MIN_UNDISTORTED_SPAN = 0.25
 WIDE_PINHOLE_FOV_DEG = 100.0
 
 
@@ -78,6 +82,8 @@ class Intrinsics:
                     f'principal point {name}={c:g} px is outside the {self.width}x{self.height} '
                     f'image (expected 0 <= {name} <= {size})'
                 )
+        if self.has_distortion:
+            self._check_lens_span()
         diagonal = math.hypot(self.width, self.height)
         for name, f in (('fx', self.fx), ('fy', self.fy)):
             if not MIN_FOCAL_PER_DIAGONAL * diagonal <= f <= MAX_FOCAL_PER_DIAGONAL * diagonal:
@@ -85,6 +91,29 @@ class Intrinsics:
                     f'{name}={f:g} px is implausible for a {self.width}x{self.height} image '
                     f'(expected {MIN_FOCAL_PER_DIAGONAL:g} to {MAX_FOCAL_PER_DIAGONAL:g} '
                     'times the diagonal)'
+                )
+
+    def _check_lens_span(self) -> None:
+        """Raise ConfigError when the distortion folds the image onto a sliver: undistorted,
+        its border must span at least :data:`MIN_UNDISTORTED_SPAN` of the image across and
+        down (k1 = 1e30 maps every pixel to the principal point, and every track then reads
+        as a still camera)."""
+        w, h = self.width, self.height
+        border = np.array(
+            [[0, 0], [w / 2, 0], [w, 0], [w, h / 2], [w, h], [w / 2, h], [0, h], [0, h / 2]],
+            dtype=np.float64,
+        )
+        ideal = self.undistort_pixels(border).astype(np.float64)
+        for axis, size, name in ((0, w, 'across'), (1, h, 'down')):
+            values = ideal[:, axis]
+            if not np.all(np.isfinite(values)):
+                continue  # beyond a fisheye's horizon: a wide lens, not a sliver
+            span = float(values.max() - values.min())
+            if span < MIN_UNDISTORTED_SPAN * size:
+                raise ConfigError(
+                    f'distortion {list(self.distortion)} folds the {w}x{h} image onto '
+                    f'{span:.3g} px {name} ({span / size:.1%} of it; at least '
+                    f'{MIN_UNDISTORTED_SPAN:.0%} expected): not a lens calibration'
                 )
 
     def same_camera(self, other: Intrinsics) -> bool:

@@ -161,3 +161,25 @@ def test_an_infinite_image_size_in_an_intrinsics_file_is_one_line_naming_it(tmp_
     path.write_text('fx: 500\nfy: 500\ncx: 320\ncy: 240\nwidth: .inf\nheight: 480\n')
     with pytest.raises(ConfigError, match=f'^{path}: intrinsics need'):  # was OverflowError
         Intrinsics.load_yaml(path)
+
+
+@pytest.mark.parametrize('k1', [1e30, 1e6])
+def test_a_distortion_that_folds_the_image_onto_a_sliver_is_refused(k1):
+    # k1 = 1e30 used to be taken: every undistorted track sat on the principal point, and
+    # the node said "the camera has hardly moved" on every frame of a moving camera
+    with pytest.raises(ConfigError, match='folds the 640x480 image onto'):
+        Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480, (k1, 0.0, 0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize(
+    'distortion, fisheye',
+    [
+        ((0.2624, -0.9531, -0.0054, 0.0026, 1.1633), False),  # TUM fr1
+        ((-0.2834, 0.0740, 0.0002, 0.00002), False),  # EuRoC
+        ((5.0, 0.0, 0.0, 0.0, 0.0), False),  # strong pincushion: 47 % of the width
+        ((-0.01, 0.05, -0.05, 0.01), True),  # a fisheye past the pinhole's horizon
+    ],
+)
+def test_real_and_strong_lenses_keep_their_distortion(distortion, fisheye):
+    f = 285.0 if fisheye else 500.0
+    Intrinsics(f, f, 320.0, 240.0, 640, 480, distortion, fisheye)
