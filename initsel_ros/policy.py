@@ -97,7 +97,8 @@ class Decision:
     Attributes:
         reason: the outcome (see :class:`Reason`).
         probabilities: model name -> probability of 'yes'.
-        fired: models at or above their threshold.
+        fired: of F, E and H, the models at or above their threshold (R's yes is
+            reason ROTATION).
         vetoed: models that fired but were silenced by model R.
         candidates: methods to try, most confident first.
         n_tracks: tracked correspondences.

@@ -93,7 +93,8 @@ class NodeCounters:
             stamps (lost on the way, or a camera that paused).
         intrinsics_source: 'parameters' (camera.*) or 'camera_info'.
         intrinsics: the intrinsics in use (fx, fy, cx, cy, width, height), or None.
-        intrinsics_warning: why the pose uses guessed intrinsics ('' when it does not).
+        intrinsics_warning: why the intrinsics in use are doubtful: guessed, or the last
+            camera_info refused ('' when they are not).
         bit_depth: significant bits used to scale 16-bit images (None until one arrives).
         stamp_issues: stamp issue ('negative', 'zero', 'duplicate', 'out_of_order',
             'restart') -> frames.

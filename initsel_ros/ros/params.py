@@ -265,7 +265,13 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         ParameterSpec(
             f'thresholds.{m}',
             -1.0,
-            f"probability threshold of model {m} in [0, 1]; negative = the model file's",
+            f"probability threshold of model {m} in [0, 1]; negative = the model file's"
+            + (
+                ''
+                if m == 'R'
+                else ' (at 1.0 the rotation re-check can still try E and H: '
+                'rotation_recheck_frames 0 stops it)'
+            ),
             _THRESHOLD,
         )
         for m in MODEL_NAMES
