@@ -866,3 +866,16 @@ def test_frames_from_two_cameras_on_one_topic_are_warned_about(harness_factory, 
     assert 'more than one camera' not in capfd.readouterr().err
     h.send_array(big, 2.066)
     assert 'more than one camera' in capfd.readouterr().err
+
+
+def test_16uc1_images_are_read_and_the_depth_encoding_is_pointed_out_once(
+    harness_factory, tmp_path, capfd
+):
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    img = texture(13).astype(np.uint16) << 4
+    assert h.send_array(img, 1.0, '16UC1').reason == 'new reference'
+    h.send_array(img, 1.033, '16UC1')
+    err = capfd.readouterr().err
+    assert err.count('16UC1 is what depth cameras publish depth in') == 1
+    h.send_array(img, 1.066, 'mono16')
+    assert '16UC1' not in capfd.readouterr().err

@@ -174,6 +174,7 @@ class SelectorNode(Node):
         self._guess_logged = False
         self._tf_self_logged = False
         self._info_refused = ''  # why the last camera_info was refused ('' when it was not)
+        self._depth_encoding_warned = False
         self._warned_at: dict[str, float] = {}  # each warning's last time (monotonic)
         # the last two frames' frame_id and size (a camera switching back and forth)
         self._sources: tuple[tuple[str, int, int] | None, ...] = (None, None)
@@ -593,6 +594,13 @@ class SelectorNode(Node):
             )
         else:
             image = conv.image_to_cv(msg, bit_depth, max_pixels=max_pixels)
+            if msg.encoding.upper() == '16UC1' and not self._depth_encoding_warned:
+                self._depth_encoding_warned = True
+                self.get_logger().warning(
+                    '16UC1 images: read as 16-bit intensity, but 16UC1 is what depth cameras '
+                    'publish depth in (REP 118); if the image topic is a depth image, remap it '
+                    'to the intensity or colour image: a depth map has few corners to track'
+                )
         if bit_depth.bits != before and not bit_depth.fixed:
             rise = f', up from {before}: {bit_depth.frames} frames in a row needed more'
             text = (
