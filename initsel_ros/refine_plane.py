@@ -28,6 +28,7 @@ import numpy as np
 from scipy.special import fdtri
 
 from initsel_ros.geometry import triangulate_pair
+from initsel_ros.plane import fit_plane
 from initsel_ros.refine import (
     Refinement,
     State,
@@ -119,17 +120,6 @@ def plane_translation_sigma_deg(lin: _PlaneLinearization) -> float:
     return math.degrees(math.sqrt(largest * variance))
 
 
-def _fit_plane(points: np.ndarray) -> np.ndarray | None:
-    """``p`` of the plane ``X . p = 1`` through ``points`` (M, 3) by least squares, or None
-    (too few finite points in front, or a singular fit)."""
-    usable = np.all(np.isfinite(points), axis=1) & (points[:, 2] > 0)
-    if np.count_nonzero(usable) < MIN_PLANE_POINTS:
-        return None
-    X = points[usable]
-    p, _, rank, _ = np.linalg.lstsq(X, np.ones(len(X)), rcond=None)
-    return p if rank == 3 and np.all(np.isfinite(p)) else None
-
-
 def refine_homography(
     R: np.ndarray,
     t: np.ndarray,
@@ -166,7 +156,7 @@ def _refine_plane(
 ) -> tuple[Refinement, _PlaneLinearization] | tuple[None, None]:
     """:func:`refine_homography` on a checked problem, with the final linearization (its
     transfer residuals); ``(None, None)`` without a plane to fit."""
-    plane = _fit_plane(problem.points)
+    plane = fit_plane(problem.points, MIN_PLANE_POINTS)
     if plane is None:
         return None, None
     K = problem.K

@@ -30,7 +30,14 @@ from initsel_ros.initialize import (
 from initsel_ros.model_selection import Selection
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
-from initsel_ros.plane import depth_sigma, snap_to_plane
+from initsel_ros.plane import (
+    PlaneNormal,
+    depth_sigma,
+    homography_normals,
+    normal_drift_deg,
+    plane_normal,
+    snap_to_plane,
+)
 from initsel_ros.policy import (
     Decision,
     PolicyConfig,
@@ -77,6 +84,28 @@ RIVAL_MAX_RMS_RATIO = 0.9
 #: fitted 17 % worse by the maps' own noise, on 15 the wrong one's RMS had grown 0.09 -> 0.43
 #: px, the right one's stayed at 0.14-0.20.
 AMBIGUOUS_VERIFY_FACTOR = 3
+#: Where rival decompositions hold, the one whose plane stays with the later frames'
+#: homographies is chosen as soon as the verification frames show it (from
+#: ``VerifyConfig.frames`` on). On each frame, each map's plane is compared with the nearest
+#: plane of the homography from the reference to that frame (:func:`plane.normal_drift_deg`),
+#: in units of the two planes' uncertainty (the map's from its points' depth uncertainty at
+#: the fire frame's baseline, the homography's as that of the same points at this frame's:
+#: :func:`plane.plane_normal`, with the fire path's noise estimate). The mirrored map's plane
+#: is the fire frame's alone and drifts as the baseline grows (flying over flat ground with
+#: yaw and noise: 0.2 -> 1.7 degrees over 15 frames, 1.6 -> 15.5 times the uncertainty; the
+#: right map's 0.1-0.3 degrees, 0.7-1.7 times), while its RMS can grow just like the right
+#: one's. Over the last
+#: ``VerifyConfig.frames`` frames, the candidate chosen must lie within this many
+#: uncertainties on average, and nearer than every rival on each frame.
+RIVAL_STEADY_Z = 3.0
+#: ... and every rival at least this many on average.
+RIVAL_DRIFT_Z = 5.0
+#: ... and the two maps' planes at least this far apart, degrees. The mirrored plane's normal
+#: lies near the direction of motion, so moving toward the plane the two stay close and the
+#: mirror barely drifts: straight toward the README's wall (8 batches, planes 33-37 degrees
+#: apart) the right map lay 2-3 uncertainties off the homographies and the mirrored one
+#: nearer, which chose the mirrored map on 3 of them.
+RIVAL_MIN_PLANE_ANGLE_DEG = 45.0
 #: What the fire path tries when the rotation test re-checks model R's veto: E (the general
 #: model of a calibrated camera) and H (a plane), GRIC choosing.
 RECHECK_METHODS = (Method.E, Method.H)
@@ -244,6 +273,13 @@ class _Candidate:
     steps: tuple[VerifyStep, ...] = ()
     rivals: tuple[_Candidate, ...] = ()
     methods: tuple[Method, ...] = ()  # what the fire path tried (the last frame tries again)
+    #: the plane of the map's points and the noise that measured it (while rivals hold)
+    plane: PlaneNormal | None = None
+    noise_px: float = math.nan
+    #: per checked frame while rivals hold: the plane's angle to that frame's homography's,
+    #: degrees, and the same in units of the two planes' uncertainty
+    drift_deg: tuple[float, ...] = ()
+    drift_z: tuple[float, ...] = ()
 
     def mean_rms_px(self) -> float:
         """Mean RMS reprojection error over the frames checked so far, pixels."""
@@ -320,6 +356,16 @@ def _still(decision: Decision) -> Decision:
     )
 
 
+def _fits_better(one: _Candidate, other: _Candidate) -> bool:
+    """``one``'s RMS is under :data:`RIVAL_MAX_RMS_RATIO` of ``other``'s, on average over the
+    verification frames and on the last one."""
+    ratio = RIVAL_MAX_RMS_RATIO
+    return (
+        one.mean_rms_px() < ratio * other.mean_rms_px()
+        and one.steps[-1].rms_px < ratio * other.steps[-1].rms_px
+    )
+
+
 def _verified_choice(chosen: _Candidate, rivals: Sequence[_Candidate]) -> _Candidate | None:
     """Of poses that all held on every verification frame, the one whose RMS is under
     :data:`RIVAL_MAX_RMS_RATIO` of every other's, on average and on the last frame: ``chosen``
@@ -328,18 +374,51 @@ def _verified_choice(chosen: _Candidate, rivals: Sequence[_Candidate]) -> _Candi
     rival = min(rivals, key=_Candidate.mean_rms_px, default=None)
     if rival is None or not rival.steps or not chosen.steps:
         return chosen
-
-    def fits_better(one: _Candidate, other: _Candidate) -> bool:
-        ratio = RIVAL_MAX_RMS_RATIO
-        return (
-            one.mean_rms_px() < ratio * other.mean_rms_px()
-            and one.steps[-1].rms_px < ratio * other.steps[-1].rms_px
-        )
-
-    if fits_better(rival, chosen):
+    if _fits_better(rival, chosen):
         return rival
-    if all(fits_better(chosen, other) for other in rivals):
+    if all(_fits_better(chosen, other) for other in rivals):
         return chosen
+    return None
+
+
+def _tracked(candidate: _Candidate, tracks: Tracks) -> tuple[np.ndarray, np.ndarray]:
+    """Where the candidate's map tracks are in ``tracks`` (index, clipped) and which of them
+    are there."""
+    ids = candidate.track_ids
+    pos = np.minimum(np.searchsorted(tracks.ids, ids), max(len(tracks.ids) - 1, 0))
+    tracked = (tracks.ids[pos] == ids) if len(tracks.ids) else np.zeros(len(ids), bool)
+    return pos, tracked
+
+
+def _steady_plane(candidates: Sequence[_Candidate], frames: int) -> tuple[_Candidate, str] | None:
+    """The candidate whose plane stays with the last ``frames`` frames' homographies while
+    every other's drifts away (:data:`RIVAL_STEADY_Z`, :data:`RIVAL_DRIFT_Z`,
+    :data:`RIVAL_MIN_PLANE_ANGLE_DEG`), and a sentence saying so; None when none does so
+    clearly, or another fits clearly better by RMS (:func:`_fits_better`)."""
+    if frames < 1 or any(len(c.drift_z) < frames or c.plane is None for c in candidates):
+        return None
+    z = np.array([c.drift_z[-frames:] for c in candidates])
+    angle = np.array([c.drift_deg[-frames:] for c in candidates])
+    if not np.all(np.isfinite(z)):
+        return None
+    steady = int(np.argmin(z.mean(axis=1)))
+    chosen = candidates[steady]
+    others = [c for i, c in enumerate(candidates) if i != steady]
+    apart = min(normal_drift_deg(c.plane.normal, chosen.plane.normal[None]) for c in others)
+    own, theirs = z[steady].mean(), np.delete(z, steady, axis=0).mean(axis=1).min()
+    if (
+        apart >= RIVAL_MIN_PLANE_ANGLE_DEG
+        and own <= RIVAL_STEADY_Z
+        and theirs >= RIVAL_DRIFT_Z
+        and np.all(np.delete(angle, steady, axis=0) > angle[steady])
+        and not any(_fits_better(c, chosen) for c in others)
+    ):
+        why = (
+            f"its plane stayed with the later frames' homographies ({own:.1f} x its "
+            f'uncertainty on average over the last {frames}, {angle[steady].mean():.2f} '
+            f"degrees), the rival's drifted ({theirs:.1f} x)"
+        )
+        return chosen, why
     return None
 
 
@@ -809,17 +888,21 @@ class Selector:
         detail = f'{context}{init.method.value}: {fire.detail}'
         if self.config.verify.frames > 0:
             rivals = tuple(
-                _Candidate(
+                self._held_candidate(
                     self._initialization(
                         seed, ref, cur, decision, stamp_ns, since, fire.selection
                     ),
                     np.asarray(ids)[seed.indices],
-                    methods=methods,
+                    methods,
+                    fire.alternatives,
                 )
                 for seed in fire.alternatives
             )
-            self._candidate = _Candidate(
-                init, np.asarray(ids)[fire.seed.indices], rivals=rivals, methods=methods
+            self._candidate = replace(
+                self._held_candidate(
+                    init, np.asarray(ids)[fire.seed.indices], methods, fire.alternatives
+                ),
+                rivals=rivals,
             )
             return replace(
                 result,
@@ -834,6 +917,21 @@ class Selector:
             initialization=self._published(init),
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
         )
+
+    def _held_candidate(
+        self,
+        init: Initialization,
+        track_ids: np.ndarray,
+        methods: tuple[Method, ...],
+        alternatives: Sequence[SeedMap],
+    ) -> _Candidate:
+        """A candidate for verification; where rival decompositions come with it, with its
+        map's plane, to follow against the later frames' homographies."""
+        if not alternatives:
+            return _Candidate(init, track_ids, methods=methods)
+        noise = init.selection.sigma_px if init.selection is not None else math.nan
+        plane = plane_normal(init.points, init.R, init.t, noise, self.intrinsics.fx)
+        return _Candidate(init, track_ids, methods=methods, plane=plane, noise_px=noise)
 
     def _schedule_next(self, fire: FireResult, since: int, recheck: bool, h_tried: bool) -> str:
         """Schedule the next fire-path run for want of baseline after this one (a re-check
@@ -902,14 +1000,19 @@ class Selector:
         """Check the held-back candidate on this frame; publish it once enough frames agree."""
         assert self._candidate is not None
         # Every rival pose of the pair is checked on this frame; the first that holds leads.
+        everyone = (self._candidate, *self._candidate.rivals)
+        normals = (
+            self._homography_normals(self._candidate, tracks, cur) if len(everyone) > 1 else None
+        )
         checked = [
-            (c, self._check(c, tracks, cur, stamp_ns))
-            for c in (self._candidate, *self._candidate.rivals)
+            (c, step, self._drifted(c, step, normals))
+            for c in everyone
+            for step in [self._check(c, tracks, cur, stamp_ns)]
         ]
-        holding = [(c, s) for c, s in checked if s.ok]
-        candidate, step = holding[0] if holding else checked[0]
-        rivals = tuple(replace(c, steps=(*c.steps, s), rivals=()) for c, s in holding[1:])
-        candidate = replace(candidate, rivals=rivals)
+        holding = [(c, s, d) for c, s, d in checked if s.ok]
+        candidate, step, drift = holding[0] if holding else checked[0]
+        rivals = tuple(replace(d, steps=(*c.steps, s), rivals=()) for c, s, d in holding[1:])
+        candidate = replace(drift, rivals=rivals)
         init = candidate.initialization
         base = FrameResult(
             index,
@@ -937,7 +1040,13 @@ class Selector:
         steps = (*candidate.steps, step)
         best = replace(candidate, steps=steps)
         most = wanted * AMBIGUOUS_VERIFY_FACTOR
-        settled = _verified_choice(best, rivals) if done >= (most if rivals else wanted) else None
+        settled, steady = None, None
+        if done >= wanted and rivals:
+            steady = _steady_plane((best, *rivals), wanted)
+        if steady is not None:
+            settled = steady[0]
+        elif done >= (most if rivals else wanted):
+            settled = _verified_choice(best, rivals)
         if settled is None and done < most:
             self._candidate = best
             if done < wanted:
@@ -975,6 +1084,9 @@ class Selector:
                 ),
             )
         detail = f'{init.method.value} verified on {len(steps)} frames (last: {step.detail})'
+        if steady is not None:
+            detail += f'; {len(rivals)} rival decomposition(s) held as well, this one chosen: '
+            detail += steady[1]
         if undecided:
             detail += (
                 f'; {len(rivals)} rival decomposition(s) held as well, none fitting '
@@ -1086,13 +1198,48 @@ class Selector:
                 return again, ''
         return None, ''
 
+    def _drifted(
+        self, candidate: _Candidate, step: VerifyStep, normals: np.ndarray | None
+    ) -> _Candidate:
+        """The candidate with this frame's angle between its map's plane and the nearest of
+        this frame's homography's, in degrees and in units of their uncertainty (NaN
+        without them); unchanged when there are no rivals (``normals`` None)."""
+        if normals is None:
+            return candidate
+        plane, angle, z = candidate.plane, math.nan, math.nan
+        if plane is not None and step.ok:
+            angle = normal_drift_deg(plane.normal, normals)
+            init = candidate.initialization
+            here = plane_normal(
+                init.points, step.R, step.t, candidate.noise_px, self.intrinsics.fx
+            )
+            if here is not None:
+                z = angle / math.hypot(plane.sigma_deg, here.sigma_deg)
+        return replace(
+            candidate,
+            drift_deg=(*candidate.drift_deg, angle),
+            drift_z=(*candidate.drift_z, z),
+        )
+
+    def _homography_normals(
+        self, candidate: _Candidate, tracks: Tracks, cur: np.ndarray
+    ) -> np.ndarray:
+        """The plane normals of the homography from the reference to this frame, fitted to
+        the candidate's map tracks (:func:`plane.homography_normals`)."""
+        pos, tracked = _tracked(candidate, tracks)
+        return homography_normals(
+            np.asarray(candidate.initialization.pixels_ref, np.float64)[tracked],
+            np.asarray(cur)[pos[tracked]],
+            self.intrinsics.K,
+            self.config.ransac_threshold_px,
+        )
+
     def _check(
         self, candidate: _Candidate, tracks: Tracks, cur: np.ndarray, stamp_ns: int
     ) -> VerifyStep:
         """PnP of one candidate's map points against their tracks in this frame."""
         ids = candidate.track_ids
-        pos = np.minimum(np.searchsorted(tracks.ids, ids), max(len(tracks.ids) - 1, 0))
-        tracked = (tracks.ids[pos] == ids) if len(tracks.ids) else np.zeros(len(ids), bool)
+        pos, tracked = _tracked(candidate, tracks)
         pixels = np.zeros((len(ids), 2))
         pixels[tracked] = cur[pos[tracked]]
         init = candidate.initialization

@@ -33,6 +33,16 @@ def desk_start_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def desk_mirror_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The README seed map's desk batch 630 (near_test, seed 11, frames 630-665): an H whose
+    two decompositions both hold on 15 verification frames, the fire path's choice the
+    mirrored one."""
+    return _render(
+        tmp_path_factory, 'desk_mirror', trajectory='near', frames=36, start=630, seed=11
+    )
+
+
+@pytest.fixture(scope='session')
 def far_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Default scene, the near motion (frames 80-139) at twice the distance."""
     return _render(tmp_path_factory, 'far', trajectory='far', frames=60, start=80)
