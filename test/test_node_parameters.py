@@ -105,6 +105,13 @@ def test_parameters_of_rclpy_itself_stay_settable(node):
     assert result.successful, result.reason
 
 
+def test_an_unknown_parameter_is_refused_and_named_with_a_guess(node, capfd):
+    [result] = node.set_parameters({'min_parralax_deg': 2.0})
+    assert not result.successful
+    err = capfd.readouterr().err
+    assert 'no such parameter: min_parralax_deg (min_parallax_deg?)' in err
+
+
 def test_valid_changes_apply_to_the_running_selector_from_the_next_frame(node):
     img = texture(22)
     assert node.send_array(img, 1.0).reason == 'new reference'

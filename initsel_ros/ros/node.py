@@ -221,6 +221,7 @@ class SelectorNode(Node):
                 callback_group=self._input_group,
             )
         self.create_service(Trigger, '~/reset', self._on_reset, callback_group=self._input_group)
+        self.add_pre_set_parameters_callback(self._name_unknown_parameters)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         thresholds = self._selector.thresholds
@@ -465,6 +466,17 @@ class SelectorNode(Node):
             self._warn_uncalibrated_lens(intrinsics, 'camera_info')
         self._intrinsics_source = 'camera_info'
         self._info_intrinsics = intrinsics
+
+    def _name_unknown_parameters(self, parameters: list[Parameter]) -> list[Parameter]:
+        """Pre-set callback: log the names of parameters the node does not have, with the one
+        each was probably meant to be (rclpy refuses them with an empty list of names), and
+        pass the list on unchanged."""
+        unknown = [p.name for p in parameters if not self.has_parameter(p.name)]
+        if unknown:
+            self.get_logger().warning(
+                f'refused: no such parameter: {unknown_parameters_note(unknown)}'
+            )
+        return parameters
 
     def _warn_each(self, key: str, text: str) -> None:
         """Log ``text`` as a warning at most every :data:`WARN_THROTTLE_S` per ``key`` (rclpy
