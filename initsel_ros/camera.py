@@ -38,15 +38,15 @@ FISHEYE_MODEL = 'equidistant'
 #: 5.7 focal lengths from the centre, and at 90 degrees at infinity: tracks there carry little
 #: geometry and, beyond 90 degrees, none (a fisheye's undistortion returns nonsense).
 MAX_FIELD_ANGLE_DEG = 80.0
+#: Undistorted, the image's border must span at least this share of its width and height.
+#: Barrel distortion spreads it, pincushion shrinks it by tens of per cent; a calibration
+#: that folds it much further is a wrong one.
+MIN_UNDISTORTED_SPAN = 0.25
 #: A camera without distortion coefficients whose pinhole K gives more than this horizontal
 #: field of view is probably a wide lens whose distortion was not calibrated: few lenses this
 #: wide are pinholes, and an uncorrected one bends a pan's flow so that it passes for motion
 #: (a probe's 118-degree lens without its D initialized on a pure pan and published an orbit
 #: with its translation reversed).
-#: Undistorted, the image's border must span at least this share of its width and height.
-#: Barrel distortion spreads it, pincushion shrinks it by tens of per cent; a calibration
-#: that folds it much further is a wrong one.
-MIN_UNDISTORTED_SPAN = 0.25
 WIDE_PINHOLE_FOV_DEG = 100.0
 
 
