@@ -811,7 +811,7 @@ def test_the_decomposition_whose_plane_stays_with_later_homographies_is_publishe
     last = _verify_until_published(step, results)
     assert last.decision.reason is Reason.INITIALIZED
     assert last.initialization.stamp_ns == 2  # the rival
-    assert len(results) == 7  # frames 3-7: the mirrored plane 5.1 x its uncertainty
+    assert len(results) == 7  # frames 3-7 (on frame 2 both 0.33 degrees): 5.1 x
     assert "its plane stayed with the later frames' homographies (1.0 x" in last.decision.detail
     assert "the rival's drifted (5.1 x)" in last.decision.detail
 
@@ -829,7 +829,7 @@ def test_planes_close_to_each_other_are_not_told_apart_by_their_drift(monkeypatc
 @pytest.mark.parametrize(
     'mirrored',
     [
-        [(1.0, 4.5)] * 15,  # under 5 uncertainties
+        [(1.0, 3.5)] * 15,  # under 4 uncertainties
         [(1.0, 8.0), (1.0, 8.0), (0.1, 8.0), (1.0, 8.0), (1.0, 8.0)] * 3,  # nearer on a frame
     ],
 )
