@@ -53,6 +53,12 @@ def depth_sigma(
         return np.sqrt(2.0) * noise_px / (focal_px * parallax)
 
 
+def _weighable(points: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """(M,) bool: the points in front, finite, with a finite positive depth uncertainty."""
+    usable = np.isfinite(sigma) & (sigma > 0) & np.all(np.isfinite(points), axis=1)
+    return usable & (points[:, 2] > 0)
+
+
 def snap_to_plane(
     points: np.ndarray, sigma: np.ndarray, max_sigma: float = PLANE_MAX_SIGMA
 ) -> PlaneFit:
@@ -69,8 +75,7 @@ def snap_to_plane(
     points = np.asarray(points, dtype=np.float64)
     sigma = np.asarray(sigma, dtype=np.float64)
     unchanged = PlaneFit(points, np.zeros(len(points), bool), np.full(3, np.nan))
-    usable = np.isfinite(sigma) & (sigma > 0) & np.all(np.isfinite(points), axis=1)
-    usable &= points[:, 2] > 0
+    usable = _weighable(points, sigma)
     keep = usable.copy()
     p = np.full(3, np.nan)
     for _ in range(_REFITS + 1):
@@ -145,8 +150,7 @@ def plane_normal(
     :data:`PLANE_MIN_POINTS` usable points or a singular fit."""
     points = np.asarray(points, np.float64)
     sigma = depth_sigma(points, R, t, noise_px, focal_px)
-    usable = np.isfinite(sigma) & (sigma > 0) & np.all(np.isfinite(points), axis=1)
-    usable &= points[:, 2] > 0
+    usable = _weighable(points, sigma)
     if np.count_nonzero(usable) < PLANE_MIN_POINTS:
         return None
     weighted = points[usable] / sigma[usable, None]
