@@ -897,13 +897,16 @@ class Selector:
                     ),
                     np.asarray(ids)[seed.indices],
                     methods,
-                    fire.alternatives,
+                    rivalled=True,
                 )
                 for seed in fire.alternatives
             )
             self._candidate = replace(
                 self._held_candidate(
-                    init, np.asarray(ids)[fire.seed.indices], methods, fire.alternatives
+                    init,
+                    np.asarray(ids)[fire.seed.indices],
+                    methods,
+                    rivalled=bool(fire.alternatives),
                 ),
                 rivals=rivals,
             )
@@ -926,11 +929,13 @@ class Selector:
         init: Initialization,
         track_ids: np.ndarray,
         methods: tuple[Method, ...],
-        alternatives: Sequence[SeedMap],
+        *,
+        rivalled: bool,
     ) -> _Candidate:
-        """A candidate for verification; where rival decompositions come with it, with its
-        map's plane, to follow against the later frames' homographies."""
-        if not alternatives:
+        """A candidate for verification; where rival decompositions come with it
+        (``rivalled``), with its map's plane, to follow against the later frames'
+        homographies."""
+        if not rivalled:
             return _Candidate(init, track_ids, methods=methods)
         noise = init.selection.sigma_px if init.selection is not None else math.nan
         plane = plane_normal(init.points, init.R, init.t, noise, self.intrinsics.fx)
