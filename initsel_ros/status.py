@@ -98,6 +98,8 @@ class NodeCounters:
         bit_depth: significant bits used to scale 16-bit images (None until one arrives).
         stamp_issues: stamp issue ('negative', 'zero', 'duplicate', 'out_of_order',
             'restart') -> frames.
+        source_warning: why the frames look like more than one camera on the image topic
+            ('' when they do not).
     """
 
     initialized: bool = False
@@ -112,6 +114,7 @@ class NodeCounters:
     intrinsics_warning: str = ''
     bit_depth: int | None = None
     stamp_issues: Mapping[str, int] = field(default_factory=dict)
+    source_warning: str = ''
 
 
 @dataclass(frozen=True)
@@ -155,6 +158,7 @@ class FrameStatus:
     intrinsics_warning: str
     bit_depth: int | None
     stamp_issues: Mapping[str, int]
+    source_warning: str
     selection: Mapping[str, Any] | None
     verification: VerificationStatus | None
     rotation_test: Mapping[str, float | None] | None = None
@@ -241,6 +245,7 @@ class FrameStatus:
             intrinsics_warning=counters.intrinsics_warning,
             bit_depth=counters.bit_depth,
             stamp_issues=dict(counters.stamp_issues),
+            source_warning=counters.source_warning,
             selection=None if selection is None else selection.to_dict(),
             verification=None if step is None else VerificationStatus.from_step(step),
             rotation_test=(
@@ -271,8 +276,10 @@ class FrameStatus:
 
     @property
     def diagnostic_level(self) -> str:
-        """'WARN' for a WARN reason or guessed intrinsics, else 'OK' (``/diagnostics``)."""
-        return 'WARN' if self.level == 'WARN' or self.intrinsics_guessed else 'OK'
+        """'WARN' for a WARN reason, guessed intrinsics or frames from more than one camera,
+        else 'OK' (``/diagnostics``)."""
+        warn = self.level == 'WARN' or self.intrinsics_guessed or bool(self.source_warning)
+        return 'WARN' if warn else 'OK'
 
     def diagnostic_values(self) -> dict[str, str]:
         """The ``/diagnostics`` key-values of this frame, in order."""
@@ -291,6 +298,8 @@ class FrameStatus:
                 else self.intrinsics_source
             ),
         }
+        if self.source_warning:
+            values['source'] = self.source_warning
         if self.selection is not None:
             values['selection'] = str(self.selection['why'])
         return values
@@ -326,8 +335,9 @@ class FrameStatus:
                 verification.
         """
         names = [f.name for f in fields(cls)]
-        # (records of earlier versions have no 'referred' and no 'fire_path_due_in')
-        data = {'referred': [], 'fire_path_due_in': None, **data}
+        # (records of earlier versions have no 'referred', 'fire_path_due_in' or
+        # 'source_warning')
+        data = {'referred': [], 'fire_path_due_in': None, 'source_warning': '', **data}
         missing = [n for n in names if n not in data]
         unknown = sorted(set(data) - set(names))
         problems = ([f'missing {", ".join(missing)}'] if missing else []) + (

@@ -849,22 +849,34 @@ def test_new_intrinsics_after_a_once_initialization_say_the_reference_waits_for_
     assert 'a new reference once ~/reset starts over (mode once has initialized)' in err
 
 
-def test_frames_from_two_cameras_on_one_topic_are_warned_about(harness_factory, tmp_path, capfd):
+def test_frames_from_two_cameras_on_one_topic_are_warned_about(
+    harness_factory, tmp_path, capfd, monkeypatch
+):
+    monkeypatch.setattr(node_module, 'SOURCE_WARNING_FRAMES', 3)
     h = harness_factory(model_file=double_model_file(tmp_path))
     big, small = texture(14), texture(14, shape=(240, 320))
     h.send_array(big, 1.0)
-    h.send_array(shifted(big, 1, 0), 1.033)
+    status = h.send_array(shifted(big, 1, 0), 1.033)
     assert 'more than one camera' not in capfd.readouterr().err
+    assert status.source_warning == '' and status.diagnostic_level == 'OK'
     other = h.image_message(small, 1.05, frame_id='camera_b')
-    h.send(other)
+    status = h.send(other)
     err = capfd.readouterr().err
     assert "frame_id 'camera_b' 320x240 after" in err and 'more than one camera' in err
+    # ~/status says so too (the log is throttled), and /diagnostics warns
+    assert "frame_id 'camera_b' 320x240 after" in status.source_warning
+    assert status.diagnostic_level == 'WARN' and 'source' in status.diagnostic_values()
+    # ... until SOURCE_WARNING_FRAMES frames in a row come from one camera
+    statuses = [
+        h.send(h.image_message(small, 1.1 + 0.033 * i, frame_id='camera_b')) for i in range(3)
+    ]
+    assert [bool(s.source_warning) for s in statuses] == [True, True, False]
     # one camera whose size changes once is not two cameras; back and forth is
     h = harness_factory(model_file=double_model_file(tmp_path))
     h.send_array(big, 2.0)
-    h.send_array(small, 2.033)
+    assert h.send_array(small, 2.033).source_warning == ''
     assert 'more than one camera' not in capfd.readouterr().err
-    h.send_array(big, 2.066)
+    assert 'more than one camera' in h.send_array(big, 2.066).source_warning
     assert 'more than one camera' in capfd.readouterr().err
 
 

@@ -109,6 +109,8 @@ LATCHED_QOS = _keep_last(1, ReliabilityPolicy.RELIABLE, DurabilityPolicy.TRANSIE
 STATUS_QOS = _keep_last(10, ReliabilityPolicy.RELIABLE)
 TF_QOS = _keep_last(100, ReliabilityPolicy.RELIABLE)
 WARN_THROTTLE_S = 5.0
+#: ``~/status``' source_warning clears after this many frames in a row from one camera.
+SOURCE_WARNING_FRAMES = 300
 #: The executor's wait slice in main(), seconds: how soon a stop signal is seen.
 SPIN_SLICE_S = 0.1
 #: How long the first frame waits for its camera_info (use_camera_info), seconds; frames
@@ -178,6 +180,8 @@ class SelectorNode(Node):
         self._warned_at: dict[str, float] = {}  # each warning's last time (monotonic)
         # the last two frames' frame_id and size (a camera switching back and forth)
         self._sources: tuple[tuple[str, int, int] | None, ...] = (None, None)
+        self._source_warning = ''  # ~/status: the last switch between cameras, while recent
+        self._frames_one_source = 0
 
         self._method_pub = self.create_publisher(String, 'init/method', LATCHED_QOS)
         self._pose_pub = self.create_publisher(PoseStamped, 'init/pose', LATCHED_QOS)
@@ -502,20 +506,25 @@ class SelectorNode(Node):
     def _note_source(self, frame_id: str, width: int, height: int) -> None:
         """Worker: warn when the frames come from more than one camera (another frame_id, or a
         size back and forth): each switch of size starts a new reference, so two publishers
-        on one topic keep the selector from ever initializing."""
+        on one topic keep the selector from ever initializing. ``~/status`` says so
+        (``source_warning``) until :data:`SOURCE_WARNING_FRAMES` frames in a row come from
+        one camera."""
         source = (frame_id, width, height)
         before, last = self._sources
         self._sources = (last, source)
-        if last is None or last == source:
+        if last is None or last == source or (last[0] == frame_id and source != before):
+            # the same camera (a size change alone, not back and forth: one camera reconfigured)
+            self._frames_one_source += 1
+            if self._frames_one_source >= SOURCE_WARNING_FRAMES:
+                self._source_warning = ''
             return
-        if last[0] == frame_id and source != before:
-            return  # a size change alone, not back and forth: one camera reconfigured
-        self._warn_each(
-            'sources',
+        self._frames_one_source = 0
+        self._source_warning = (
             f"images from more than one camera on the image topic: frame_id '{frame_id}' "
             f"{width}x{height} after '{last[0]}' {last[1]}x{last[2]}; the selector follows "
-            'one camera, and every switch of size starts a new reference',
+            'one camera, and every switch of size starts a new reference'
         )
+        self._warn_each('sources', self._source_warning)
 
     def _warn_uncalibrated_lens(self, intrinsics: Intrinsics, source: str) -> None:
         """Warn of a wide lens given without its distortion (``Intrinsics``' note)."""
@@ -746,6 +755,7 @@ class SelectorNode(Node):
             intrinsics_warning=self._intrinsics_warning or self._refused_note(),
             bit_depth=self._selector.bit_depth.bits or None,
             stamp_issues=self._stamps.counts,
+            source_warning=self._source_warning,
         )
         status = FrameStatus.from_result(
             result,
