@@ -51,6 +51,7 @@ def node(harness_factory, tmp_path):
         ('thresholds.E', math.nan, 'thresholds.E must be a finite number <= 1'),
         ('mode', 'sometimes', "mode must be one of 'once', 'continuous'"),
         ('r_veto', ['X'], 'r_veto must name models among F, E, H'),
+        ('r_veto', ['F', 'F'], 'r_veto names F more than once'),
         ('min_parallax_deg', math.nan, r'min_parallax_deg must be a finite number in [0, 90]'),
         ('min_tracks', 400, 'min_tracks (400) > max_features (300)'),
         ('camera.fx', -1.0, 'focal lengths must be positive'),

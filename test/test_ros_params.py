@@ -113,6 +113,7 @@ NAN = float('nan')
         ({'r_veto': ['R']}, 'r_veto must name models among F, E, H'),
         ({'r_veto': ['X']}, r"r_veto must name models among F, E, H, got \['X'\]"),
         ({'r_veto': 'F'}, 'r_veto must be a list'),
+        ({'r_veto': ['E', 'E']}, r"r_veto names E more than once: \['E', 'E'\]"),
         ({'min_tracks': 0}, r'min_tracks must be an integer in \[1, 10000\], got 0'),
         ({'max_features': -5}, r'max_features must be an integer in \[1, 10000\], got -5'),
         ({'max_features': 1_000_000_000_000}, r'max_features must be an integer in \[1, 10000\]'),

@@ -173,6 +173,9 @@ class Subset:
             raise ConfigError(
                 f'{name} must name models among {", ".join(self.allowed)}, got {sorted(names)}'
             )
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:  # (a typo for another model, most likely: say so rather than merge)
+            raise ConfigError(f'{name} names {", ".join(repeated)} more than once: {names}')
         return frozenset(names)
 
     def __str__(self) -> str:
