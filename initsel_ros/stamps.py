@@ -75,11 +75,15 @@ class StampCheck:
         issues: every issue of this stamp.
         new: those seen for the first time on this stream (to be logged).
         back_ns: how far time went back, nanoseconds (0 unless OUT_OF_ORDER or RESTART).
+        late_restart: a RESTART within the tolerance: the
+            :data:`RESTART_AFTER_LATE_FRAMES`-th frame in a row from a little back (else a
+            restart is a jump back beyond the tolerance).
     """
 
     issues: tuple[StampIssue, ...] = ()
     new: tuple[StampIssue, ...] = ()
     back_ns: int = 0
+    late_restart: bool = False
 
     @property
     def out_of_order(self) -> bool:
@@ -119,6 +123,7 @@ class StampMonitor:
         if stamp_ns < 0:
             issues.append(StampIssue.NEGATIVE)
         back_ns = 0
+        late_restart = False
         if stamp_ns == 0:  # not stamped: no time to compare, and none to remember
             issues.append(StampIssue.ZERO)
         else:
@@ -127,9 +132,9 @@ class StampMonitor:
                     issues.append(StampIssue.DUPLICATE)
                 elif stamp_ns < self._last_ns:
                     back_ns = self._last_ns - stamp_ns
-                    late = back_ns <= self.restart_tolerance_ns and not self._started_over(
-                        stamp_ns
-                    )
+                    within = back_ns <= self.restart_tolerance_ns
+                    late = within and not self._started_over(stamp_ns)
+                    late_restart = within and not late
                     issues.append(StampIssue.OUT_OF_ORDER if late else StampIssue.RESTART)
                     if not late:
                         self._intervals.clear()  # (another stream, maybe another rate)
@@ -148,7 +153,7 @@ class StampMonitor:
         new = tuple(issue for issue in issues if self.counts[issue.value] == 0)
         for issue in issues:
             self.counts[issue.value] += 1
-        return StampCheck(tuple(issues), new, back_ns)
+        return StampCheck(tuple(issues), new, back_ns, late_restart)
 
     def _started_over(self, stamp_ns: int) -> bool:
         """Is ``stamp_ns``, behind the latest stamp, the :data:`RESTART_AFTER_LATE_FRAMES`-th

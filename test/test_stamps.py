@@ -82,7 +82,8 @@ def test_jitter_within_the_tolerance_is_out_of_order_and_keeps_the_latest_stamp(
     assert monitor.check(10 * SECOND - 500_000).out_of_order
     assert monitor.check(10 * SECOND - SECOND).out_of_order  # exactly the tolerance
     assert monitor.check(10 * SECOND + 1).issues == ()
-    assert monitor.check(8 * SECOND).restart  # 2 s back: a restart, which becomes the latest
+    jump = monitor.check(8 * SECOND)  # 2 s back: a restart, which becomes the latest
+    assert jump.restart and not jump.late_restart
     assert monitor.check(8 * SECOND + 33_000_000).issues == ()
 
 
@@ -136,6 +137,7 @@ def test_frames_going_on_from_a_little_back_are_a_restart():
     loop = [monitor.check(t + k * period) for k in range(4)]  # the loop: back 0.67 s
     assert [c.out_of_order for c in loop[:2]] == [True, True]
     assert loop[2].restart and not loop[2].out_of_order and loop[2].back_ns > 0
+    assert loop[2].late_restart and not any(c.late_restart for c in loop[:2])
     assert loop[3].issues == ()  # it goes on from there
     assert monitor.counts['restart'] == 1 and monitor.counts['out_of_order'] == 3
     # late frames that do not rise are jitter, however many

@@ -657,12 +657,13 @@ class SelectorNode(Node):
                 )
         if check.restart:
             kept = self._selector.initialized and self._settings.mode is Mode.ONCE
+            tolerance = self._settings.restart_tolerance_s
             self.get_logger().warning(
                 f'restart image stamp (sec {stamp.sec}, nanosec {stamp.nanosec}){back}, '
                 + (
-                    f'more than restart_tolerance_s = {self._settings.restart_tolerance_s:g} s'
-                    if check.back_ns > self._stamps.restart_tolerance_ns
-                    else f'{RESTART_AFTER_LATE_FRAMES} frames in a row went on from a little back'
+                    f'{RESTART_AFTER_LATE_FRAMES} frames in a row went on from a little back'
+                    if check.late_restart
+                    else f'more than restart_tolerance_s = {tolerance:g} s'
                 )
                 + ': '
                 + (
