@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -325,6 +325,25 @@ class Intrinsics:
             height,
             self.distortion,
             self.fisheye,
+        )
+
+    def binned(self, factor: int) -> Intrinsics:
+        """The camera of this one's images shrunk by averaging whole blocks of ``factor`` x
+        ``factor`` pixels (:func:`~initsel_ros.image.downscaled`), size floor(size /
+        factor): focal lengths divided by ``factor``, and a pixel centre x of this camera at
+        (x + 0.5) / factor - 0.5 (:func:`~initsel_ros.image.unbinned_pixels` maps back);
+        itself for a factor of 1."""
+        if factor <= 1:
+            return self
+        k = float(factor)
+        return replace(
+            self,
+            fx=self.fx / k,
+            fy=self.fy / k,
+            cx=(self.cx + 0.5) / k - 0.5,
+            cy=(self.cy + 0.5) / k - 0.5,
+            width=self.width // factor,
+            height=self.height // factor,
         )
 
     def resized_sensor(self, width: int, height: int) -> Intrinsics:

@@ -501,6 +501,36 @@ def encode_compressed(
     return buffer.tobytes(), f'{encoding}; {fmt} compressed {encoding}'
 
 
+def tracking_factor(width: int, max_width: int) -> int:
+    """The smallest whole factor (1, 2, 3, ...) that brings an image ``width`` pixels wide
+    within ``max_width`` (0 or less: 1, no limit)."""
+    if max_width <= 0 or width <= max_width:
+        return 1
+    return -(-width // max_width)
+
+
+def downscaled(image: np.ndarray, factor: int) -> np.ndarray:
+    """``image`` (grey, colour or 16-bit) shrunk by a whole ``factor``: each block of factor x
+    factor pixels averaged into one, the last columns and rows that fill no block left out
+    (floor(width / factor) x floor(height / factor)); the image itself for a factor of 1.
+    Its camera is :meth:`~initsel_ros.camera.Intrinsics.binned`, and its pixels map back to
+    ``image``'s by :func:`unbinned_pixels`."""
+    if factor <= 1:
+        return image
+    h, w = image.shape[:2]
+    size = (max(w // factor, 1), max(h // factor, 1))
+    whole = image[: size[1] * factor, : size[0] * factor]
+    return cv2.resize(whole, size, interpolation=cv2.INTER_AREA)
+
+
+def unbinned_pixels(pixels: np.ndarray, factor: int) -> np.ndarray:
+    """Pixel coordinates (..., 2) of an image :func:`downscaled` by ``factor``, in the
+    original image's (pixel centres at whole numbers in both: x -> factor x + (factor -
+    1) / 2); float64."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    return pixels if factor <= 1 else pixels * factor + 0.5 * (factor - 1)
+
+
 def _png_size(head: bytes) -> tuple[int, int] | None:
     """(width, height) from a PNG's IHDR chunk, or None."""
     if len(head) < 24 or head[12:16] != b'IHDR':
@@ -546,6 +576,7 @@ __all__ = [
     'compressed_to_cv',
     'decode_compressed',
     'decode_raw',
+    'downscaled',
     'encode_compressed',
     'encoding_info',
     'raw_to_cv',
@@ -554,4 +585,6 @@ __all__ = [
     'to_bgr',
     'to_cv',
     'to_gray',
+    'tracking_factor',
+    'unbinned_pixels',
 ]

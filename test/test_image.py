@@ -158,3 +158,56 @@ def test_usb_cameras_4_2_2_yuv_is_read(encoding):
     assert bgr.shape == (6, 8, 3)
     grey = np.clip(1.164 * (luma.astype(float) - 16.0), 0, 255)  # BT.601, video range
     np.testing.assert_allclose(bgr, np.repeat(grey[..., None], 3, axis=2), atol=1.5)
+
+
+def test_tracking_factor_is_the_smallest_whole_factor_within_the_width():
+    from initsel_ros.image import tracking_factor
+
+    assert [tracking_factor(w, 1280) for w in (640, 1280, 1281, 1920, 2560, 3840)] == [
+        1,
+        1,
+        2,
+        2,
+        2,
+        3,
+    ]
+    assert tracking_factor(1920, 0) == 1  # 0: no limit
+
+
+@pytest.mark.parametrize('dtype,channels', [(np.uint8, 1), (np.uint8, 3), (np.uint16, 1)])
+def test_downscaled_averages_whole_blocks(dtype, channels):
+    from initsel_ros.image import downscaled
+
+    rng = np.random.default_rng(0)
+    shape = (7, 9) if channels == 1 else (7, 9, channels)
+    image = rng.integers(0, 200, size=shape).astype(dtype)
+    assert downscaled(image, 1) is image
+    small = downscaled(image, 2)
+    assert small.shape[:2] == (3, 4) and small.dtype == dtype
+    block = image[0:2, 2:4].astype(np.float64).mean(axis=(0, 1))
+    np.testing.assert_allclose(small[0, 1], block, atol=0.5 + 1e-9)  # (rounded)
+    bottom_right = image[4:6, 6:8].astype(np.float64).mean(axis=(0, 1))  # (row 6, column 8:
+    np.testing.assert_allclose(small[2, 3], bottom_right, atol=0.5 + 1e-9)  # in no block)
+
+
+@pytest.mark.parametrize('factor', [2, 3])
+def test_binned_intrinsics_and_unbinned_pixels_agree_with_the_averaged_blocks(factor):
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.image import downscaled, unbinned_pixels
+
+    camera = Intrinsics.tum_fr3()
+    small = camera.binned(factor)
+    assert (small.width, small.height) == (640 // factor, 480 // factor)
+    assert small.fx == pytest.approx(camera.fx / factor)
+    # the principal point maps back onto itself, and a small pixel onto its block's centre
+    back = unbinned_pixels(np.array([[small.cx, small.cy], [0.0, 0.0]]), factor)
+    np.testing.assert_allclose(back, [[camera.cx, camera.cy], [(factor - 1) / 2] * 2])
+    # a bright spot's centroid lands where unbinned_pixels says
+    image = np.zeros((480, 640), np.uint8)
+    image[101 : 101 + 2 * factor, 203 : 203 + 2 * factor] = 255  # spot centre (205.5+, 102.5+)
+    shrunk = downscaled(image, factor).astype(np.float64)
+    ys, xs = np.indices(shrunk.shape)
+    centroid = [(xs * shrunk).sum() / shrunk.sum(), (ys * shrunk).sum() / shrunk.sum()]
+    want = [203 + factor - 0.5, 101 + factor - 0.5]
+    np.testing.assert_allclose(unbinned_pixels(np.array(centroid), factor), want, atol=1e-9)
+    assert camera.binned(1) is camera

@@ -52,6 +52,11 @@ def node(harness_factory, tmp_path):
         ('mode', 'sometimes', "mode must be one of 'once', 'continuous'"),
         ('r_veto', ['X'], 'r_veto must name models among F, E, H'),
         ('r_veto', ['F', 'F'], 'r_veto names F more than once'),
+        (
+            'max_tracking_width',
+            100,
+            'max_tracking_width must be 0 (full size) or an integer in [320',
+        ),
         ('min_parallax_deg', math.nan, r'min_parallax_deg must be a finite number in [0, 90]'),
         ('min_tracks', 400, 'min_tracks (400) > max_features (300)'),
         ('camera.fx', -1.0, 'focal lengths must be positive'),

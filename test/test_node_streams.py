@@ -891,3 +891,39 @@ def test_16uc1_images_are_read_and_the_depth_encoding_is_pointed_out_once(
     assert err.count('16UC1 is what depth cameras publish depth in') == 1
     h.send_array(img, 1.066, 'mono16')
     assert '16UC1' not in capfd.readouterr().err
+
+
+def test_frames_wider_than_max_tracking_width_are_tracked_shrunk_and_published_full_size(
+    harness_factory, near_sequence, capfd
+):
+    sequence = as_sequence(near_sequence)
+    big = sequence.intrinsics.scaled(1280, 960)  # the camera of the frames as sent
+    h = harness_factory(max_tracking_width=640)
+    h.send_camera_info(big)
+    statuses = []
+    for i, frame in enumerate(sequence.frames):
+        image = cv2.resize(sequence.image(i), (1280, 960), interpolation=cv2.INTER_LINEAR)
+        statuses.append(h.send_array(image, frame.stamp))
+        if statuses[-1].method:
+            break
+    assert statuses[-1].method, [s.reason.value for s in statuses]
+    # tracked at 640x480 with the intrinsics shrunk alike, and no warning about a size change
+    used = statuses[-1].intrinsics
+    assert (used['width'], used['height']) == (640, 480)
+    assert used['fx'] == pytest.approx(big.fx / 2)
+    assert used['cx'] == pytest.approx((big.cx + 0.5) / 2 - 0.5)
+    assert 'scaling the intrinsics' not in capfd.readouterr().err
+    h.wait_until(lambda: h.poses and h.clouds, what='init/pose and init/points')
+    cur, ref = init_and_reference(statuses)
+    assert_good_direction(sequence, h.poses[0], ref, cur)
+    # init/points' pixels are the sent frames': the points project there with their camera
+    cloud = conv.point_cloud_to_array(h.clouds[0])
+    x, y, z = (cloud[k].astype(np.float64) for k in ('x', 'y', 'z'))
+    u, v = big.fx * x / z + big.cx, big.fy * y / z + big.cy
+    assert np.median(np.hypot(u - cloud['u0'], v - cloud['v0'])) < 2.0
+    assert cloud['u0'].max() > 640 and cloud['v0'].max() > 480
+    # a live change: the next frame at full size, with the frames' own intrinsics
+    assert h.set_parameters({'max_tracking_width': 0})[0].successful
+    image = cv2.resize(sequence.image(len(statuses)), (1280, 960))
+    status = h.send_array(image, sequence.frames[len(statuses)].stamp)
+    assert status.intrinsics['width'] == 1280 and status.intrinsics['fx'] == pytest.approx(big.fx)

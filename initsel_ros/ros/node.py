@@ -47,7 +47,12 @@ from std_srvs.srv import Trigger
 from initsel_ros import timestamps
 from initsel_ros.camera import MAX_FIELD_ANGLE_DEG, Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
-from initsel_ros.image import HOT_PIXEL_FRACTION
+from initsel_ros.image import (
+    HOT_PIXEL_FRACTION,
+    downscaled,
+    tracking_factor,
+    unbinned_pixels,
+)
 from initsel_ros.models import ModelSet
 from initsel_ros.names import Mode
 from initsel_ros.overlay import draw_frame_overlay
@@ -557,7 +562,9 @@ class SelectorNode(Node):
         try:
             image = self._to_image(msg)
             self._note_source(msg.header.frame_id, image.shape[1], image.shape[0])
-            self._fit_intrinsics(image.shape[1], image.shape[0])
+            factor = tracking_factor(image.shape[1], self._settings.max_tracking_width)
+            self._fit_intrinsics(image.shape[1], image.shape[0], factor)
+            image = downscaled(image, factor)
             result = self._selector.process(image, stamp_ns)
         except ImageConversionError as exc:
             self._skipped += 1
@@ -580,7 +587,12 @@ class SelectorNode(Node):
             self.get_logger().info(f'{reason.value}: {detail}; looking on')
         if result.initialization is not None:
             try:
-                self._publish_initialization(result.initialization, stamp, msg.header.frame_id)
+                self._publish_initialization(
+                    result.initialization,
+                    stamp,
+                    msg.header.frame_id,
+                    factor,
+                )
             except Exception as exc:  # never claim an initialization nobody received
                 self._selector.reset()
                 self.get_logger().error(
@@ -677,8 +689,9 @@ class SelectorNode(Node):
             self._selector.restart()
         return check
 
-    def _fit_intrinsics(self, width: int, height: int) -> None:
-        """Give the selector the intrinsics for this image size (scaled when they differ).
+    def _fit_intrinsics(self, width: int, height: int, factor: int = 1) -> None:
+        """Give the selector the intrinsics for this image size (scaled when they differ),
+        binned by ``factor`` where ``max_tracking_width`` shrinks the frames.
 
         Scaling the untouched TUM defaults to another camera is a guess: warned once, loudly,
         and reported in every status until real intrinsics arrive.
@@ -711,6 +724,13 @@ class SelectorNode(Node):
                 raise ImageConversionError(
                     f'a {width}x{height} image does not fit the intrinsics: {exc}'
                 ) from exc
+        try:  # shrunk for tracking: no guess, no warning
+            wanted = wanted.binned(factor)
+        except ConfigError as exc:
+            raise ImageConversionError(
+                f'a {width}x{height} image shrunk {factor} times does not fit the intrinsics: '
+                f'{exc}'
+            ) from exc
         if not wanted.same_camera(self._selector.intrinsics):
             self._selector.set_intrinsics(wanted)
             angle = wanted.corner_field_angle_deg
@@ -782,9 +802,15 @@ class SelectorNode(Node):
         self._diag_pub.publish(array)
 
     def _publish_initialization(
-        self, init: Initialization, stamp: Time, image_frame_id: str
+        self,
+        init: Initialization,
+        stamp: Time,
+        image_frame_id: str,
+        factor: int = 1,
     ) -> None:
-        """init/method, init/pose (current frame's stamp), init/points (reference's), /tf."""
+        """init/method, init/pose (current frame's stamp), init/points (reference's), /tf;
+        ``factor``: how many times the frames were shrunk for tracking
+        (``max_tracking_width``): init/points gives its pixels in the frames' own."""
         frame_id = self._settings.reference_frame_id
         current_stamp = (
             stamp if conv.stamp_to_ns(stamp) == init.stamp_ns else conv.ns_to_stamp(init.stamp_ns)
@@ -792,7 +818,12 @@ class SelectorNode(Node):
         current = Header(stamp=current_stamp, frame_id=frame_id)
         reference = Header(stamp=conv.ns_to_stamp(init.reference_stamp_ns), frame_id=frame_id)
         pose = conv.make_pose_stamped(init.R, init.t, current)
-        points = conv.make_point_cloud(init.points, init.pixels_ref, init.pixels_cur, reference)
+        points = conv.make_point_cloud(
+            init.points,
+            unbinned_pixels(init.pixels_ref, factor),
+            unbinned_pixels(init.pixels_cur, factor),
+            reference,
+        )
         self._method_pub.publish(String(data=init.method.value))
         self._pose_pub.publish(pose)
         self._points_pub.publish(points)

@@ -44,6 +44,8 @@ NODE_NAME = 'selector'
 SECTION_KEYS = (NODE_NAME, f'/{NODE_NAME}', f'/**/{NODE_NAME}', '/**')
 #: Upper bound of ``max_features`` (and of the counts compared with it).
 MAX_FEATURES_LIMIT = 10_000
+#: Smallest ``max_tracking_width``: narrower frames hold too few corners far enough apart.
+MIN_TRACKING_WIDTH = 320
 #: Default ``max_image_pixels``: 4096 x 2160 (DCI 4K).
 DEFAULT_MAX_IMAGE_PIXELS = 4096 * 2160
 
@@ -219,6 +221,23 @@ class BitDepth:
 
     def __str__(self) -> str:
         return '0 (automatic) or an integer in [8, 16]'
+
+
+@dataclass(frozen=True)
+class TrackingWidth:
+    """0 (track at full size) or a width in [MIN_TRACKING_WIDTH, 65536] pixels."""
+
+    def __call__(self, name: str, value: Any) -> int:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int)
+            or not (value == 0 or MIN_TRACKING_WIDTH <= value <= 65536)
+        ):
+            raise ConfigError(f'{name} must be {self}, got {value!r}')
+        return int(value)
+
+    def __str__(self) -> str:
+        return f'0 (full size) or an integer in [{MIN_TRACKING_WIDTH}, 65536]'
 
 
 Validator = Callable[[str, Any], Any]
@@ -458,6 +477,15 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(1, MAX_DECODED_PIXELS, integer=True),
     ),
     ParameterSpec(
+        'max_tracking_width',
+        0,
+        'frames wider than this many pixels are shrunk by the smallest whole factor (2, 3, '
+        '...) that brings them within it, by area averaging, before anything else (the '
+        'intrinsics shrink with them; init/points keeps full-size pixels); 0 = full size. '
+        '1280 tracks 1920x1080 at 960x540 and 3840x2160 at 1280x720',
+        TrackingWidth(),
+    ),
+    ParameterSpec(
         'restart_tolerance_s',
         DEFAULT_RESTART_TOLERANCE_NS / 1e9,
         'a frame older than the latest by at most this many seconds is jitter (skipped as out '
@@ -549,6 +577,7 @@ class NodeSettings:
     image_transport: ImageTransport
     bit_depth: int
     max_image_pixels: int
+    max_tracking_width: int
     restart_tolerance_s: float
     use_camera_info: bool
     intrinsics: Intrinsics
@@ -768,6 +797,7 @@ __all__ = [
     'CAMERA_PARAMETERS',
     'DEFAULT_MAX_IMAGE_PIXELS',
     'MAX_FEATURES_LIMIT',
+    'MIN_TRACKING_WIDTH',
     'NODE_NAME',
     'PARAMETERS',
     'PARAMS_FILE_NAME',
