@@ -104,6 +104,7 @@ def test_node_never_initializes_on_rotation_or_a_static_camera(
 # ----------------------------------------------------------------- behaviour without a model
 def test_status_reports_reasons_probabilities_and_diagnostics(harness_factory, tmp_path):
     h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_camera_info(Intrinsics.tum_fr3())  # the camera of the frames: nothing guessed
     img = texture(1)
     first = h.send_array(img, 100.0)
     second = h.send_array(shifted(img, 2.0, 1.0), 100.033)

@@ -10,6 +10,7 @@ import pytest
 pytest.importorskip('rclpy')
 pytest.importorskip('sensor_msgs.msg')
 
+import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from image_fixtures import shifted, texture
@@ -21,14 +22,16 @@ from node_harness import (
     play,
     ros_context,
 )
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CompressedImage, Image
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ros_helpers import DOMAIN_ID
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 from initsel_ros.camera import Intrinsics
 from initsel_ros.metrics import relative_pose, translation_chordal_error
 from initsel_ros.policy import Reason
 from initsel_ros.ros import conversions as conv
 from initsel_ros.ros import node as node_module
+from initsel_ros.ros.harness import NodeHarness
 from initsel_ros.status import FrameStatus
 
 #: Realistic Unix stamps with odd nanoseconds: 1700000000.666666985 s, then +33333333 ns.
@@ -854,6 +857,7 @@ def test_frames_from_two_cameras_on_one_topic_are_warned_about(
 ):
     monkeypatch.setattr(node_module, 'SOURCE_WARNING_FRAMES', 3)
     h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_camera_info(Intrinsics.tum_fr3())  # (else the guessed intrinsics warn too)
     big, small = texture(14), texture(14, shape=(240, 320))
     h.send_array(big, 1.0)
     status = h.send_array(shifted(big, 1, 0), 1.033)
@@ -927,3 +931,79 @@ def test_frames_wider_than_max_tracking_width_are_tracked_shrunk_and_published_f
     image = cv2.resize(sequence.image(len(statuses)), (1280, 960))
     status = h.send_array(image, sequence.frames[len(statuses)].stamp)
     assert status.intrinsics['width'] == 1280 and status.intrinsics['fx'] == pytest.approx(big.fx)
+
+
+def test_a_latched_camera_info_published_before_the_node_started_is_used(context, tmp_path):
+    # before: the node's camera_info subscription was volatile, so a transient-local camera
+    # that published its calibration once, before the node started, was never heard, and the
+    # TUM defaults were used on a wide camera without a word
+    camera = Intrinsics(381.0, 381.0, 319.5, 239.5, 640, 480)
+    latched = QoSProfile(
+        depth=1,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    driver = rclpy.create_node('latched_camera', namespace='/latched_info', context=context)
+    try:
+        info_pub = driver.create_publisher(CameraInfo, 'camera_info', latched)
+        info_pub.publish(conv.intrinsics_to_camera_info(camera))
+        h = NodeHarness(
+            {'model_file': double_model_file(tmp_path)},
+            context=context,
+            namespace='/latched_info',
+            client_name='latched_client',
+        )
+        try:
+            status = h.send_array(texture(14), 1.0)
+            assert status.intrinsics_source == 'camera_info' and not status.intrinsics_guessed
+            assert status.intrinsics['fx'] == pytest.approx(381.0)
+        finally:
+            h.close()
+    finally:
+        driver.destroy_node()
+
+
+def test_the_tum_defaults_without_a_camera_info_are_guessed_at_their_own_size_too(
+    harness_factory, tmp_path, capfd
+):
+    # before: at 640x480 the untouched defaults were used on any camera without a word
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    statuses = [h.send_array(shifted(texture(16), k, 0), 1.0 + k / 30) for k in range(2)]
+    for status in statuses:
+        assert status.intrinsics_guessed and status.diagnostic_level == 'WARN'
+        assert 'guessed intrinsics (the fr3 camera, 640x480, fx 535.4)' in (
+            status.intrinsics_warning
+        )
+    assert capfd.readouterr().err.count('GUESSED INTRINSICS') == 1
+    # set camera.* (even to the same values' camera): no longer a guess
+    assert h.set_parameters({'camera.fx': 536.0})[0].successful
+    assert not h.send_array(shifted(texture(16), 2, 0), 1.1).intrinsics_guessed
+
+
+def test_an_image_topic_of_another_message_type_is_named_until_a_frame_arrives(
+    harness_factory, tmp_path, capfd, monkeypatch
+):
+    # before: a CompressedImage publisher on the raw image topic gave no status and no word
+    monkeypatch.setattr(node_module, 'TOPIC_CHECK_PERIOD_S', 0.1)
+    monkeypatch.setattr(node_module, 'NO_FRAMES_NOTE_S', 0.3)
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    # another participant, as a camera driver would be (one refuses two types on a topic)
+    camera_context = rclpy.Context()
+    rclpy.init(context=camera_context, domain_id=DOMAIN_ID)
+    try:
+        other = rclpy.create_node(
+            'compressed_camera', namespace=h.namespace, context=camera_context
+        )
+        other.create_publisher(CompressedImage, 'image_raw', 2)
+        err = ''
+
+        def named() -> bool:
+            nonlocal err
+            err += capfd.readouterr().err
+            return 'no frame on' in err and 'sensor_msgs/msg/CompressedImage' in err
+
+        assert h.wait_for(named, timeout=10.0), err
+        assert '-p image_transport:=compressed' in err
+        assert err.count('has a publisher of sensor_msgs/msg/CompressedImage') == 1  # once
+    finally:
+        rclpy.try_shutdown(context=camera_context)

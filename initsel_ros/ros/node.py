@@ -27,6 +27,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.logging import get_logger
@@ -116,6 +117,10 @@ TF_QOS = _keep_last(100, ReliabilityPolicy.RELIABLE)
 WARN_THROTTLE_S = 5.0
 #: ``~/status``' source_warning clears after this many frames in a row from one camera.
 SOURCE_WARNING_FRAMES = 300
+#: Until the first frame, the input topics are checked this often, seconds.
+TOPIC_CHECK_PERIOD_S = 2.0
+#: Without a frame after this long, the node says so, seconds.
+NO_FRAMES_NOTE_S = 10.0
 #: The executor's wait slice in main(), seconds: how soon a stop signal is seen.
 SPIN_SLICE_S = 0.1
 #: How long the first frame waits for its camera_info (use_camera_info), seconds; frames
@@ -126,6 +131,28 @@ CALIBRATE_HINT = (
     'calibrate (ros2 run camera_calibration cameracalibrator) and publish the camera_info, '
     'or set camera.fx/fy/cx/cy/width/height/distortion (docs/node.md, Intrinsics)'
 )
+
+
+def _type_name(message_type: type) -> str:
+    """'sensor_msgs/msg/Image' for sensor_msgs.msg.Image (how the ROS graph names types)."""
+    package = message_type.__module__.split('.')[0]
+    return f'{package}/msg/{message_type.__name__}'
+
+
+def _transport_hint(type_name: str, transport: ImageTransport) -> str:
+    """How to make the node take an image topic of ``type_name`` ('' when no hint)."""
+    if type_name == 'sensor_msgs/msg/CompressedImage' and transport is ImageTransport.RAW:
+        return (
+            ' (-p image_transport:=compressed, and remap image_raw to the topic without '
+            '/compressed)'
+        )
+    if type_name == 'sensor_msgs/msg/Image' and transport is ImageTransport.COMPRESSED:
+        return " (-p image_transport:=raw, or remap image_raw to the camera's base topic)"
+    return ''
+
+
+def _ignore_event(_status: object) -> None:
+    """An event callback that does nothing (replaces rclpy's default warning)."""
 
 
 class SelectorNode(Node):
@@ -222,13 +249,27 @@ class SelectorNode(Node):
             callback_group=self._input_group,
         )
         if self._settings.use_camera_info:
-            self.create_subscription(
-                CameraInfo,
-                'camera_info',
-                self._on_camera_info,
-                IMAGE_QOS,
-                callback_group=self._input_group,
-            )
+            # best effort takes any publisher's new messages; a second, transient-local
+            # subscription takes the last message of a latched publisher that started first
+            # (its mismatch with volatile publishers is expected: no rclpy warning about it)
+            for qos, events in (
+                (IMAGE_QOS, None),
+                (LATCHED_QOS, SubscriptionEventCallbacks(incompatible_qos=_ignore_event)),
+            ):
+                self.create_subscription(
+                    CameraInfo,
+                    'camera_info',
+                    self._on_camera_info,
+                    qos,
+                    callback_group=self._input_group,
+                    event_callbacks=events,
+                )
+        self._image_type_name = _type_name(image_type)
+        self._topic_notes: set[str] = set()
+        self._started_at = time.monotonic()
+        self._topic_check = self.create_timer(
+            TOPIC_CHECK_PERIOD_S, self._check_input_topics, callback_group=self._input_group
+        )
         self.create_service(Trigger, '~/reset', self._on_reset, callback_group=self._input_group)
         self.add_pre_set_parameters_callback(self._name_unknown_parameters)
         self.add_on_set_parameters_callback(self._validate_parameters)
@@ -368,6 +409,51 @@ class SelectorNode(Node):
             self._pending_intrinsics = intrinsics
         self._camera_info_seen = True
         self._camera_info_arrived.set()
+
+    def _check_input_topics(self) -> None:
+        """Timer, until the first frame: say why none arrives where the graph shows it (a
+        publisher of another message type on the image or camera_info topic, an image topic
+        ending in /compressed/compressed, no publisher at all after NO_FRAMES_NOTE_S)."""
+        if self._received:
+            self._topic_check.cancel()
+            return
+        wanted = {self._image_topic: self._image_type_name}
+        if self._settings.use_camera_info:
+            wanted[self.resolve_topic_name('camera_info')] = 'sensor_msgs/msg/CameraInfo'
+        notes = []  # (what it is about: said once, the text)
+        for topic, type_name in wanted.items():
+            for info in self.get_publishers_info_by_topic(topic):
+                if info.topic_type != type_name:
+                    notes.append(
+                        (
+                            f'{topic} {info.topic_type}',
+                            f'{topic} has a publisher of {info.topic_type} ({info.node_name}), '
+                            f'but the selector takes {type_name} there: nothing arrives from it'
+                            + _transport_hint(info.topic_type, self._settings.image_transport),
+                        )
+                    )
+        if self._image_topic.endswith(COMPRESSED_SUFFIX * 2):
+            notes.append(
+                (
+                    'compressed twice',
+                    f'the image topic is {self._image_topic}: with image_transport compressed, '
+                    "remap image_raw to the camera's base topic (the node adds /compressed)",
+                )
+            )
+        if time.monotonic() - self._started_at >= NO_FRAMES_NOTE_S:
+            publishers = self.count_publishers(self._image_topic)
+            notes.append(
+                (
+                    'no frames',
+                    f'no frame on {self._image_topic} after {NO_FRAMES_NOTE_S:g} s ({publishers} '
+                    f'publisher{"s" if publishers != 1 else ""} of any type); remap image_raw '
+                    'to the camera topic',
+                )
+            )
+        for key, text in notes:
+            if key not in self._topic_notes:
+                self._topic_notes.add(key)
+                self.get_logger().warning(text)
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -693,24 +779,30 @@ class SelectorNode(Node):
         """Give the selector the intrinsics for this image size (scaled when they differ),
         binned by ``factor`` where ``max_tracking_width`` shrinks the frames.
 
-        Scaling the untouched TUM defaults to another camera is a guess: warned once, loudly,
-        and reported in every status until real intrinsics arrive.
+        The untouched TUM defaults without a camera_info are a guess, scaled to another size
+        or not: warned once, loudly, and reported in every status until real intrinsics
+        arrive.
         """
         base = self._base_intrinsics()
         wanted = base
         self._intrinsics_warning = ''
-        if (width, height) != (base.width, base.height):
-            guessed = self._intrinsics_source == 'parameters' and self._settings.default_intrinsics
-            if guessed:
-                self._intrinsics_warning = (
-                    f'no camera_info and camera.* are the TUM fr3 defaults: the pose uses '
-                    f'guessed intrinsics (the fr3 camera, {base.width}x{base.height}, as a '
-                    f'{width}x{height} sensor of its field of view); {CALIBRATE_HINT}'
+        guessed = self._intrinsics_source == 'parameters' and self._settings.default_intrinsics
+        if guessed:
+            fr3 = f'the fr3 camera, {base.width}x{base.height}, fx {base.fx:g}'
+            self._intrinsics_warning = (
+                'no camera_info and camera.* are the TUM fr3 defaults: the pose uses guessed '
+                + (
+                    f'intrinsics ({fr3})'
+                    if (width, height) == (base.width, base.height)
+                    else f'intrinsics ({fr3}, as a {width}x{height} sensor of its field of view)'
                 )
-                if not self._guess_logged:
-                    self._guess_logged = True
-                    self.get_logger().warning(f'GUESSED INTRINSICS: {self._intrinsics_warning}')
-            else:
+                + f'; {CALIBRATE_HINT}'
+            )
+            if not self._guess_logged:
+                self._guess_logged = True
+                self.get_logger().warning(f'GUESSED INTRINSICS: {self._intrinsics_warning}')
+        if (width, height) != (base.width, base.height):
+            if not guessed:
                 self.get_logger().warning(
                     f'images are {width}x{height} but the {self._intrinsics_source} intrinsics '
                     f'are for {base.width}x{base.height}: scaling the intrinsics',
@@ -773,7 +865,9 @@ class SelectorNode(Node):
             missing_frames=self._stamps.missing,
             intrinsics_source=self._intrinsics_source,
             intrinsics=self._selector.intrinsics.to_dict(),
-            intrinsics_warning=self._intrinsics_warning or self._refused_note(),
+            intrinsics_warning='; '.join(
+                filter(None, (self._refused_note(), self._intrinsics_warning))
+            ),
             bit_depth=self._selector.bit_depth.bits or None,
             stamp_issues=self._stamps.counts,
             source_warning=self._source_warning,
