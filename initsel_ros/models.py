@@ -48,7 +48,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import os
 import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -84,6 +83,7 @@ from initsel_ros.modelio import (
     read_bounded,
     unit_number,
 )
+from initsel_ros.output import atomic_text
 from initsel_ros.trees import (
     TABLE_DEPTH,
     FlatTrees,
@@ -653,11 +653,13 @@ class ModelSet:
         )
 
     def save(self, path: Path | str) -> None:
-        """Write the JSON model file (atomically: temporary file, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + '.tmp')
-        tmp.write_text(dumps(self.to_dict()))
-        os.replace(tmp, path)
+        """Write the JSON model file (atomically: temporary file, then rename).
+
+        Raises:
+            OutputError: ``path`` is a folder.
+        """
+        with atomic_text(path) as handle:
+            handle.write(dumps(self.to_dict()))
 
     @classmethod
     def load(cls, path: Path | str) -> ModelSet:

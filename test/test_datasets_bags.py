@@ -181,6 +181,31 @@ def test_a_bag_without_camera_info_takes_the_intrinsics_it_is_given(
     assert 'assumed' not in caplog.text
 
 
+def _set_camera_k(value):
+    def edit(topic, k, msg):
+        if topic.endswith('camera_info'):
+            msg.K = np.array([value, 0, 320, 0, 500, 240, 0, 0, 1]) if value else np.zeros(9)
+
+    return edit
+
+
+def test_an_uncalibrated_or_invalid_camera_info_is_not_called_missing(
+    near_bag_ros1, tmp_path, caplog
+):
+    # before: K all zero and fx NaN were both 'no CameraInfo on ...', and NaN fx went unseen
+    keep = lambda topic, k, t: t  # noqa: E731
+    zeros = _rewrite_ros1(near_bag_ros1, tmp_path / 'zeros.bag', keep, _set_camera_k(0.0))
+    bag = BagSequence(zeros)
+    assert bag.intrinsics.fx == pytest.approx(535.4)
+    assert (
+        'the CameraInfo is of an uncalibrated camera (K all zero) on /camera/rgb/camera_info'
+        in (caplog.text)
+    )
+    nan = _rewrite_ros1(near_bag_ros1, tmp_path / 'nan.bag', keep, _set_camera_k(np.nan))
+    with pytest.raises(DatasetError, match='bad CameraInfo'):
+        BagSequence(nan)
+
+
 def _set_image_stamp(stamp_ns):
     def edit(topic, k, msg):
         if topic.endswith('image_color'):
@@ -325,5 +350,8 @@ def test_a_pose_topic_that_holds_no_pose_is_ignored_and_named(near_bag_ros1, tmp
     bag = BagSequence(path)
     assert len(bag) > 0 and not bag.has_pose.any()
     assert '/groundtruth/pose is geometry_msgs/msg/PointStamped, not a pose' in caplog.text
-    assert 'pose-like topics: /groundtruth/pose (geometry_msgs/msg/PointStamped)' in caplog.text
+    # (before: 'no ground truth found on /groundtruth/pose ... pose-like topics:
+    # /groundtruth/pose', the topic it had just refused)
+    assert '/groundtruth/pose holds no usable camera poses (see above)' in caplog.text
+    assert 'pose-like topics' not in caplog.text
     assert "write the camera's (body pose times body-to-camera) to groundtruth.txt" in caplog.text

@@ -271,7 +271,9 @@ def test_kitti_reads_back_from_the_root_or_the_sequence_folder(near_sequence, ki
 
 
 def test_kitti_root_without_a_sequence_lists_the_sequences(kitti_root):
-    with pytest.raises(DatasetError, match=r'choose a sequence with --sequence NN \(found: 03\)'):
+    with pytest.raises(
+        DatasetError, match=r'--sequence NN where the command has it \(found: 03\)'
+    ):
         open_sequence(kitti_root)
     with pytest.raises(DatasetError, match=r'no sequence .07. \(found: 03\)'):
         open_sequence(kitti_root, sequence='07')

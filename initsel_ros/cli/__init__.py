@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
             raise SubcommandImportError(msg) from exc
         sub_parser = sub.add_parser(name, help=help_text, description=help_text)
         module.add_arguments(sub_parser)
-        sub_parser.set_defaults(run=module.run)
+        sub_parser.set_defaults(run=module.run, parser=sub_parser)
     return parser
 
 
@@ -80,7 +80,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SubcommandImportError as exc:
         print(f'initsel: error: {exc}', file=sys.stderr)
         return 1
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # said by the subcommand's parser: its usage, not the top level's
+        getattr(args, 'parser', parser).error(f'unrecognized arguments: {" ".join(unknown)}')
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO,
         format='%(levelname)s %(name)s: %(message)s',

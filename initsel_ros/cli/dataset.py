@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from initsel_ros.cli import options
 
@@ -21,7 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'ground truth; without depth, labels come from E_t and the '
         'rotation error',
     )
-    parser.add_argument('--out', required=True, type=Path, help='output CSV (pair table)')
+    parser.add_argument(
+        '--out', required=True, type=options.output_file, help='output CSV (pair table)'
+    )
     parser.add_argument(
         '--batch',
         type=int,
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     options.add_jobs_option(parser, 2, 'worker processes (default 2)')
     parser.add_argument(
         '--chunk',
-        type=int,
+        type=options.whole_number(0),
         default=10,
         help='pairs per labelling task; a batch is tracked in one task and '
         'labelled in chunks across the workers (default 10; 0 = whole batch)',
@@ -59,17 +60,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'workers on this machine); SOURCE paths must exist on the workers',
     )
     parser.add_argument(
-        '--stride', type=int, default=1, help='use every n-th frame (default 1: all)'
+        '--stride',
+        type=options.whole_number(1),
+        default=1,
+        help='use every n-th frame (default 1: all)',
     )
     parser.add_argument(
         '--max-features',
-        type=int,
+        type=options.whole_number(8),
         default=300,
         help='KLT features per reference frame (default 300)',
     )
     parser.add_argument(
         '--min-tracks',
-        type=int,
+        type=options.whole_number(0),
         default=8,
         help='skip pairs with fewer correspondences (default 8)',
     )
@@ -80,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--nearest-tolerance',
-        type=float,
+        type=options.non_negative_seconds,
         default=None,
         metavar='S',
         help='TUM, EuRoC, bags: frames outside the ground truth take the '
@@ -119,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     config = DatasetConfig(
         batch=args.batch,
         source=Source(args.source),
-        jobs=max(1, args.jobs),
+        jobs=args.jobs,
         min_tracks=args.min_tracks,
         tracker=TrackerConfig(max_features=args.max_features),
         label=LabelConfig(scale_rule=ScaleRule(args.scale_rule)),
@@ -130,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         camera=args.camera,
         image_topic=args.image_topic,
         intrinsics=None if args.intrinsics is None else Intrinsics.load_yaml(args.intrinsics),
-        chunk=max(0, args.chunk),
+        chunk=args.chunk,
         executor=args.executor,
         scheduler=args.scheduler,
     )
@@ -138,8 +142,17 @@ def run(args: argparse.Namespace) -> int:
     table = build_table(args.sources, config, progress=not args.quiet, on_stats=stats.append)
     if len(table) == 0:
         raise DatasetError(f'{explain_no_pairs(args.sources, config)}; {args.out} not written')
-    write_table(table, args.out)
     s = stats[0]
+    labelled = set(np.asarray(table['sequence']).astype(str))
+    empty = [
+        src for src, name in zip(args.sources, s.sequences, strict=True) if name not in labelled
+    ]
+    if empty:  # (docs/datasets.md: a source with no pair is an error, never silently dropped)
+        raise DatasetError(
+            f'{explain_no_pairs(empty, config)}; {args.out} not written (the other sources '
+            f'gave {len(table)} pairs: leave these out, or fix them)'
+        )
+    write_table(table, args.out)
     positives = (
         ', '.join(f'{m} {int(table[f"{m}_label"].sum())}' for m in ('F', 'E', 'H'))
         + f', R {int(table["R_label"].sum())}'

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -82,11 +83,47 @@ def add_scale_rule_option(
     parser.add_argument('--scale-rule', choices=SCALE_RULES, default=default, help=help_text)
 
 
+def output_file(value: str) -> Path:
+    """argparse type: a file to write (refused at once when it names a folder, rather than
+    after the work, when the write fails)."""
+    path = Path(value)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f'{value} is a folder: give the name of a file to write')
+    return path
+
+
+def whole_number(low: int) -> Callable[[str], int]:
+    """argparse type: an integer >= ``low``."""
+
+    def parse(value: str) -> int:
+        try:
+            number = int(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f'{value!r} is not an integer') from None
+        if number < low:
+            raise argparse.ArgumentTypeError(f'{value} is under {low}')
+        return number
+
+    parse.__name__ = f'integer >= {low}'  # (argparse names the type in its messages)
+    return parse
+
+
+def non_negative_seconds(value: str) -> float:
+    """argparse type: a finite number of seconds >= 0."""
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{value!r} is not a number') from None
+    if not math.isfinite(number) or number < 0:
+        raise argparse.ArgumentTypeError(f'{value} is not a finite number >= 0')
+    return number
+
+
 def add_jobs_option(
     parser: argparse.ArgumentParser, default: int, help_text: str = 'worker processes'
 ) -> None:
-    """``--jobs N``: worker processes."""
-    parser.add_argument('--jobs', type=int, default=default, help=help_text)
+    """``--jobs N``: worker processes (at least 1)."""
+    parser.add_argument('--jobs', type=whole_number(1), default=default, help=help_text)
 
 
 def add_out_dir_option(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from initsel_ros.cli import options
 
@@ -17,7 +16,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         'SEQUENCE',
         'sequences whose frames give the ORB descriptors (e.g. initsel synth renders)',
     )
-    parser.add_argument('--out', type=Path, required=True, help='vocabulary file (text format)')
+    parser.add_argument(
+        '--out', type=options.output_file, required=True, help='vocabulary file (text format)'
+    )
     parser.add_argument('--k', type=int, default=10, help='branching factor (default 10)')
     parser.add_argument('--levels', type=int, default=3, help='tree depth (default 3)')
     parser.add_argument('--every', type=int, default=5, help='use every N-th frame (default 5)')

@@ -14,7 +14,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         parser,
         'sequences',
         'SEQUENCE',
-        'sequences with ground truth and depth (TUM folders, bags); grouped by --group, '
+        'sequences with ground truth (TUM, EuRoC and KITTI sequence folders, bags; the depth '
+        'error needs depth); grouped by --group, '
         "else by name: 'rotation' or 'static' -> rotation/static, 'wall', 'floor' or "
         "'planar' -> planar, anything else non-planar",
     )

@@ -46,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--out',
         required=True,
-        type=Path,
+        type=options.output_file,
         help='model file to write (JSON); with --leave-family-out, the Markdown table',
     )
     parser.add_argument(
@@ -179,7 +179,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--folds',
-        type=int,
+        type=options.whole_number(2),
         default=5,
         help='grouped cross-validation folds over batches (default 5)',
     )

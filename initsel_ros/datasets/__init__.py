@@ -172,6 +172,16 @@ def layout_hint(path: Path) -> str:
         return 'a EuRoC folder needs mav0/cam0/data.csv and mav0/cam0/data/'
     if any((path / name).exists() for name in ('times.txt', 'calib.txt', 'image_0', 'image_2')):
         return f'a KITTI sequence, but no {", ".join(missing_kitti_parts(path))}'
+    if (path / 'sequences').is_dir():  # a KITTI root whose sequences all lack a part
+        broken = [
+            f'{p.name}: no {", ".join(missing_kitti_parts(p))}'
+            for p in sorted((path / 'sequences').iterdir())
+            if p.is_dir() and missing_kitti_parts(p)
+        ]
+        if broken:
+            return (
+                'a KITTI root, but ' + '; '.join(broken[:3]) + ('; ...' if len(broken) > 3 else '')
+            )
     return ''
 
 

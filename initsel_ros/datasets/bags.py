@@ -246,6 +246,7 @@ class BagSequence(Sequence):
         errors = _read_errors()
         self.path = path
         self._reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY))
+        self._info_uncalibrated = False  # (_scan: a CameraInfo with K all zero was seen)
         try:
             self._reader.open()
         except errors as exc:
@@ -320,33 +321,45 @@ class BagSequence(Sequence):
         self.groundtruth_source = gt_source if gt is not None else None
         if intrinsics is None and info is None:
             _LOG.warning(
-                '%s: no CameraInfo on %s: the TUM fr3 intrinsics are assumed (give the '
+                '%s: %s on %s: the TUM fr3 intrinsics are assumed (give the '
                 "camera's own with --intrinsics)",
                 path,
+                'the CameraInfo is of an uncalibrated camera (K all zero)'
+                if self._info_uncalibrated
+                else 'no CameraInfo',
                 info_topic,
             )
         if intrinsics is None:
             intrinsics = info if info is not None else Intrinsics.tum_fr3()
         frames = paired_frames(stamps, stamps_ns, poses, depth_stamps_arr, match)
-        name = path.stem if path.is_file() else path.name
+        name = path.stem if path.is_file() else path.resolve().name  # (a bag folder given as .)
         super().__init__(name, intrinsics, frames, path)
         self._depth_topic = depth_topic
 
     def _pose_topics_hint(self, pose_topic: str) -> str:
-        """The bag's pose-like topics, and where camera ground truth goes ('' when the bag has
-        none)."""
+        """Why the bag gave no ground truth: its pose topic refused, or its pose-like topics,
+        and where camera ground truth goes ('' when the bag has none)."""
         found = sorted(
             f'{c.topic} ({c.msgtype})'
             for c in self._reader.connections
-            if _type_name(c.msgtype) in (*POSE_TYPES, 'PointStamped')
+            if _type_name(c.msgtype) in (*POSE_TYPES, 'PointStamped') and c.topic != pose_topic
         )
-        if not found:
+        refused = any(c.topic == pose_topic for c in self._reader.connections)
+        if not (found or refused):
             return ''
+        body = (
+            ". For a body's poses (EuRoC's Vicon or Leica), write the camera's (body pose times "
+            'body-to-camera) to groundtruth.txt (TUM format)'
+        )
+        if refused:  # (the reason was logged when the topic was read)
+            others = f'; other pose-like topics: {", ".join(found)}' if found else ''
+            return (
+                f': {pose_topic} holds no usable camera poses (see above), and there is no '
+                f'groundtruth.txt beside the bag{others}{body}'
+            )
         return (
             f' on {pose_topic} (camera-to-world) nor in a groundtruth.txt beside the bag; '
-            f"pose-like topics: {', '.join(found)}. For a body's poses (EuRoC's Vicon or "
-            "Leica), write the camera's (body pose times body-to-camera) to groundtruth.txt "
-            '(TUM format)'
+            f'pose-like topics: {", ".join(found)}{body}'
         )
 
     def _scan(
@@ -412,7 +425,9 @@ class BagSequence(Sequence):
                 msg = reader.deserialize(raw, conn.msgtype)
                 k = np.asarray(getattr(msg, 'k', None) if hasattr(msg, 'k') else msg.K, float)
                 d = np.asarray(getattr(msg, 'd', None) if hasattr(msg, 'd') else msg.D, float)
-                if k.size == 9 and k[0] > 0:
+                if k.size == 9 and not k.any():  # REP 104: an uncalibrated camera
+                    self._info_uncalibrated = True
+                elif k.size == 9:
                     try:
                         roi = msg.roi
                         info = Intrinsics.from_camera_info(

@@ -33,7 +33,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.datasets.poses import DEFAULT_MAX_GAP, check_trajectory, interpolate_poses
 from initsel_ros.datasets.sequence import Frame, Sequence, read_image_file, without_alpha
-from initsel_ros.datasets.tum import content_lines
+from initsel_ros.datasets.tum import content_lines, one_file_per_stamp
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.timestamps import ns_to_seconds
 from initsel_ros.transforms import matrix_to_pose, pose_matrix
@@ -91,9 +91,12 @@ def _int_ns(path: Path, number: int, text: str) -> int:
 def read_image_listing(path: Path) -> tuple[list[int], list[str]]:
     """``cam0/data.csv`` -> (stamps in integer ns, file names), sorted by time."""
     path = Path(path)
-    rows = [(_int_ns(path, n, f[0]), f[1]) for n, f in _csv_rows(path, 2, IMAGE_LISTING_FORMAT)]
-    rows.sort(key=lambda r: r[0])
-    return [r[0] for r in rows], [r[1] for r in rows]
+    rows = [
+        (n, _int_ns(path, n, f[0]), f[0], f[1])
+        for n, f in _csv_rows(path, 2, IMAGE_LISTING_FORMAT)
+    ]
+    rows.sort(key=lambda r: r[1])
+    return one_file_per_stamp(path, rows)
 
 
 def read_groundtruth(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -115,7 +118,7 @@ def read_groundtruth(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     data = np.asarray(values, dtype=np.float64).reshape(-1, 7)
     quats_xyzw = data[:, [4, 5, 6, 3]]
     return check_trajectory(
-        np.asarray(stamps, dtype=np.int64), data[:, 0:3], quats_xyzw, str(path)
+        np.asarray(stamps, dtype=np.int64), data[:, 0:3], quats_xyzw, str(path), 'w x y z'
     )
 
 

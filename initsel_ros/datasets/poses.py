@@ -25,7 +25,11 @@ QUATERNION_NORM_TOLERANCE = 0.01
 
 
 def check_trajectory(
-    stamps: np.ndarray, positions: np.ndarray, quaternions: np.ndarray, where: str
+    stamps: np.ndarray,
+    positions: np.ndarray,
+    quaternions: np.ndarray,
+    where: str,
+    file_order: str = 'x y z w',
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A ground-truth trajectory as the readers hand it on: sorted by time, exact repeats
     of a sample dropped.
@@ -34,6 +38,8 @@ def check_trajectory(
         stamps: (N,) times (any unit).
         positions: (N, 3).
         quaternions: (N, 4) xyzw.
+        file_order: the quaternion's column order in the file (named in the warning about
+            quaternions off unit norm: EuRoC writes w x y z).
         where: the file (and topic) they came from, for the messages.
 
     Raises:
@@ -58,12 +64,13 @@ def check_trajectory(
     if np.any(off):
         LOG.warning(
             '%s: %d of %d quaternions are not of unit norm (%.3g to %.3g): normalized; check '
-            'the column order (x y z w)',
+            'the column order (%s)',
             where,
             int(off.sum()),
             len(norms),
             float(norms[off].min()),
             float(norms[off].max()),
+            file_order,
         )
     order = np.argsort(stamps, kind='stable')
     stamps, positions, quaternions = stamps[order], positions[order], quaternions[order]

@@ -100,29 +100,44 @@ def read_listing_ns(path: Path) -> tuple[list[int], list[str]]:
         ``(stamps as integer nanoseconds, parsed from the decimal text exactly, file names)``.
     """
     path = Path(path)
-    stamps: list[int] = []
-    names: list[str] = []
-    seen: dict[int, tuple[int, str]] = {}  # stamp -> (line, file)
-    repeated = 0
+    rows = []
     for number, fields in _data_lines(path):
         if len(fields) != 2:
             raise DatasetError(
                 f'{path}:{number}: expected 2 columns `{LISTING_FORMAT}`, got {len(fields)}'
             )
         _float(path, number, fields[0], LISTING_FORMAT)  # the error message for bad text
-        stamp = parse_seconds_ns(fields[0])
+        rows.append((number, parse_seconds_ns(fields[0]), fields[0], fields[1]))
+    return one_file_per_stamp(path, rows)
+
+
+def one_file_per_stamp(
+    path: Path, rows: Seq[tuple[int, int, str, str]]
+) -> tuple[list[int], list[str]]:
+    """An image listing's rows (line number, stamp in ns, the stamp as written, file name) ->
+    (stamps, file names) in the rows' order, each stamp once.
+
+    Raises:
+        DatasetError: one time listed with two files (which frame is it?); the same line
+            twice is read once, with a warning.
+    """
+    stamps: list[int] = []
+    names: list[str] = []
+    seen: dict[int, tuple[int, str]] = {}  # stamp -> (line, file)
+    repeated = 0
+    for number, stamp, text, name in rows:
         if stamp in seen:
-            line, name = seen[stamp]
-            if name != fields[1]:
+            line, first = seen[stamp]
+            if first != name:
                 raise DatasetError(
-                    f'{path}:{number}: time {fields[0]} is also line {line}, with another file '
-                    f'({name} and {fields[1]}): which frame is it?'
+                    f'{path}:{number}: time {text} is also line {line}, with another file '
+                    f'({first} and {name}): which frame is it?'
                 )
             repeated += 1  # the same line twice: one frame
             continue
-        seen[stamp] = (number, fields[1])
+        seen[stamp] = (number, name)
         stamps.append(stamp)
-        names.append(fields[1])
+        names.append(name)
     if repeated:
         _LOG.warning('%s: %d repeated lines read once', path, repeated)
     return stamps, names

@@ -154,6 +154,25 @@ class Rule:
     method: np.ndarray
 
 
+def orbslam_scored(test: PairTable, warn: bool = True) -> np.ndarray:
+    """(N,) bool: the pairs the table holds ORB-SLAM's H/F scores for (a table built with
+    ``initsel dataset --no-orbslam`` has none: its ORB-SLAM rows are left out, with a
+    warning, rather than shown as a baseline that never said yes)."""
+    scored = np.isfinite(np.asarray(test['orb_ratio'], dtype=float))
+    if warn and not scored.any():
+        LOG.warning(
+            'no pair has ORB-SLAM scores (a table built with --no-orbslam): the ORB-SLAM '
+            'baseline is left out'
+        )
+    return scored
+
+
+def _orb_note(scored: np.ndarray) -> str:
+    """What a row says of pairs without ORB-SLAM scores ('' when every pair has them)."""
+    missing = int((~scored).sum())
+    return f'; {missing} of {scored.size} pairs without scores count as no' if missing else ''
+
+
 def _orb_accepts(test: PairTable, method: np.ndarray) -> np.ndarray:
     out = np.zeros(len(test), dtype=bool)
     for m in ('F', 'H'):
@@ -210,7 +229,7 @@ def baseline_rules(test: PairTable) -> dict[str, Rule]:
     rules['VINS-Mono rule'] = Rule('VINS-Mono rule', vins, e)
     inl = np.asarray(test['vins_inliers'])
     rules['VINS-Mono rule+RANSAC'] = Rule('VINS-Mono rule+RANSAC', vins & (inl > 12), e)
-    for version in baselines.OrbSlamVersion:
+    for version in baselines.OrbSlamVersion if orbslam_scored(test, warn=False).any() else ():
         choice = baselines.orbslam_choice(test['orb_ratio'], version)
         name = f'ORB-SLAM{version.value}'
         rules[name] = Rule(name, _orb_accepts(test, choice), choice)
@@ -395,7 +414,8 @@ def evaluate(
             note='> 12 recoverPose inliers',
         )
     )
-    for version in baselines.OrbSlamVersion:
+    scored = orbslam_scored(test)
+    for version in baselines.OrbSlamVersion if scored.any() else ():
         choice = baselines.orbslam_choice(test['orb_ratio'], version)
         accepted = _orb_accepts(test, choice)
         for m in ('H', 'F'):
@@ -407,7 +427,7 @@ def evaluate(
                     binary_scores(y[m], accepted & (choice == m)),
                     note=f'S_H/(S_H+S_F) {">" if m == "H" else "<="} '
                     f'{version.ratio_threshold:.2f}, >= {ORB_MIN_POINTS} points, '
-                    f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg',
+                    f'parallax >= {ORB_MIN_PARALLAX_DEG:g} deg' + _orb_note(scored),
                 )
             )
     # sequence level

@@ -48,7 +48,8 @@ def _baseline_points(test: PairTable, model: str) -> dict[str, np.ndarray]:
         for stat in ('mean', 'median'):
             h, f = baselines.butt_rule(test[f'disp_{stat}_px'], test['disp_std_px'])
             points[f'Butt 2020 ({stat})'] = f if model == 'F' else h
-        for version in baselines.OrbSlamVersion:
+        scored = np.isfinite(np.asarray(test['orb_ratio'], dtype=float)).any()
+        for version in baselines.OrbSlamVersion if scored else ():  # (--no-orbslam tables)
             choice = baselines.orbslam_choice(test['orb_ratio'], version)
             ok = (
                 (choice == model)

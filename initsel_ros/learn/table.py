@@ -25,8 +25,6 @@ from __future__ import annotations
 import csv
 import logging
 import math
-import os
-import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,6 +41,7 @@ from initsel_ros.features import (
 )
 from initsel_ros.models import ModelSet
 from initsel_ros.names import POSE_METHODS as METHODS_FEH  # the pose methods, in table order
+from initsel_ros.output import atomic_text
 from initsel_ros.trees import sigmoid
 
 LOG = logging.getLogger(__name__)
@@ -221,22 +220,18 @@ class PairTable:
 
 
 def write_table(table: PairTable, path: Path) -> None:
-    """Write ``table`` as CSV (header + one row per pair) atomically (temp file + rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Write ``table`` as CSV (header + one row per pair) atomically (temp file + rename).
+
+    Raises:
+        OutputError: ``path`` is a folder.
+    """
     cols = schema()
-    fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=path.parent)
-    try:
-        with os.fdopen(fd, 'w', newline='') as handle:
-            writer = csv.writer(handle)
-            writer.writerow([name for name, _ in cols])
-            data = [(table[name], kind) for name, kind in cols]
-            for i in range(len(table)):
-                writer.writerow([_format(d[i], kind) for d, kind in data])
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_text(path, newline='') as handle:
+        writer = csv.writer(handle)
+        writer.writerow([name for name, _ in cols])
+        data = [(table[name], kind) for name, kind in cols]
+        for i in range(len(table)):
+            writer.writerow([_format(d[i], kind) for d, kind in data])
 
 
 def read_table(path: Path) -> PairTable:

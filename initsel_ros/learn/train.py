@@ -257,12 +257,18 @@ def prepare(table: PairTable, config: TrainConfig) -> PairTable:
 GROUP_BY = ('batch', 'sequence')
 
 
-def grouped_folds(groups: np.ndarray, folds: int, seed: int) -> list[np.ndarray]:
-    """Assign whole groups to ``folds`` folds at random: list of validation index arrays."""
+def grouped_folds(
+    groups: np.ndarray, folds: int, seed: int, unit: str = 'batch'
+) -> list[np.ndarray]:
+    """Assign whole groups (each a ``unit``: batch or sequence) to ``folds`` folds at random:
+    list of validation index arrays."""
     unique = np.unique(groups)
+    if folds < 2:
+        raise DatasetError(f'grouped validation needs at least 2 folds, got {folds}')
+    if len(unique) < 2:
+        plural = 'batches' if unit == 'batch' else f'{unit}s'
+        raise DatasetError(f'grouped validation needs at least 2 {plural}, got {len(unique)}')
     k = int(min(folds, len(unique)))
-    if k < 2:
-        raise DatasetError(f'need at least 2 batches for grouped validation, got {len(unique)}')
     order = np.random.default_rng(seed).permutation(unique)
     fold_of = {g: i % k for i, g in enumerate(order)}
     assignment = np.array([fold_of[g] for g in groups])
@@ -276,14 +282,16 @@ def out_of_fold_scores(
     fit: Callable[[np.ndarray, np.ndarray], Callable[[np.ndarray], np.ndarray]],
     folds: int,
     seed: int,
+    unit: str = 'batch',
 ) -> np.ndarray:
-    """(N,) scores of each pair from a model fitted without its batch.
+    """(N,) scores of each pair from a model fitted without its group (a ``unit``: batch
+    or sequence).
 
     ``fit(X, y)`` returns a scoring function; a fold whose training part holds one class
     scores its pairs with that constant class.
     """
     scores = np.full(len(y), np.nan)
-    for val in grouped_folds(groups, folds, seed):
+    for val in grouped_folds(groups, folds, seed, unit):
         train = np.setdiff1d(np.arange(len(y)), val)
         if len(np.unique(y[train])) < 2:
             scores[val] = float(y[train][0]) if len(train) else 0.0
@@ -590,7 +598,13 @@ def train_models(
             choice = choose_threshold(y, np.full(len(y), float(always)), 0.5)
         else:
             scores = out_of_fold_scores(
-                X, y, model_groups, _scorer(family, features, config), config.folds, config.seed
+                X,
+                y,
+                model_groups,
+                _scorer(family, features, config),
+                config.folds,
+                config.seed,
+                config.group_by,
             )
             choice = choose_threshold(
                 y, scores, config.target_precision, config.min_predicted, config.prior_of(name)

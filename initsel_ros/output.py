@@ -1,0 +1,43 @@
+"""Files written whole or not at all: a temporary file beside the target, then a rename."""
+
+from __future__ import annotations
+
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TextIO
+
+from initsel_ros.errors import InitselError
+
+
+class OutputError(InitselError):
+    """An output path that cannot be written (a folder, for one)."""
+
+
+@contextmanager
+def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO]:
+    """A text handle whose contents replace ``path`` when the block ends without an error.
+
+    The parent folders are made; the file gets the usual permissions (the process umask,
+    like any ``open``); on an error the temporary file is removed and ``path`` is untouched.
+
+    Raises:
+        OutputError: ``path`` is a folder.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f'{path} is a folder: give the name of a file to write')
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f'.{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp')
+    try:
+        with open(tmp, 'x', newline=newline) as handle:
+            yield handle
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+__all__ = ['OutputError', 'atomic_text']
