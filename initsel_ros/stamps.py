@@ -13,7 +13,6 @@ counts them in ``~/status``.
 
 from __future__ import annotations
 
-import statistics
 from collections import deque
 from dataclasses import dataclass
 from enum import Enum
@@ -52,11 +51,15 @@ CONSEQUENCES: dict[StampIssue, str] = {
 }
 
 #: A frame whose stamp follows the previous one by more than this many times the stream's
-#: period (the median of its last :data:`PERIOD_WINDOW` intervals) has frames missing before
-#: it; a stream of varying rate (15-30 Hz) stays under it.
+#: period (the :data:`PERIOD_QUANTILE` of its last :data:`PERIOD_WINDOW` intervals) has frames
+#: missing before it; a stream of varying rate (15-30 Hz) stays under it.
 GAP_PERIODS = 2.5
-#: Intervals the period is the median of; at least a third of them are needed to judge.
+#: Intervals the period is taken from; at least a third of them are needed to judge.
 PERIOD_WINDOW = 30
+#: The quantile of those intervals that is the period: a low one, since frames lost make
+#: intervals only longer (with a median, a stream losing most of its frames had its lost
+#: frames for its period, and no gap).
+PERIOD_QUANTILE = 0.2
 
 #: Default largest jump back in time that is still jitter, nanoseconds (1 s).
 DEFAULT_RESTART_TOLERANCE_NS = 1_000_000_000
@@ -116,8 +119,8 @@ class StampMonitor:
         """Classify ``stamp_ns`` (the next frame's stamp) and remember it (unless out of order).
 
         ``unchecked``: frames received since the last check but not checked (the node dropped
-        them for want of time): the interval spans them too, so it is no period, and a gap
-        only beyond them (:meth:`_missing`).
+        them for want of time): the interval spans them too, so its share of the period is
+        interval / (unchecked + 1), and a gap lies only beyond them (:meth:`_missing`).
         """
         issues = []
         if stamp_ns < 0:
@@ -145,8 +148,8 @@ class StampMonitor:
                     if missing:
                         issues.append(StampIssue.GAP)
                         self.missing += missing
-                    if not unchecked:
-                        self._intervals.append(interval)
+                    # over frames the node dropped: their mean spacing, a period too
+                    self._intervals.append(interval // (unchecked + 1))
             if StampIssue.OUT_OF_ORDER not in issues:
                 self._last_ns = stamp_ns
                 self._late.clear()
@@ -165,12 +168,13 @@ class StampMonitor:
 
     def _missing(self, interval_ns: int, unchecked: int) -> int:
         """Frames missing within ``interval_ns``, which also spans ``unchecked`` frames: 0
-        unless it exceeds :data:`GAP_PERIODS` of the stream's period (the median of the last
-        :data:`PERIOD_WINDOW` intervals, once a third of them are there) beyond those frames'
-        periods; then the periods it spans, less one and less those frames (at least 1)."""
+        unless it exceeds :data:`GAP_PERIODS` of the stream's period (the
+        :data:`PERIOD_QUANTILE` of the last :data:`PERIOD_WINDOW` intervals, once a third of
+        them are there) beyond those frames' periods; then the periods it spans, less one and
+        less those frames (at least 1)."""
         if len(self._intervals) < PERIOD_WINDOW // 3:
             return 0
-        period = statistics.median(self._intervals)
+        period = sorted(self._intervals)[int(PERIOD_QUANTILE * len(self._intervals))]
         if interval_ns <= (GAP_PERIODS + unchecked) * period:
             return 0
         return max(1, round(interval_ns / period) - 1 - unchecked)
@@ -186,6 +190,7 @@ __all__ = [
     'CONSEQUENCES',
     'DEFAULT_RESTART_TOLERANCE_NS',
     'GAP_PERIODS',
+    'PERIOD_QUANTILE',
     'PERIOD_WINDOW',
     'RESTART_AFTER_LATE_FRAMES',
     'StampCheck',

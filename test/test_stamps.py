@@ -143,3 +143,24 @@ def test_frames_going_on_from_a_little_back_are_a_restart():
     # late frames that do not rise are jitter, however many
     for k in range(5):
         assert monitor.check(t + 2 * period - k).out_of_order
+
+
+def test_frames_lost_before_a_busy_node_are_counted():
+    # before: the period was learnt only from intervals without frames the node dropped, so a
+    # node dropping every other frame never had one, and 74 of 130 frames lost upstream in
+    # bursts were missing_frames 0
+    monitor = StampMonitor()
+    period = 66_666_667  # 15 Hz
+    t = 1_700_000_000 * SECOND
+    for _ in range(15):  # the node takes every other frame: one dropped in between
+        t += 2 * period
+        assert monitor.check(t, unchecked=1).issues == ()
+    t += 10 * period  # a burst of 9 lost upstream; the node dropped one of those it received
+    assert monitor.check(t, unchecked=1).issues == (StampIssue.GAP,)
+    assert monitor.missing == 8
+    # a stream losing more than it keeps, in runs: the lost runs count, not as its period
+    monitor = StampMonitor()
+    for k in range(60):
+        t += (1 if k % 3 else 4) * period  # every third interval: 3 frames lost
+        monitor.check(t)
+    assert monitor.missing == 3 * 16  # (the runs within the first 10 intervals: not yet judged)
