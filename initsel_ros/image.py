@@ -94,7 +94,15 @@ def encoding_info(encoding: str, *, depth: bool = False) -> tuple[str, EncodingI
     if name is not None:
         return name, DEPTH_ENCODINGS[name]
     supported = ', '.join(dict.fromkeys([*ENCODINGS, *(DEPTH_ENCODINGS if depth else ())]))
-    raise ImageConversionError(f'unsupported image encoding {encoding!r} (supported: {supported})')
+    hint = ''
+    if str(encoding).lower() in _DEPTH_BY_LOWER:  # a depth image on the image topic
+        hint = (
+            f'; {encoding} is what depth cameras publish depth in (REP 118): remap the image '
+            'topic to the intensity or colour image'
+        )
+    raise ImageConversionError(
+        f'unsupported image encoding {encoding!r} (supported: {supported}){hint}'
+    )
 
 
 # ---------------------------------------------------------------------------- raw images

@@ -211,3 +211,8 @@ def test_binned_intrinsics_and_unbinned_pixels_agree_with_the_averaged_blocks(fa
     want = [203 + factor - 0.5, 101 + factor - 0.5]
     np.testing.assert_allclose(unbinned_pixels(np.array(centroid), factor), want, atol=1e-9)
     assert camera.binned(1) is camera
+
+
+def test_a_depth_encoding_on_the_image_topic_is_named_as_one():
+    with pytest.raises(ImageConversionError, match=r"'32FC1' .*depth cameras publish depth"):
+        image.encoding_info('32FC1')

@@ -1007,3 +1007,16 @@ def test_an_image_topic_of_another_message_type_is_named_until_a_frame_arrives(
         assert err.count('has a publisher of sensor_msgs/msg/CompressedImage') == 1  # once
     finally:
         rclpy.try_shutdown(context=camera_context)
+
+
+def test_a_camera_info_after_frames_says_it_starts_a_new_reference(
+    harness_factory, tmp_path, capfd
+):
+    # before: only 'intrinsics from camera_info: ...', while the status said new reference
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_array(texture(16), 1.0)
+    h.send_camera_info(Intrinsics(381.0, 381.0, 319.5, 239.5, 640, 480))
+    status = h.send_array(shifted(texture(16), 1, 0), 1.033)
+    assert status.new_reference and status.intrinsics_source == 'camera_info'
+    err = capfd.readouterr().err
+    assert "after 1 frame with the camera.* parameters': new reference" in err

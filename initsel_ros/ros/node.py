@@ -549,7 +549,17 @@ class SelectorNode(Node):
     def _use_camera_info(self, intrinsics: Intrinsics) -> None:
         """Worker: intrinsics of a valid camera_info (another camera starts a new reference)."""
         if self._intrinsics_source != 'camera_info' or self._info_intrinsics is None:
-            self.get_logger().info(f'intrinsics from camera_info: {intrinsics}')
+            replaced = self._processed and not intrinsics.same_camera(self._base_intrinsics())
+            self.get_logger().info(
+                f'intrinsics from camera_info: {intrinsics}'
+                + (
+                    f', after {self._processed} frame{"s" if self._processed != 1 else ""} '
+                    "with the camera.* parameters': "
+                    f'{self._what_new_intrinsics_do()}'
+                    if replaced
+                    else ''
+                )
+            )
             self._warn_uncalibrated_lens(intrinsics, 'camera_info')
         elif not intrinsics.same_camera(self._info_intrinsics):
             self.get_logger().info(
