@@ -162,3 +162,13 @@ def test_an_unknown_option_is_refused_with_the_subcommand_usage(capsys):
     assert err.startswith('usage: initsel dataset') and 'unrecognized arguments: --bogus' in err
     err = _refused(['train', 'pairs.csv', '--out', 'm.json', '--folds', '1'], capsys)
     assert '--folds' in err and 'under 2' in err  # before: 'need at least 2 batches ... got 2'
+
+
+def test_reader_options_that_fit_no_source_are_said_to_be_ignored(
+    static_sequence, tmp_path, caplog
+):
+    argv = ['dataset', str(static_sequence), '--out', str(tmp_path / 'p.csv'), '--batch', '30']
+    argv += ['--jobs', '1', '--quiet', '--no-orbslam', '--image-topic', '/cam/image']
+    with caplog.at_level(logging.WARNING):
+        assert main(argv) == 0
+    assert 'so they are ignored: --image-topic (bags only)' in caplog.text

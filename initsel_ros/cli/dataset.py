@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from initsel_ros.cli import options
 
@@ -138,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
         executor=args.executor,
         scheduler=args.scheduler,
     )
+    _warn_unused_options(args)
     stats: list[BuildStats] = []
     table = build_table(args.sources, config, progress=not args.quiet, on_stats=stats.append)
     if len(table) == 0:
@@ -170,3 +172,23 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stdout,
     )
     return 0
+
+
+def _warn_unused_options(args: argparse.Namespace) -> None:
+    """Say so when --image-topic or --sequence fits none of the sources (each applies to its
+    kind only, so mixed sources take them where they fit, silently)."""
+    import logging
+
+    from initsel_ros.datasets import sequence_kind
+
+    kinds = {sequence_kind(Path(source)) for source in args.sources}
+    unused = []
+    if args.image_topic is not None and 'bag' not in kinds:
+        unused.append('--image-topic (bags only)')
+    if args.sequence is not None and not kinds & {'kitti', 'kitti_root', None}:
+        unused.append('--sequence (KITTI odometry only)')
+    if unused:
+        logging.getLogger(__name__).warning(
+            'no source is of the kind these options apply to, so they are ignored: %s',
+            ', '.join(unused),
+        )
