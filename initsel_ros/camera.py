@@ -332,7 +332,9 @@ class Intrinsics:
         ``factor`` pixels (:func:`~initsel_ros.image.downscaled`), size floor(size /
         factor): focal lengths divided by ``factor``, and a pixel centre x of this camera at
         (x + 0.5) / factor - 0.5 (:func:`~initsel_ros.image.unbinned_pixels` maps back);
-        itself for a factor of 1."""
+        itself for a factor of 1. (:meth:`scaled` and a camera_info's REP 104 binning take
+        cx / factor instead, a quarter pixel off at a factor of 2: kept apart on purpose, this
+        one is exact for block-averaged images.)"""
         if factor <= 1:
             return self
         k = float(factor)

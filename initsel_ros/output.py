@@ -24,15 +24,19 @@ def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO
     like any ``open``); on an error the temporary file is removed and ``path`` is untouched.
 
     Raises:
-        OutputError: ``path`` is a folder.
+        OutputError: ``path`` is a folder, or its folder cannot be made or written in.
     """
     path = Path(path)
     if path.is_dir():
         raise OutputError(f'{path} is a folder: give the name of a file to write')
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f'.{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp')
     try:
-        with open(tmp, 'x', newline=newline) as handle:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(tmp, 'x', newline=newline)  # noqa: SIM115 (closed below, then renamed)
+    except OSError as exc:
+        raise OutputError(f'{path}: cannot write: {exc.strerror or exc}') from exc
+    try:
+        with handle:
             yield handle
         os.replace(tmp, path)
     except BaseException:

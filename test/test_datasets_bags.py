@@ -197,13 +197,15 @@ def test_an_uncalibrated_or_invalid_camera_info_is_not_called_missing(
     zeros = _rewrite_ros1(near_bag_ros1, tmp_path / 'zeros.bag', keep, _set_camera_k(0.0))
     bag = BagSequence(zeros)
     assert bag.intrinsics.fx == pytest.approx(535.4)
-    assert (
-        'the CameraInfo is of an uncalibrated camera (K all zero) on /camera/rgb/camera_info'
-        in (caplog.text)
+    assert 'the CameraInfo is of an uncalibrated camera (K zero) on /camera/rgb/camera_info' in (
+        caplog.text
     )
     nan = _rewrite_ros1(near_bag_ros1, tmp_path / 'nan.bag', keep, _set_camera_k(np.nan))
     with pytest.raises(DatasetError, match='bad CameraInfo'):
         BagSequence(nan)
+    # the camera's own intrinsics given: the bag's CameraInfo is not read at all
+    given = Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480)
+    assert BagSequence(nan, intrinsics=given).intrinsics == given
 
 
 def _set_image_stamp(stamp_ns):

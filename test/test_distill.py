@@ -81,9 +81,10 @@ def test_sequence_grouped_validation_keeps_each_sequence_in_one_fold(monkeypatch
     assert len(np.unique(by_sequence)) == 2 and len(np.unique(table.groups())) == 6
     folded = []  # the groups the folds were made of, one entry per model
 
-    def spy(groups, folds, seed, _real=train_module.grouped_folds):
+    def spy(groups, folds, seed, unit='batch', _real=train_module.grouped_folds):
         folded.append(np.asarray(groups).copy())
-        return _real(groups, folds, seed)
+        assert unit == 'sequence'  # (said in its error when there are too few)
+        return _real(groups, folds, seed, unit)
 
     monkeypatch.setattr(train_module, 'grouped_folds', spy)
     report = train_models(table, TrainConfig(group_by='sequence', trees=TreeConfig(10, 2, 0.3)))

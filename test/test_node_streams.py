@@ -953,8 +953,13 @@ def test_a_latched_camera_info_published_before_the_node_started_is_used(context
             namespace='/latched_info',
             client_name='latched_client',
         )
-        try:
-            status = h.send_array(texture(14), 1.0)
+        try:  # (the node subscribes transient local once it sees the latched publisher)
+            statuses = []
+            for k in range(20):
+                statuses.append(h.send_array(shifted(texture(14), k, 0), 1.0 + k / 30))
+                if statuses[-1].intrinsics_source == 'camera_info':
+                    break
+            status = statuses[-1]
             assert status.intrinsics_source == 'camera_info' and not status.intrinsics_guessed
             assert status.intrinsics['fx'] == pytest.approx(381.0)
         finally:
@@ -975,9 +980,18 @@ def test_the_tum_defaults_without_a_camera_info_are_guessed_at_their_own_size_to
             status.intrinsics_warning
         )
     assert capfd.readouterr().err.count('GUESSED INTRINSICS') == 1
-    # set camera.* (even to the same values' camera): no longer a guess
+    # set camera.* to another camera: no longer a guess
     assert h.set_parameters({'camera.fx': 536.0})[0].successful
     assert not h.send_array(shifted(texture(16), 2, 0), 1.1).intrinsics_guessed
+    # a TUM fr3 camera without camera_info: use_camera_info false makes camera.* the camera
+    h = harness_factory(model_file=double_model_file(tmp_path), use_camera_info=False)
+    assert not h.send_array(texture(16), 2.0).intrinsics_guessed
+    # (a volatile camera_info publisher, the harness's, meets no transient-local subscription)
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    h.send_camera_info(Intrinsics.tum_fr3())
+    h.send_array(texture(16), 3.0)
+    h.settle()
+    assert 'incompatible' not in capfd.readouterr().err
 
 
 def test_an_image_topic_of_another_message_type_is_named_until_a_frame_arrives(

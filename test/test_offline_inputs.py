@@ -171,4 +171,4 @@ def test_reader_options_that_fit_no_source_are_said_to_be_ignored(
     argv += ['--jobs', '1', '--quiet', '--no-orbslam', '--image-topic', '/cam/image']
     with caplog.at_level(logging.WARNING):
         assert main(argv) == 0
-    assert 'so they are ignored: --image-topic (bags only)' in caplog.text
+    assert 'so they are ignored: --image-topic' in caplog.text

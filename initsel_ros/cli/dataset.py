@@ -114,7 +114,12 @@ def run(args: argparse.Namespace) -> int:
 
     from initsel_ros.camera import Intrinsics
     from initsel_ros.errors import DatasetError
-    from initsel_ros.learn.build import BuildStats, build_table, explain_no_pairs
+    from initsel_ros.learn.build import (
+        BuildStats,
+        build_table,
+        explain_no_pairs,
+        sources_without_batches,
+    )
     from initsel_ros.learn.correspondences import Source
     from initsel_ros.learn.labels import NO_DEPTH, LabelConfig, ScaleRule
     from initsel_ros.learn.pairs import DatasetConfig
@@ -140,6 +145,9 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
     )
     _warn_unused_options(args)
+    hopeless = sources_without_batches(args.sources, config)
+    if hopeless:  # (docs/datasets.md: a source with no pair is an error; said before the work)
+        raise DatasetError(f'{explain_no_pairs(hopeless, config)}; {args.out} not written')
     stats: list[BuildStats] = []
     table = build_table(args.sources, config, progress=not args.quiet, on_stats=stats.append)
     if len(table) == 0:
@@ -149,12 +157,12 @@ def run(args: argparse.Namespace) -> int:
     empty = [
         src for src, name in zip(args.sources, s.sequences, strict=True) if name not in labelled
     ]
-    if empty:  # (docs/datasets.md: a source with no pair is an error, never silently dropped)
-        raise DatasetError(
-            f'{explain_no_pairs(empty, config)}; {args.out} not written (the other sources '
-            f'gave {len(table)} pairs: leave these out, or fix them)'
-        )
     write_table(table, args.out)
+    if empty:  # found only after the work (too few correspondences): the table is kept
+        raise DatasetError(
+            f"{explain_no_pairs(empty, config)}; {args.out} written with the other sources' "
+            f'{len(table)} pairs only'
+        )
     positives = (
         ', '.join(f'{m} {int(table[f"{m}_label"].sum())}' for m in ('F', 'E', 'H'))
         + f', R {int(table["R_label"].sum())}'
@@ -175,20 +183,24 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _warn_unused_options(args: argparse.Namespace) -> None:
-    """Say so when --image-topic or --sequence fits none of the sources (each applies to its
-    kind only, so mixed sources take them where they fit, silently)."""
+    """Say so when --image-topic, --nearest-tolerance or --sequence fits none of the sources
+    (each applies to its kind only, as ``datasets.reader_options`` and ``open_sequence`` take
+    them, so mixed sources take them where they fit, silently)."""
     import logging
 
-    from initsel_ros.datasets import sequence_kind
+    from initsel_ros.datasets import reader_options, sequence_kind
 
-    kinds = {sequence_kind(Path(source)) for source in args.sources}
-    unused = []
-    if args.image_topic is not None and 'bag' not in kinds:
-        unused.append('--image-topic (bags only)')
-    if args.sequence is not None and not kinds & {'kitti', 'kitti_root', None}:
+    given = {'image_topic': args.image_topic, 'nearest_tolerance': args.nearest_tolerance}
+    taken = set()
+    for source in args.sources:
+        taken |= set(reader_options(source, **{k: v for k, v in given.items() if v is not None}))
+    unused = [f'--{name.replace("_", "-")}' for name, value in given.items() if value is not None]
+    unused = [option for option in unused if option[2:].replace('-', '_') not in taken]
+    kitti = any(sequence_kind(Path(s)) in ('kitti', 'kitti_root') for s in args.sources)
+    if args.sequence is not None and not kitti:
         unused.append('--sequence (KITTI odometry only)')
     if unused:
         logging.getLogger(__name__).warning(
-            'no source is of the kind these options apply to, so they are ignored: %s',
+            'no source is of a kind these options apply to, so they are ignored: %s',
             ', '.join(unused),
         )

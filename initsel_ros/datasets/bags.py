@@ -257,7 +257,7 @@ class BagSequence(Sequence):
             scan = self._scan(
                 image_topic,
                 depth_topic,
-                info_topic,
+                info_topic if intrinsics is None else '',  # (given: the bag's is not read)
                 pose_topic if ground_truth else None,
                 tf_topic if ground_truth else None,
                 tf_parent.lstrip('/'),
@@ -324,7 +324,7 @@ class BagSequence(Sequence):
                 '%s: %s on %s: the TUM fr3 intrinsics are assumed (give the '
                 "camera's own with --intrinsics)",
                 path,
-                'the CameraInfo is of an uncalibrated camera (K all zero)'
+                'the CameraInfo is of an uncalibrated camera (K zero)'
                 if self._info_uncalibrated
                 else 'no CameraInfo',
                 info_topic,
@@ -425,8 +425,8 @@ class BagSequence(Sequence):
                 msg = reader.deserialize(raw, conn.msgtype)
                 k = np.asarray(getattr(msg, 'k', None) if hasattr(msg, 'k') else msg.K, float)
                 d = np.asarray(getattr(msg, 'd', None) if hasattr(msg, 'd') else msg.D, float)
-                if k.size == 9 and not k.any():  # REP 104: an uncalibrated camera
-                    self._info_uncalibrated = True
+                if k.size == 9 and np.isfinite(k).all() and k[0] <= 0:  # REP 104: K = 0 is
+                    self._info_uncalibrated = True  # an uncalibrated camera (or a part of one)
                 elif k.size == 9:
                     try:
                         roi = msg.roi

@@ -234,15 +234,7 @@ def build_table(
     names = []
     for source in sources:
         path = str(source)
-        try:
-            sequence = open_cached(path, config)
-        except InitselError:
-            raise
-        except Exception as exc:  # readers may raise anything on foreign files
-            reason = str(exc).strip() or 'no message'
-            raise DatasetError(
-                f'{path}: cannot open sequence: {type(exc).__name__}: {reason}'
-            ) from exc
+        sequence = _open_source(path, config)
         if not sequence.has_depth:
             LOG.info(
                 '%s: no depth; pairs are labelled from E_t and the rotation error '
@@ -302,6 +294,29 @@ def build_table(
     return PairTable.from_rows(ordered)
 
 
+def _open_source(path: str, config: DatasetConfig) -> Any:
+    """The sequence of a source (cached); a reader's foreign error as a DatasetError."""
+    try:
+        return open_cached(path, config)
+    except InitselError:
+        raise
+    except Exception as exc:  # readers may raise anything on foreign files
+        reason = str(exc).strip() or 'no message'
+        raise DatasetError(
+            f'{path}: cannot open sequence: {type(exc).__name__}: {reason}'
+        ) from exc
+
+
+def sources_without_batches(sources: Sequence[str | Path], config: DatasetConfig) -> list[str]:
+    """The sources that cannot give a pair whatever their tracks (no batch of 2 frames with a
+    pose): known before any tracking, unlike a source whose pairs all lack correspondences."""
+    return [
+        str(source)
+        for source in sources
+        if not labelled_batches(_open_source(str(source), config), config, warn=False)
+    ]
+
+
 def explain_no_pairs(sources: Sequence[str | Path], config: DatasetConfig) -> str:
     """Why :func:`build_table` labelled no pair, one clause per source (for a one-line error)."""
     reasons = []
@@ -334,4 +349,5 @@ __all__ = [
     'Executor',
     'build_table',
     'explain_no_pairs',
+    'sources_without_batches',
 ]

@@ -161,8 +161,8 @@ def orbslam_scored(test: PairTable, warn: bool = True) -> np.ndarray:
     scored = np.isfinite(np.asarray(test['orb_ratio'], dtype=float))
     if warn and not scored.any():
         LOG.warning(
-            'no pair has ORB-SLAM scores (a table built with --no-orbslam): the ORB-SLAM '
-            'baseline is left out'
+            'no pair has ORB-SLAM scores (initsel dataset --no-orbslam leaves them out): the '
+            'ORB-SLAM baseline is left out'
         )
     return scored
 

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from initsel_ros.learn import baselines
-from initsel_ros.learn.evaluate import EvalReport, binary_scores
+from initsel_ros.learn.evaluate import EvalReport, binary_scores, orbslam_scored
 from initsel_ros.learn.table import PairTable
 from initsel_ros.learn.train import label_column
 from initsel_ros.models import ModelSet
@@ -48,8 +48,8 @@ def _baseline_points(test: PairTable, model: str) -> dict[str, np.ndarray]:
         for stat in ('mean', 'median'):
             h, f = baselines.butt_rule(test[f'disp_{stat}_px'], test['disp_std_px'])
             points[f'Butt 2020 ({stat})'] = f if model == 'F' else h
-        scored = np.isfinite(np.asarray(test['orb_ratio'], dtype=float)).any()
-        for version in baselines.OrbSlamVersion if scored else ():  # (--no-orbslam tables)
+        scored = orbslam_scored(test, warn=False).any()  # (evaluate has said it)
+        for version in baselines.OrbSlamVersion if scored else ():
             choice = baselines.orbslam_choice(test['orb_ratio'], version)
             ok = (
                 (choice == model)

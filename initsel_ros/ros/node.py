@@ -117,8 +117,8 @@ TF_QOS = _keep_last(100, ReliabilityPolicy.RELIABLE)
 WARN_THROTTLE_S = 5.0
 #: ``~/status``' source_warning clears after this many frames in a row from one camera.
 SOURCE_WARNING_FRAMES = 300
-#: Until the first frame, the input topics are checked this often, seconds.
-TOPIC_CHECK_PERIOD_S = 2.0
+#: Until the first frame and camera_info, the input topics are checked this often, seconds.
+TOPIC_CHECK_PERIOD_S = 0.5
 #: Without a frame after this long, the node says so, seconds.
 NO_FRAMES_NOTE_S = 10.0
 #: The executor's wait slice in main(), seconds: how soon a stop signal is seen.
@@ -249,27 +249,24 @@ class SelectorNode(Node):
             callback_group=self._input_group,
         )
         if self._settings.use_camera_info:
-            # best effort takes any publisher's new messages; a second, transient-local
-            # subscription takes the last message of a latched publisher that started first
-            # (its mismatch with volatile publishers is expected: no rclpy warning about it)
-            for qos, events in (
-                (IMAGE_QOS, None),
-                (LATCHED_QOS, SubscriptionEventCallbacks(incompatible_qos=_ignore_event)),
-            ):
-                self.create_subscription(
-                    CameraInfo,
-                    'camera_info',
-                    self._on_camera_info,
-                    qos,
-                    callback_group=self._input_group,
-                    event_callbacks=events,
-                )
+            self.create_subscription(
+                CameraInfo,
+                'camera_info',
+                self._on_camera_info,
+                IMAGE_QOS,
+                callback_group=self._input_group,
+            )
+        # a transient-local camera_info subscription, made once a latched publisher shows up
+        # (for its last message, published before the node started); not before: every
+        # volatile publisher would log an incompatible-QoS warning about it
+        self._latched_info: Any = None
         self._image_type_name = _type_name(image_type)
         self._topic_notes: set[str] = set()
         self._started_at = time.monotonic()
         self._topic_check = self.create_timer(
             TOPIC_CHECK_PERIOD_S, self._check_input_topics, callback_group=self._input_group
         )
+        self._check_input_topics()  # (a latched camera_info already in the graph: at once)
         self.create_service(Trigger, '~/reset', self._on_reset, callback_group=self._input_group)
         self.add_pre_set_parameters_callback(self._name_unknown_parameters)
         self.add_on_set_parameters_callback(self._validate_parameters)
@@ -411,27 +408,71 @@ class SelectorNode(Node):
         self._camera_info_arrived.set()
 
     def _check_input_topics(self) -> None:
-        """Timer, until the first frame: say why none arrives where the graph shows it (a
+        """Timer, until the first frame and a camera_info: listen to a latched camera_info
+        publisher's last message, and say why no frame arrives where the graph shows it (a
         publisher of another message type on the image or camera_info topic, an image topic
-        ending in /compressed/compressed, no publisher at all after NO_FRAMES_NOTE_S)."""
-        if self._received:
-            self._topic_check.cancel()
+        ending in /compressed/compressed, no frame after NO_FRAMES_NOTE_S)."""
+        try:
+            info_topic = self.resolve_topic_name('camera_info')
+            if self._settings.use_camera_info and not self._camera_info_seen:
+                self._listen_to_latched_camera_info(info_topic)
+            if self._received:
+                if self._camera_info_seen or not self._settings.use_camera_info:
+                    self._topic_check.cancel()
+                return
+            for key, text in self._input_topic_notes(info_topic):
+                if key not in self._topic_notes:
+                    self._topic_notes.add(key)
+                    self.get_logger().warning(text)
+        except Exception as exc:  # a graph query must never take the node down
+            self.get_logger().warning(
+                f'input topic check failed: {type(exc).__name__}: {exc}',
+                throttle_duration_sec=WARN_THROTTLE_S,
+            )
+
+    def _listen_to_latched_camera_info(self, info_topic: str) -> None:
+        """Subscribe transient local to camera_info once a latched publisher is there."""
+        if self._latched_info is not None:
             return
+        latched = any(
+            info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+            for info in self.get_publishers_info_by_topic(info_topic)
+        )
+        if latched:
+            self._latched_info = self.create_subscription(
+                CameraInfo,
+                'camera_info',
+                self._on_camera_info,
+                LATCHED_QOS,
+                callback_group=self._input_group,
+                # (volatile publishers on the same topic do not match it: said, not warned)
+                event_callbacks=SubscriptionEventCallbacks(incompatible_qos=_ignore_event),
+            )
+
+    def _input_topic_notes(self, info_topic: str) -> list[tuple[str, str]]:
+        """(what it is about, said once; the text) of each problem the graph shows."""
         wanted = {self._image_topic: self._image_type_name}
         if self._settings.use_camera_info:
-            wanted[self.resolve_topic_name('camera_info')] = 'sensor_msgs/msg/CameraInfo'
-        notes = []  # (what it is about: said once, the text)
+            wanted[info_topic] = 'sensor_msgs/msg/CameraInfo'
+        notes = []
+        right_type = 0  # image publishers of the type the node takes
         for topic, type_name in wanted.items():
             for info in self.get_publishers_info_by_topic(topic):
-                if info.topic_type != type_name:
-                    notes.append(
-                        (
-                            f'{topic} {info.topic_type}',
-                            f'{topic} has a publisher of {info.topic_type} ({info.node_name}), '
-                            f'but the selector takes {type_name} there: nothing arrives from it'
-                            + _transport_hint(info.topic_type, self._settings.image_transport),
-                        )
+                if info.topic_type == type_name:
+                    right_type += topic == self._image_topic
+                    continue
+                hint = (
+                    _transport_hint(info.topic_type, self._settings.image_transport)
+                    if topic == self._image_topic
+                    else ''
+                )
+                notes.append(
+                    (
+                        f'{topic} {info.topic_type}',
+                        f'{topic} has a publisher of {info.topic_type} ({info.node_name}), but '
+                        f'the selector takes {type_name} there: nothing arrives from it{hint}',
                     )
+                )
         if self._image_topic.endswith(COMPRESSED_SUFFIX * 2):
             notes.append(
                 (
@@ -441,19 +482,21 @@ class SelectorNode(Node):
                 )
             )
         if time.monotonic() - self._started_at >= NO_FRAMES_NOTE_S:
-            publishers = self.count_publishers(self._image_topic)
             notes.append(
                 (
                     'no frames',
-                    f'no frame on {self._image_topic} after {NO_FRAMES_NOTE_S:g} s ({publishers} '
-                    f'publisher{"s" if publishers != 1 else ""} of any type); remap image_raw '
-                    'to the camera topic',
+                    f'no frame on {self._image_topic} after {NO_FRAMES_NOTE_S:g} s: '
+                    + (
+                        f'{right_type} publisher{"s" if right_type != 1 else ""} of '
+                        f'{self._image_type_name} there (paused, or frames larger than the '
+                        'transport takes: see README, Transport)'
+                        if right_type
+                        else 'no publisher of the type the node takes; remap image_raw to the '
+                        'camera topic'
+                    ),
                 )
             )
-        for key, text in notes:
-            if key not in self._topic_notes:
-                self._topic_notes.add(key)
-                self.get_logger().warning(text)
+        return notes
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         with self._lock:
@@ -789,14 +832,19 @@ class SelectorNode(Node):
         """Give the selector the intrinsics for this image size (scaled when they differ),
         binned by ``factor`` where ``max_tracking_width`` shrinks the frames.
 
-        The untouched TUM defaults without a camera_info are a guess, scaled to another size
-        or not: warned once, loudly, and reported in every status until real intrinsics
-        arrive.
+        The TUM defaults without a camera_info are a guess: scaled to another size, or at
+        their own while a camera_info is expected (``use_camera_info``; without it the
+        parameters are the camera); warned once, loudly, and reported in every status until
+        real intrinsics arrive.
         """
         base = self._base_intrinsics()
         wanted = base
         self._intrinsics_warning = ''
-        guessed = self._intrinsics_source == 'parameters' and self._settings.default_intrinsics
+        guessed = (
+            self._intrinsics_source == 'parameters'
+            and self._settings.default_intrinsics
+            and (self._settings.use_camera_info or (width, height) != (base.width, base.height))
+        )
         if guessed:
             fr3 = f'the fr3 camera, {base.width}x{base.height}, fx {base.fx:g}'
             self._intrinsics_warning = (
@@ -807,6 +855,11 @@ class SelectorNode(Node):
                     else f'intrinsics ({fr3}, as a {width}x{height} sensor of its field of view)'
                 )
                 + f'; {CALIBRATE_HINT}'
+                + (
+                    ' (a TUM fr3 camera: use_camera_info false)'
+                    if (width, height) == (base.width, base.height)
+                    else ''
+                )
             )
             if not self._guess_logged:
                 self._guess_logged = True

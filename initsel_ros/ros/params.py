@@ -637,7 +637,8 @@ class NodeSettings:
 
     @property
     def default_intrinsics(self) -> bool:
-        """True when ``camera.*`` are still the TUM fr3 defaults (nobody set them)."""
+        """True when ``camera.*`` hold the TUM fr3 defaults (unset, or set to those values:
+        the two cannot be told apart, since config/selector.yaml lists them)."""
         return all(
             self.values.get(name, SPECS[name].default) == SPECS[name].default
             for name in CAMERA_PARAMETERS
