@@ -207,37 +207,24 @@ class Distortion:
 
 
 @dataclass(frozen=True)
-class BitDepth:
-    """0 (automatic) or 8 to 16."""
+class ZeroOr:
+    """0 (meaning ``zero``) or an integer in [``low``, ``high``]."""
+
+    low: int
+    high: int
+    zero: str
 
     def __call__(self, name: str, value: Any) -> int:
         if (
             isinstance(value, bool)
             or not isinstance(value, int)
-            or not (value == 0 or 8 <= value <= 16)
+            or not (value == 0 or self.low <= value <= self.high)
         ):
             raise ConfigError(f'{name} must be {self}, got {value!r}')
         return int(value)
 
     def __str__(self) -> str:
-        return '0 (automatic) or an integer in [8, 16]'
-
-
-@dataclass(frozen=True)
-class TrackingWidth:
-    """0 (track at full size) or a width in [MIN_TRACKING_WIDTH, 65536] pixels."""
-
-    def __call__(self, name: str, value: Any) -> int:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int)
-            or not (value == 0 or MIN_TRACKING_WIDTH <= value <= 65536)
-        ):
-            raise ConfigError(f'{name} must be {self}, got {value!r}')
-        return int(value)
-
-    def __str__(self) -> str:
-        return f'0 (full size) or an integer in [{MIN_TRACKING_WIDTH}, 65536]'
+        return f'0 ({self.zero}) or an integer in [{self.low}, {self.high}]'
 
 
 Validator = Callable[[str, Any], Any]
@@ -467,7 +454,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         'significant bits of mono16/16UC1 pixels (8-16); 0 = automatic: the bits that hold '
         'all but 0.1 % of the pixels, raised only when 3 frames in a row need more; ~/reset '
         'forgets it',
-        BitDepth(),
+        ZeroOr(8, 16, 'automatic'),
     ),
     ParameterSpec(
         'max_image_pixels',
@@ -483,7 +470,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         '...) that brings them within it, by area averaging, before anything else (the '
         'intrinsics shrink with them; init/points keeps full-size pixels); 0 = full size. '
         '1280 tracks 1920x1080 at 960x540 and 3840x2160 at 1280x720',
-        TrackingWidth(),
+        ZeroOr(MIN_TRACKING_WIDTH, 65536, 'full size'),
     ),
     ParameterSpec(
         'restart_tolerance_s',
