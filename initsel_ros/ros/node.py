@@ -17,6 +17,7 @@ import signal
 import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
@@ -117,6 +118,8 @@ TF_QOS = _keep_last(100, ReliabilityPolicy.RELIABLE)
 WARN_THROTTLE_S = 5.0
 #: ``~/status``' source_warning clears after this many frames in a row from one camera.
 SOURCE_WARNING_FRAMES = 300
+#: A frame size seen again within this many frames, after another, is a second camera.
+SOURCE_WINDOW_FRAMES = 30
 #: Until the first frame and camera_info, the input topics are checked this often, seconds.
 TOPIC_CHECK_PERIOD_S = 0.5
 #: Without a frame after this long, the node says so, seconds.
@@ -143,8 +146,9 @@ def _transport_hint(type_name: str, transport: ImageTransport) -> str:
     """How to make the node take an image topic of ``type_name`` ('' when no hint)."""
     if type_name == 'sensor_msgs/msg/CompressedImage' and transport is ImageTransport.RAW:
         return (
-            ' (-p image_transport:=compressed, and remap image_raw to the topic without '
-            '/compressed)'
+            ' (the node takes CompressedImage on <base>/compressed, as image_transport names '
+            'it: -p image_transport:=compressed with image_raw remapped to <base>; a '
+            'CompressedImage topic named otherwise needs a republisher)'
         )
     if type_name == 'sensor_msgs/msg/Image' and transport is ImageTransport.COMPRESSED:
         return " (-p image_transport:=raw, or remap image_raw to the camera's base topic)"
@@ -211,7 +215,7 @@ class SelectorNode(Node):
         self._depth_encoding_warned = False
         self._warned_at: dict[str, float] = {}  # each warning's last time (monotonic)
         # the last two frames' frame_id and size (a camera switching back and forth)
-        self._sources: tuple[tuple[str, int, int] | None, ...] = (None, None)
+        self._sources: deque[tuple[str, int, int]] = deque(maxlen=SOURCE_WINDOW_FRAMES)
         self._source_warning = ''  # ~/status: the last switch between cameras, while recent
         self._frames_one_source = 0
 
@@ -416,8 +420,12 @@ class SelectorNode(Node):
             info_topic = self.resolve_topic_name('camera_info')
             if self._settings.use_camera_info and not self._camera_info_seen:
                 self._listen_to_latched_camera_info(info_topic)
+            elif self._latched_info is not None:  # done: a publisher joining later won't warn
+                self.destroy_subscription(self._latched_info)
+                self._latched_info = None
             if self._received:
-                if self._camera_info_seen or not self._settings.use_camera_info:
+                info_done = self._camera_info_seen or not self._settings.use_camera_info
+                if info_done and self._latched_info is None:
                     self._topic_check.cancel()
                 return
             for key, text in self._input_topic_notes(info_topic):
@@ -431,14 +439,14 @@ class SelectorNode(Node):
             )
 
     def _listen_to_latched_camera_info(self, info_topic: str) -> None:
-        """Subscribe transient local to camera_info once a latched publisher is there."""
+        """Subscribe transient local to camera_info while the graph holds latched publishers
+        only (a volatile one is heard anyway, and would warn of the mismatch)."""
         if self._latched_info is not None:
             return
-        latched = any(
-            info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-            for info in self.get_publishers_info_by_topic(info_topic)
-        )
-        if latched:
+        durabilities = {
+            info.qos_profile.durability for info in self.get_publishers_info_by_topic(info_topic)
+        }
+        if durabilities == {DurabilityPolicy.TRANSIENT_LOCAL}:
             self._latched_info = self.create_subscription(
                 CameraInfo,
                 'camera_info',
@@ -481,7 +489,7 @@ class SelectorNode(Node):
                     "remap image_raw to the camera's base topic (the node adds /compressed)",
                 )
             )
-        if time.monotonic() - self._started_at >= NO_FRAMES_NOTE_S:
+        if not notes and time.monotonic() - self._started_at >= NO_FRAMES_NOTE_S:
             notes.append(
                 (
                     'no frames',
@@ -654,9 +662,10 @@ class SelectorNode(Node):
         (``source_warning``) until :data:`SOURCE_WARNING_FRAMES` frames in a row come from
         one camera."""
         source = (frame_id, width, height)
-        before, last = self._sources
-        self._sources = (last, source)
-        if last is None or last == source or (last[0] == frame_id and source != before):
+        last = self._sources[-1] if self._sources else None
+        back = source in self._sources  # (a size seen within the window, left, and back)
+        self._sources.append(source)
+        if last is None or last == source or (last[0] == frame_id and not back):
             # the same camera (a size change alone, not back and forth: one camera reconfigured)
             self._frames_one_source += 1
             if self._frames_one_source >= SOURCE_WARNING_FRAMES:
