@@ -271,9 +271,7 @@ def test_kitti_reads_back_from_the_root_or_the_sequence_folder(near_sequence, ki
 
 
 def test_kitti_root_without_a_sequence_lists_the_sequences(kitti_root):
-    with pytest.raises(
-        DatasetError, match=r'--sequence NN where the command has it \(found: 03\)'
-    ):
+    with pytest.raises(DatasetError, match=r'choose a sequence with --sequence NN.*\(found: 03\)'):
         open_sequence(kitti_root)
     with pytest.raises(DatasetError, match=r'no sequence .07. \(found: 03\)'):
         open_sequence(kitti_root, sequence='07')
@@ -683,3 +681,14 @@ def test_the_dataset_and_replay_commands_take_a_camera(kitti_root, tmp_path):
     labelled = open_cached(str(folder), DatasetConfig(camera='1'))
     assert labelled.image_files[0].parent.name == 'image_1'
     assert open_cached(str(folder), DatasetConfig()).image_files[0].parent.name == 'image_0'
+
+
+def test_seedmap_takes_a_kitti_root_with_its_sequence(kitti_root, tmp_path):
+    # before: seedmap had no --sequence, while the reader's message told the user to give one
+    from initsel_ros.cli import main
+
+    out = tmp_path / 'seedmap'
+    argv = ['seedmap', str(kitti_root), '--sequence', '03', '--no-baselines', '--jobs', '1']
+    assert main([*argv, '--length', '30', '--step', '30', '--out-dir', str(out)]) == 0
+    rows = (out / 'seedmap.csv').read_text().splitlines()
+    assert len(rows) >= 2 and all(row.startswith('kitti_03,') for row in rows[1:])

@@ -87,11 +87,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--nearest-tolerance',
-        type=float,
+        type=options.non_negative_seconds,
         default=None,
         metavar='S',
         help='TUM, EuRoC, bags: frames outside the ground truth take the nearest pose within S '
         'seconds (as initsel dataset)',
+    )
+    options.add_kitti_sequence_option(
+        parser, 'KITTI: the sequence, when a SEQUENCE is the odometry root (as initsel dataset)'
+    )
+    parser.add_argument(
+        '--image-topic',
+        default=None,
+        help='bags: the image topic (Image or CompressedImage; default '
+        '/camera/rgb/image_color, or <it>/compressed when absent; as initsel dataset)',
     )
     options.add_jobs_option(parser, 2)
     options.add_out_dir_option(
@@ -154,6 +163,8 @@ def run(args: argparse.Namespace) -> int:
             noise_seeds=args.noise_seed,
             progress=progress,
             nearest_tolerance=args.nearest_tolerance,
+            image_topic=args.image_topic,
+            kitti_sequence=args.sequence,
         )
     table = summary_markdown(summarize(outcomes))
     print(table)

@@ -62,13 +62,16 @@ def reader_options(
     image_topic: str | None = None,
     intrinsics: Intrinsics | None = None,
     camera: str | None = None,
+    sequence: str | None = None,
 ) -> dict[str, Any]:
     """The :func:`open_sequence` options a tool's settings give the reader of ``path``:
-    ``nearest_tolerance`` for TUM, EuRoC and bags, ``image_topic`` for bags, ``intrinsics``
-    and ``camera`` as given (:func:`open_sequence` refuses them where they do not apply);
-    unset ones left out."""
+    ``nearest_tolerance`` for TUM, EuRoC and bags, ``image_topic`` for bags, ``sequence`` for
+    KITTI, ``intrinsics`` and ``camera`` as given (:func:`open_sequence` refuses them where
+    they do not apply); unset ones left out."""
     kind = sequence_kind(Path(path))
     options: dict[str, Any] = {}
+    if sequence is not None and kind in ('kitti', 'kitti_root'):
+        options['sequence'] = sequence
     if camera is not None:
         options['camera'] = camera
     if nearest_tolerance is not None and kind in ('tum', 'euroc', 'bag'):

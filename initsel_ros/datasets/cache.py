@@ -51,7 +51,7 @@ def open_cached(path: Path | str, *, quiet: bool = False, **options: Any) -> Seq
     return sequence
 
 
-def keep_sequence(sequence: Sequence, path: Path | str, **options: Any) -> None:
+def keep_sequence(sequence: Sequence, path: Path | str, /, **options: Any) -> None:
     """Keep ``sequence``, opened by the caller, as :func:`open_cached` would with ``path`` and
     ``options`` (batches run in the caller's process then read that very sequence)."""
     _OPEN[_key(path, options)] = sequence

@@ -91,9 +91,8 @@ def resolve_sequence_folder(path: Path, sequence: str | None) -> Path:
         )
     if sequence is None:
         raise DatasetError(
-            f'{path}: a KITTI odometry root; choose a sequence: give its folder '
-            f'(sequences/NN), or --sequence NN where the command has it (found: '
-            f'{", ".join(available)})'
+            f'{path}: a KITTI odometry root; choose a sequence with --sequence NN, or give '
+            f'its folder (sequences/NN) (found: {", ".join(available)})'
         )
     name = str(sequence)
     if name not in available and name.isdigit() and f'{int(name):02d}' in available:

@@ -19,7 +19,6 @@ import logging
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -246,7 +245,7 @@ def pair_row(
 def open_cached(path: str, config: DatasetConfig) -> Any:
     """The sequence at ``path`` with the reader options of ``config``, opened once per process
     (:func:`initsel_ros.datasets.cache.open_cached`)."""
-    from initsel_ros.datasets import reader_options, sequence_kind
+    from initsel_ros.datasets import reader_options
     from initsel_ros.datasets.cache import open_cached as open_once
 
     options = reader_options(
@@ -255,9 +254,8 @@ def open_cached(path: str, config: DatasetConfig) -> Any:
         image_topic=config.image_topic,
         intrinsics=config.intrinsics,
         camera=config.camera,
+        sequence=config.sequence,
     )
-    if sequence_kind(Path(path)) in ('kitti', 'kitti_root'):  # --sequence: KITTI only
-        options['sequence'] = config.sequence
     return open_once(path, **options)
 
 

@@ -41,11 +41,11 @@ from __future__ import annotations
 import logging
 import math
 import zlib
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -512,17 +512,16 @@ def evaluate_batch(
     tolerance: float = 0.05,
     baselines: bool | BaselineOptions = True,
     group: str = '',
-    nearest_tolerance: float | None = None,
+    reader: Mapping[str, Any] | None = None,
 ) -> list[BatchOutcome]:
     """Every system's outcome on one batch (a process-pool task: arguments are picklable).
 
     ``baselines``: True = the rules, False = the selector only, or a :class:`BaselineOptions`.
-    ``nearest_tolerance``: the readers' (frames outside the ground truth take the nearest
-    pose within that many seconds).
+    ``reader``: the sequence's reader options (``datasets.reader_options``).
     """
     options = _options(baselines)
     cv2.setNumThreads(1)
-    sequence = _open_quietly(path, nearest_tolerance)
+    sequence = _open_quietly(path, reader or {})
     batch = _Batch(sequence, start, length, group, options.sensor_noise, options.noise_seed)
     models = ModelSet.load(model_path)
     outcomes = [_run_selector(batch, models, config, tolerance)]
@@ -533,15 +532,12 @@ def evaluate_batch(
     return [replace(o, noise_seed=seed) for o in outcomes]
 
 
-def _open_quietly(path: str, nearest_tolerance: float | None):
+def _open_quietly(path: str, reader: Mapping[str, Any]):
     """A batch worker's sequence: opened once per process, without the readers' warnings
     (:func:`evaluate_sequences` has said them once already)."""
-    from initsel_ros.datasets import reader_options
     from initsel_ros.datasets.cache import open_cached
 
-    return open_cached(
-        path, quiet=True, **reader_options(path, nearest_tolerance=nearest_tolerance)
-    )
+    return open_cached(path, quiet=True, **reader)
 
 
 def batch_windows(
@@ -588,8 +584,13 @@ def evaluate_sequences(
     noise_seeds: Sequence[int] | None = None,
     progress: Callable[[int, int], None] | None = None,
     nearest_tolerance: float | None = None,
+    image_topic: str | None = None,
+    kitti_sequence: str | None = None,
 ) -> list[BatchOutcome]:
     """Run :func:`evaluate_batch` over every batch of every sequence (in a process pool).
+
+    ``nearest_tolerance``, ``image_topic`` and ``kitti_sequence`` go to the readers they apply
+    to (``datasets.reader_options``).
 
     Batches start every ``step`` frames, on their first frame with a ground-truth pose
     (:func:`batch_windows`).
@@ -615,7 +616,12 @@ def evaluate_sequences(
     tasks = []
     forget_sequences()  # (what an earlier call left, had it failed: read the sequences afresh)
     for path in paths:
-        reader = reader_options(path, nearest_tolerance=nearest_tolerance)
+        reader = reader_options(
+            path,
+            nearest_tolerance=nearest_tolerance,
+            image_topic=image_topic,
+            sequence=kitti_sequence,
+        )
         sequence = open_sequence(path, **reader)
         if jobs <= 1:  # the batches run in this process: they read this very sequence
             keep_sequence(sequence, str(path), **reader)
@@ -628,14 +634,13 @@ def evaluate_sequences(
                 moved,
             )
         group = groups.get(str(path), groups.get(Path(path).name, ''))
-        tasks += [(str(path), s, k, group) for s, k in windows]
+        tasks += [(str(path), s, k, group, reader) for s, k in windows]
     outcomes: list[BatchOutcome] = []
     seeds = list(noise_seeds or [options.noise_seed]) if options.sensor_noise > 0 else [-1]
-    reader = nearest_tolerance
     args = [
-        (p, s, n, str(model_path), config, tolerance, replace(options, noise_seed=seed), g, reader)
+        (p, s, n, str(model_path), config, tolerance, replace(options, noise_seed=seed), g, r)
         for seed in seeds
-        for p, s, n, g in tasks
+        for p, s, n, g, r in tasks
     ]
     if jobs <= 1:
         results: Iterable = (evaluate_batch(*a) for a in args)
