@@ -170,5 +170,5 @@ def test_reader_options_that_fit_no_source_are_said_to_be_ignored(
     argv = ['dataset', str(static_sequence), '--out', str(tmp_path / 'p.csv'), '--batch', '30']
     argv += ['--jobs', '1', '--quiet', '--no-orbslam', '--image-topic', '/cam/image']
     with caplog.at_level(logging.WARNING):
-        assert main(argv) == 0
-    assert 'so they are ignored: --image-topic' in caplog.text
+        assert main([*argv, '--sequence', '03']) == 0
+    assert 'so they are ignored: --image-topic, --sequence' in caplog.text

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from initsel_ros.cli import options
 
@@ -184,21 +183,23 @@ def run(args: argparse.Namespace) -> int:
 
 def _warn_unused_options(args: argparse.Namespace) -> None:
     """Say so when --image-topic, --nearest-tolerance or --sequence fits none of the sources
-    (each applies to its kind only, as ``datasets.reader_options`` and ``open_sequence`` take
-    them, so mixed sources take them where they fit, silently)."""
+    (each applies to its kind only, as ``datasets.reader_options`` gives them to the readers,
+    so mixed sources take them where they fit, silently)."""
     import logging
 
-    from initsel_ros.datasets import reader_options, sequence_kind
+    from initsel_ros.datasets import reader_options
 
-    given = {'image_topic': args.image_topic, 'nearest_tolerance': args.nearest_tolerance}
-    taken = set()
-    for source in args.sources:
-        taken |= set(reader_options(source, **{k: v for k, v in given.items() if v is not None}))
-    unused = [f'--{name.replace("_", "-")}' for name, value in given.items() if value is not None]
-    unused = [option for option in unused if option[2:].replace('-', '_') not in taken]
-    kitti = any(sequence_kind(Path(s)) in ('kitti', 'kitti_root') for s in args.sources)
-    if args.sequence is not None and not kitti:
-        unused.append('--sequence (KITTI odometry only)')
+    given = {
+        name: value
+        for name, value in (
+            ('image_topic', args.image_topic),
+            ('nearest_tolerance', args.nearest_tolerance),
+            ('sequence', args.sequence),
+        )
+        if value is not None
+    }
+    taken = set().union(*(reader_options(source, **given) for source in args.sources))
+    unused = [f'--{name.replace("_", "-")}' for name in given if name not in taken]
     if unused:
         logging.getLogger(__name__).warning(
             'no source is of a kind these options apply to, so they are ignored: %s',

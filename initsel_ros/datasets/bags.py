@@ -246,7 +246,7 @@ class BagSequence(Sequence):
         errors = _read_errors()
         self.path = path
         self._reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY))
-        self._info_uncalibrated = False  # (_scan: a CameraInfo with K all zero was seen)
+        self._info_uncalibrated = False  # (_scan: a CameraInfo with fx <= 0 was seen)
         try:
             self._reader.open()
         except errors as exc:

@@ -321,7 +321,7 @@ def explain_no_pairs(sources: Sequence[str | Path], config: DatasetConfig) -> st
     """Why :func:`build_table` labelled no pair, one clause per source (for a one-line error)."""
     reasons = []
     for source in sources:
-        seq = open_cached(str(source), config)
+        seq = _open_source(str(source), config)
         n_posed = int(seq.has_pose.sum())
         batches = batch_ranges(len(seq), config.batch, config.stride)
         if n_posed == 0:

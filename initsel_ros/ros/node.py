@@ -849,31 +849,28 @@ class SelectorNode(Node):
         base = self._base_intrinsics()
         wanted = base
         self._intrinsics_warning = ''
+        same_size = (width, height) == (base.width, base.height)
         guessed = (
             self._intrinsics_source == 'parameters'
             and self._settings.default_intrinsics
-            and (self._settings.use_camera_info or (width, height) != (base.width, base.height))
+            and (self._settings.use_camera_info or not same_size)
         )
         if guessed:
             fr3 = f'the fr3 camera, {base.width}x{base.height}, fx {base.fx:g}'
             self._intrinsics_warning = (
                 'no camera_info and camera.* are the TUM fr3 defaults: the pose uses guessed '
                 + (
-                    f'intrinsics ({fr3})'
-                    if (width, height) == (base.width, base.height)
-                    else f'intrinsics ({fr3}, as a {width}x{height} sensor of its field of view)'
-                )
-                + f'; {CALIBRATE_HINT}'
-                + (
-                    ' (a TUM fr3 camera: use_camera_info false)'
-                    if (width, height) == (base.width, base.height)
-                    else ''
+                    f'intrinsics ({fr3}); {CALIBRATE_HINT} (a TUM fr3 camera: use_camera_info '
+                    'false)'
+                    if same_size
+                    else f'intrinsics ({fr3}, as a {width}x{height} sensor of its field of '
+                    f'view); {CALIBRATE_HINT}'
                 )
             )
             if not self._guess_logged:
                 self._guess_logged = True
                 self.get_logger().warning(f'GUESSED INTRINSICS: {self._intrinsics_warning}')
-        if (width, height) != (base.width, base.height):
+        if not same_size:
             if not guessed:
                 self.get_logger().warning(
                     f'images are {width}x{height} but the {self._intrinsics_source} intrinsics '
