@@ -32,6 +32,7 @@ from ros_helpers import DOMAIN_ID
 from sensor_msgs.msg import Image
 from std_srvs.srv import Trigger
 
+from initsel_ros.backlog import BacklogWatch
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ModelFileError
 from initsel_ros.metrics import relative_pose, translation_chordal_error
@@ -214,6 +215,29 @@ def test_only_the_newest_frame_waits_and_overwritten_ones_count_as_dropped(
         h.executor.spin_once(timeout_sec=0.02)
     assert [s.stamp for s in h.statuses] == [pytest.approx(1.0), pytest.approx(4.0)]
     assert h.statuses[-1].dropped_frames == 2 and h.statuses[-1].received_frames == 4
+
+
+def test_a_node_slower_than_its_camera_says_so_in_its_log(harness_factory, tmp_path, capfd):
+    # a 720p camera at 30 Hz on a busy machine dropped a fifth of its frames with nothing in
+    # the log (only ~/status counted them)
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    h.node._backlog = BacklogWatch(window=4, warn_share=0.25)
+    entered, release = hold_selector(h)
+    frames = [
+        conv.numpy_to_image(texture(6), 'mono8', stamp=conv.seconds_to_stamp(1.0 + k))
+        for k in range(4)
+    ]
+    h.node._on_image(frames[0])
+    assert entered.wait(10.0)
+    for msg in frames[1:]:
+        h.node._on_image(msg)
+    release.set()
+    h.wait_until(lambda: len(h.statuses) >= 2, what='two statuses')
+    for _ in range(10):
+        h.executor.spin_once(timeout_sec=0.02)
+    err = capfd.readouterr().err
+    assert 'dropped 2 of the last 4 frames: processing one takes a median of' in err, err
+    assert 'set max_tracking_width (e.g. 640)' in err
 
 
 def test_missing_or_malformed_model_file_stops_the_node_with_one_error(context, tmp_path):

@@ -47,6 +47,7 @@ from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
 from initsel_ros import timestamps
+from initsel_ros.backlog import BacklogWatch
 from initsel_ros.camera import MAX_FIELD_ANGLE_DEG, Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError, InitselError
 from initsel_ros.image import (
@@ -207,6 +208,7 @@ class SelectorNode(Node):
         self._processed = 0
         # Worker-only state.
         self._stamps = StampMonitor(self._tolerance_ns(self._settings))
+        self._backlog = BacklogWatch()
         self._initializations = 0
         self._intrinsics_warning = ''
         self._guess_logged = False
@@ -707,6 +709,7 @@ class SelectorNode(Node):
                 f'restart_tolerance_s = {self._settings.restart_tolerance_s:g} s: jitter)',
             )
             return
+        started = time.perf_counter()
         try:
             image = self._to_image(msg)
             self._note_source(msg.header.frame_id, image.shape[1], image.shape[0])
@@ -730,6 +733,7 @@ class SelectorNode(Node):
             self._publish_status(stamp, None, dropped, Reason.INTERNAL_ERROR, repr(exc))
             return
         self._processed += 1
+        self._note_backlog(time.perf_counter() - started)
         reason, detail = result.decision.reason, result.decision.detail
         if result.decision.reason is Reason.VERIFICATION_FAILED:
             self.get_logger().info(f'{reason.value}: {detail}; looking on')
@@ -756,6 +760,15 @@ class SelectorNode(Node):
         self._publish_status(stamp, result, dropped, reason, detail)
         if self._debug_pub.get_subscription_count() > 0:
             self._publish_debug_image(image, result, msg)
+
+    def _note_backlog(self, seconds: float) -> None:
+        """Worker, after a frame took ``seconds``: warn when a window of frames dropped a
+        steady share of them (the node is slower than the camera; ``backlog.BacklogWatch``)."""
+        with self._lock:
+            received, dropped = self._received, self._dropped
+        backlog = self._backlog.processed(received, dropped, seconds)
+        if backlog is not None:
+            self.get_logger().warning(backlog.message(self._settings.max_tracking_width))
 
     def _to_image(self, msg: Image | CompressedImage) -> np.ndarray:
         """The selector's input (uint8 grey or BGR), decoded by :mod:`initsel_ros.image`.
