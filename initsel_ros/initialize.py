@@ -292,7 +292,10 @@ def _problem_text(
         floor = min_parallax_of(estimate.method.value, policy, share)
         text += f' < {floor:g}'
         if estimate.method is Method.H and share < policy.min_homography_plane_share:
-            text += f' (H holds {share:.0%} of the tracks: not the whole scene)'
+            text += (
+                f' (H triangulates {share:.0%} of the tracks, under '
+                f"{policy.min_homography_plane_share:.0%}: E's floor applies)"
+            )
     return text
 
 
@@ -511,7 +514,7 @@ def _estimate_and_choose(
                 selection,
                 background=background,
             )
-    plane = _better_model_not_ready(selection, estimates, checks)
+    plane = _better_model_not_ready(selection, estimates, checks, ref, cur, policy)
     if plane is not None:
         return FireResult(
             plane[0], plane[1], residual, estimates, checks, selection, background=background
@@ -676,7 +679,12 @@ def _decomposition_by_the_rest(
 
 
 def _better_model_not_ready(
-    selection: Selection, estimates: Sequence[PoseEstimate], checks: Sequence[Reason | None]
+    selection: Selection,
+    estimates: Sequence[PoseEstimate],
+    checks: Sequence[Reason | None],
+    ref: np.ndarray,
+    cur: np.ndarray,
+    policy: PolicyConfig,
 ) -> tuple[Reason, str] | None:
     """Why the winner is refused because the other kind of model fits better, or None.
 
@@ -686,6 +694,13 @@ def _better_model_not_ready(
     points, for any epipole e'); when a failed E or F scores lower than the H that won, the
     tracks have depth that H's plane does not explain. Either way the winner won only
     because the model that fits did not pass yet: the pair waits, with that model's reason.
+
+    GRIC caps what a track off the plane costs H, so a plane holding two thirds of the
+    tracks can score lower than E however far off the rest lie. Those tracks, where the
+    winner triangulates them with parallax, are the depth that makes E or F well-posed:
+    where more than
+    ``1 - policy.min_homography_plane_share`` of the tracks are such (:func:`off_plane_support`),
+    H's plane is not the scene (the share the pose check asks of H) and the winner stands.
     """
     scores = {s.method: s for s in selection.scores}
     won = scores.get(selection.winner) if selection.winner is not None else None
@@ -698,16 +713,45 @@ def _better_model_not_ready(
     if not better:
         return None
     best = min(better, key=lambda s: s.gric)
+    kind = 'a plane' if best.method is Method.H else 'not a plane'
+    depth = ''
+    if best.method is Method.H:
+        winner = next(e for e in estimates if e.method is won.method)
+        plane = next(e for e in estimates if e.method is Method.H)
+        off = off_plane_support(winner, plane, ref, cur)
+        if off > (1.0 - policy.min_homography_plane_share) * len(ref):
+            return None
+        depth = (
+            f'; {off} of {len(ref)} tracks lie off its plane, triangulated by {won.method.value}'
+        )
     reason = next(
         (c for e, c in zip(estimates, checks, strict=True) if e.method is best.method), None
     )
-    kind = 'a plane' if best.method is Method.H else 'not a plane'
     return (
         reason or Reason.POSE_FAILED,
         f'the tracks are {kind} (GRIC {best.method.value} {best.gric:.0f} < '
-        f'{won.method.value} {won.gric:.0f}), and {best.method.value} is not ready: '
+        f'{won.method.value} {won.gric:.0f}{depth}), and {best.method.value} is not ready: '
         f'{best.problem}',
     )
+
+
+def off_plane_support(
+    winner: PoseEstimate, plane: PoseEstimate, ref: np.ndarray, cur: np.ndarray
+) -> int:
+    """How many of the points the E or F ``winner`` triangulated (in front of both cameras,
+    with parallax: its ``indices``) lie clearly off the plane of the homography ``plane``:
+    more than :data:`OFF_PLANE_MIN_PX` from where it puts them (0 when H has no matrix).
+
+    Only triangulated points count: a track that a rotation moves (a background at infinity,
+    or the far scene of a pan) fits every epipolar geometry with that rotation, and lies off
+    a near plane's homography without showing any depth.
+    """
+    if not np.any(plane.matrix) or winner.indices.size == 0:
+        return 0
+    index = winner.indices
+    with np.errstate(invalid='ignore'):
+        on = transfer_px(plane.matrix, ref[index], cur[index]) <= OFF_PLANE_MIN_PX
+    return int(np.count_nonzero(~on))  # (NaN, inf: off)
 
 
 def plane_is_the_scene(estimate: PoseEstimate, policy: PolicyConfig) -> bool:

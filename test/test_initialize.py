@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import cv2
@@ -390,6 +391,52 @@ def test_an_e_winner_waits_when_the_tracks_are_a_plane_and_h_is_not_ready():
     assert deep.reason is Reason.INITIALIZED and deep.seed.method is Method.E, deep.detail
 
 
+def _wall_and_poster(n_wall: int, seed: int):
+    """A wall 3 m away (``n_wall`` tracks around the poster) and a poster 1 m away (the rest
+    of 300, the image's centre), the camera slid 15 cm sideways, 0.1 px of noise: p0, p1 and
+    the unit translation."""
+    rng = np.random.default_rng(seed)
+    wall = rng.uniform([20, 20], [620, 460], (4 * n_wall, 2))
+    inside = (np.abs(wall[:, 0] - 320) < 120) & (np.abs(wall[:, 1] - 240) < 100)
+    poster = rng.uniform([200, 140], [440, 340], (300 - n_wall, 2))
+    p0 = np.vstack((wall[~inside][:n_wall], poster))
+    rays = np.c_[p0, np.ones(len(p0))] @ np.linalg.inv(K).T
+    depth = np.r_[np.full(n_wall, 3.0), np.full(300 - n_wall, 1.0)]
+    R = cv2.Rodrigues(np.array([0.0, -0.02, 0.0]))[0]
+    t = np.array([-0.15, 0.0, 0.0])
+    proj = (rays * depth[:, None] @ R.T + t) @ K.T
+    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 0.1, p0.shape)
+    return p0 + rng.normal(0, 0.1, p0.shape), p1, t / np.linalg.norm(t)
+
+
+@pytest.mark.parametrize('seed', [1, 3])
+def test_an_e_winner_stands_when_a_fifth_of_the_tracks_it_fits_lie_off_the_plane(seed):
+    # A probe's poster 1 m before a wall 3 m away: GRIC caps what a track off the wall costs
+    # H, so with the wall holding 73 % of the tracks H scores lower than E. H fails its pose
+    # check (this policy asks 230 points), and the better-model test took the tracks for a
+    # plane and made E wait, for 40 frames live, though the poster's 80 tracks lie tens of
+    # pixels off the wall's plane on E's epipolar lines: depth that makes E well-posed.
+    p0, p1, t = _wall_and_poster(220, seed)
+    picky = FireConfig(policy=PolicyConfig(min_points=230))
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H, Method.F), picky)
+    gric = {score.method: score.gric for score in fire.selection.scores}
+    assert gric[Method.H] < gric[Method.E] and fire.estimate('H').n_points < 230  # (premise)
+    assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.E, fire.detail
+    assert translation_chordal_error(t, fire.seed.t) < 0.01
+    # a sixth off the plane is not the share that makes H's plane less than the scene: E waits
+    p0, p1, _ = _wall_and_poster(250, seed)
+    fire = initialize_pair(
+        p0,
+        p1,
+        K,
+        (Method.E, Method.H, Method.F),
+        replace(picky, policy=PolicyConfig(min_points=260)),
+    )
+    assert fire.reason is Reason.TOO_FEW_POINTS and fire.seed is None, fire.detail
+    off = re.search(r'; (\d+) of 300 tracks lie off its plane, triangulated by E\)', fire.detail)
+    assert 'the tracks are a plane' in fire.detail and off and int(off[1]) <= 60, fire.detail
+
+
 def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
     # A wall (70 % of the tracks) and objects off it: E fits all of them and scores a lower
     # GRIC than H, which fits the wall. With E's parallax floor out of reach, H would win
@@ -404,7 +451,9 @@ def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=far))
     assert fire.reason is Reason.LOW_PARALLAX and fire.seed is None, fire.detail
     assert 'H failed (low parallax' in fire.detail
-    assert '< 5 (H holds 6' in fire.detail and 'not the whole scene' in fire.detail, fire.detail
+    assert '< 5 (H triangulates 6' in fire.detail and "E's floor applies" in fire.detail, (
+        fire.detail
+    )
     any_share = replace(far, min_homography_plane_share=0.0)
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=any_share))
     assert fire.reason is Reason.LOW_PARALLAX and fire.seed is None, fire.detail
