@@ -117,6 +117,8 @@ LATCHED_QOS = _keep_last(1, ReliabilityPolicy.RELIABLE, DurabilityPolicy.TRANSIE
 STATUS_QOS = _keep_last(10, ReliabilityPolicy.RELIABLE)
 TF_QOS = _keep_last(100, ReliabilityPolicy.RELIABLE)
 WARN_THROTTLE_S = 5.0
+#: A node that keeps dropping frames says so at most this often, seconds.
+BACKLOG_REPEAT_S = 30.0
 #: ``~/status``' source_warning clears after this many frames in a row from one camera.
 SOURCE_WARNING_FRAMES = 300
 #: A frame size seen again within this many frames, after another, is a second camera.
@@ -575,7 +577,9 @@ class SelectorNode(Node):
                 return
             if not self._waited_for_camera_info:
                 self._wait_for_camera_info()
+            started = time.perf_counter()
             self._process(msg, dropped)
+            self._note_backlog(time.perf_counter() - started)
 
     def _wait_for_camera_info(self) -> None:
         """Worker, first frame: give its camera_info :data:`CAMERA_INFO_WAIT_S` to arrive.
@@ -709,7 +713,6 @@ class SelectorNode(Node):
                 f'restart_tolerance_s = {self._settings.restart_tolerance_s:g} s: jitter)',
             )
             return
-        started = time.perf_counter()
         try:
             image = self._to_image(msg)
             self._note_source(msg.header.frame_id, image.shape[1], image.shape[0])
@@ -733,7 +736,6 @@ class SelectorNode(Node):
             self._publish_status(stamp, None, dropped, Reason.INTERNAL_ERROR, repr(exc))
             return
         self._processed += 1
-        self._note_backlog(time.perf_counter() - started)
         reason, detail = result.decision.reason, result.decision.detail
         if result.decision.reason is Reason.VERIFICATION_FAILED:
             self.get_logger().info(f'{reason.value}: {detail}; looking on')
@@ -762,13 +764,17 @@ class SelectorNode(Node):
             self._publish_debug_image(image, result, msg)
 
     def _note_backlog(self, seconds: float) -> None:
-        """Worker, after a frame took ``seconds``: warn when a window of frames dropped a
-        steady share of them (the node is slower than the camera; ``backlog.BacklogWatch``)."""
+        """Worker, after a frame took ``seconds`` (publishing included): warn when a window
+        of frames dropped a steady share of them (``backlog.BacklogWatch``), at most every
+        :data:`BACKLOG_REPEAT_S`."""
         with self._lock:
             received, dropped = self._received, self._dropped
-        backlog = self._backlog.processed(received, dropped, seconds)
+        backlog = self._backlog.processed(received, dropped, seconds, time.monotonic())
         if backlog is not None:
-            self.get_logger().warning(backlog.message(self._settings.max_tracking_width))
+            self.get_logger().warning(
+                backlog.message(self._settings.max_tracking_width),
+                throttle_duration_sec=BACKLOG_REPEAT_S,
+            )
 
     def _to_image(self, msg: Image | CompressedImage) -> np.ndarray:
         """The selector's input (uint8 grey or BGR), decoded by :mod:`initsel_ros.image`.
