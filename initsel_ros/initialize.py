@@ -514,7 +514,8 @@ def _estimate_and_choose(
                 selection,
                 background=background,
             )
-    plane = _better_model_not_ready(selection, estimates, checks, ref, cur, policy)
+    noise_px = residual.noise_px if residual is not None else 0.0
+    plane = _better_model_not_ready(selection, estimates, checks, ref, cur, policy, noise_px)
     if plane is not None:
         return FireResult(
             plane[0], plane[1], residual, estimates, checks, selection, background=background
@@ -593,6 +594,11 @@ OFF_PLANE_MIN_RATIO = 3.0
 #: ... and the other misses them clearly: its median at least (this x the RANSAC threshold)
 #: squared, not by a tracking error.
 OFF_PLANE_MIN_MISS = 2.0
+#: A point lies off a plane for :func:`off_plane_support` beyond this many times the tracking
+#: noise as well: the distance from where H puts a track, with noise in both images, stays
+#: under about 5 sigma (the Rayleigh 99.9 % point of sqrt(2) sigma per coordinate); with 1-2 px
+#: of noise, 2.5 px counted a fifth of a plane's own points as off it.
+OFF_PLANE_NOISE_FACTOR = 5.0
 
 
 def _rest_moves_with_winner(
@@ -685,6 +691,7 @@ def _better_model_not_ready(
     ref: np.ndarray,
     cur: np.ndarray,
     policy: PolicyConfig,
+    noise_px: float = 0.0,
 ) -> tuple[Reason, str] | None:
     """Why the winner is refused because the other kind of model fits better, or None.
 
@@ -697,10 +704,11 @@ def _better_model_not_ready(
 
     GRIC caps what a track off the plane costs H, so a plane holding two thirds of the
     tracks can score lower than E however far off the rest lie. Those tracks, where the
-    winner triangulates them with parallax, are the depth that makes E or F well-posed:
-    where more than
-    ``1 - policy.min_homography_plane_share`` of the tracks are such (:func:`off_plane_support`),
-    H's plane is not the scene (the share the pose check asks of H) and the winner stands.
+    winner triangulates them with parallax, are the depth that makes E or F well-posed. Where
+    at least :data:`BACKGROUND_MIN_TRACKS` of them lie off H's plane
+    (:func:`off_plane_support`, ``noise_px`` the tracking noise) and H's plane keeps less
+    than ``policy.min_homography_plane_share`` of the tracks (the share the pose check asks
+    of H for its plane to be the scene), the winner stands.
     """
     scores = {s.method: s for s in selection.scores}
     won = scores.get(selection.winner) if selection.winner is not None else None
@@ -718,8 +726,9 @@ def _better_model_not_ready(
     if best.method is Method.H:
         winner = next(e for e in estimates if e.method is won.method)
         plane = next(e for e in estimates if e.method is Method.H)
-        off = off_plane_support(winner, plane, ref, cur)
-        if off > (1.0 - policy.min_homography_plane_share) * len(ref):
+        off = off_plane_support(winner, plane, ref, cur, noise_px)
+        kept = policy.min_homography_plane_share * len(ref)  # what a scene's plane holds
+        if off >= BACKGROUND_MIN_TRACKS and len(ref) - off < kept:
             return None
         depth = (
             f'; {off} of {len(ref)} tracks lie off its plane, triangulated by {won.method.value}'
@@ -736,11 +745,17 @@ def _better_model_not_ready(
 
 
 def off_plane_support(
-    winner: PoseEstimate, plane: PoseEstimate, ref: np.ndarray, cur: np.ndarray
+    winner: PoseEstimate,
+    plane: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    noise_px: float = 0.0,
 ) -> int:
     """How many of the points the E or F ``winner`` triangulated (in front of both cameras,
-    with parallax: its ``indices``) lie clearly off the plane of the homography ``plane``:
-    more than :data:`OFF_PLANE_MIN_PX` from where it puts them (0 when H has no matrix).
+    with parallax: its ``indices`` into ``ref`` and ``cur``) lie clearly off the plane of the
+    homography ``plane``: farther from where it puts them than :data:`OFF_PLANE_MIN_PX` and
+    :data:`OFF_PLANE_NOISE_FACTOR` times the tracking noise ``noise_px`` (per coordinate);
+    0 when H has no matrix.
 
     Only triangulated points count: a track that a rotation moves (a background at infinity,
     or the far scene of a pan) fits every epipolar geometry with that rotation, and lies off
@@ -748,10 +763,12 @@ def off_plane_support(
     """
     if not np.any(plane.matrix) or winner.indices.size == 0:
         return 0
+    bound = OFF_PLANE_MIN_PX
+    if math.isfinite(noise_px):
+        bound = max(bound, OFF_PLANE_NOISE_FACTOR * noise_px)
     index = winner.indices
-    with np.errstate(invalid='ignore'):
-        on = transfer_px(plane.matrix, ref[index], cur[index]) <= OFF_PLANE_MIN_PX
-    return int(np.count_nonzero(~on))  # (NaN, inf: off)
+    on = transfer_px(plane.matrix, ref[index], cur[index]) <= bound  # (NaN, inf: off)
+    return int(np.count_nonzero(~on))
 
 
 def plane_is_the_scene(estimate: PoseEstimate, policy: PolicyConfig) -> bool:

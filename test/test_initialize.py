@@ -11,7 +11,13 @@ import pytest
 from geometry_fixtures import K, least_quantile_rotation_px, pan, two_view
 
 from initsel_ros.geometry import Method, estimate_pose
-from initsel_ros.initialize import FireConfig, fire_methods, initialize_pair
+from initsel_ros.initialize import (
+    BACKGROUND_MIN_TRACKS,
+    FireConfig,
+    fire_methods,
+    initialize_pair,
+    off_plane_support,
+)
 from initsel_ros.metrics import translation_chordal_error
 from initsel_ros.policy import Decision, PolicyConfig, Reason
 
@@ -435,6 +441,16 @@ def test_an_e_winner_stands_when_a_fifth_of_the_tracks_it_fits_lie_off_the_plane
     assert fire.reason is Reason.TOO_FEW_POINTS and fire.seed is None, fire.detail
     off = re.search(r'; (\d+) of 300 tracks lie off its plane, triangulated by E\)', fire.detail)
     assert 'the tracks are a plane' in fire.detail and off and int(off[1]) <= 60, fire.detail
+
+
+@pytest.mark.parametrize('seed', [0, 1, 2])
+def test_tracking_noise_is_no_depth_off_a_plane(seed):
+    # 2 px of noise on a wall's tracks puts many of E's points 2.5 px from H's transfer: the
+    # bound grows with the noise, so only depth counts
+    p0, p1, _, _, _ = two_view(planar=True, n=300, baseline=1.0, noise_px=2.0, seed=seed)
+    e, h = estimate_pose(Method.E, p0, p1, K), estimate_pose(Method.H, p0, p1, K)
+    assert off_plane_support(e, h, p0, p1) >= BACKGROUND_MIN_TRACKS  # a fixed 2.5 px
+    assert off_plane_support(e, h, p0, p1, noise_px=2.0) < BACKGROUND_MIN_TRACKS
 
 
 def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
