@@ -327,7 +327,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         'min_homography_plane_share',
         _POLICY.min_homography_plane_share,
         "H's own parallax floor holds when H triangulates at least this share of the tracks "
-        '(the scene is one plane); on less, H needs min_parallax_deg too',
+        '(the scene is one plane); on less, H needs min_parallax_deg too, and an E or F '
+        'whose triangulated points leave H less than this share is not refused for a '
+        'lower-GRIC H',
         Number(0.0, 1.0),
     ),
     ParameterSpec(
