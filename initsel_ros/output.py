@@ -16,6 +16,18 @@ class OutputError(InitselError):
     """An output path that cannot be written (a folder, for one)."""
 
 
+def check_file_target(path: Path | str) -> Path:
+    """``path`` as a Path, when it can name a file to write.
+
+    Raises:
+        OutputError: ``path`` is a folder.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f'{path} is a folder: give the name of a file to write')
+    return path
+
+
 @contextmanager
 def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO]:
     """A text handle whose contents replace ``path`` when the block ends without an error.
@@ -26,9 +38,7 @@ def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO
     Raises:
         OutputError: ``path`` is a folder, or its folder cannot be made or written in.
     """
-    path = Path(path)
-    if path.is_dir():
-        raise OutputError(f'{path} is a folder: give the name of a file to write')
+    path = check_file_target(path)
     tmp = path.with_name(f'.{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp')
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -44,4 +54,4 @@ def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO
         raise
 
 
-__all__ = ['OutputError', 'atomic_text']
+__all__ = ['OutputError', 'atomic_text', 'check_file_target']

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from initsel_ros.names import Mode
+from initsel_ros.output import OutputError, check_file_target
 
 if TYPE_CHECKING:
     from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
@@ -86,10 +87,10 @@ def add_scale_rule_option(
 def output_file(value: str) -> Path:
     """argparse type: a file to write (refused at once when it names a folder, rather than
     after the work, when the write fails)."""
-    path = Path(value)
-    if path.is_dir():
-        raise argparse.ArgumentTypeError(f'{value} is a folder: give the name of a file to write')
-    return path
+    try:
+        return check_file_target(value)
+    except OutputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def whole_number(low: int) -> Callable[[str], int]:
