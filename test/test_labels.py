@@ -329,6 +329,81 @@ def test_the_static_share_counts_the_tracks_the_ground_truth_explains():
     assert math.isnan(ground_truth_static_share(p1, K, X, ~valid, np.eye(3), np.zeros(3)))
 
 
+def test_the_plane_share_is_the_largest_share_of_tracks_one_plane_explains():
+    """A wall 3 m away slid along by 20 cm: 1; a box before it holding a third of the
+    tracks: two thirds; a pure rotation before a scene with depth: 1 (no depth shows); no
+    depth: NaN."""
+    from initsel_ros.learn.labels import ground_truth_plane_share
+
+    rng = np.random.default_rng(3)
+    wall = np.full((H, W), 3.0, np.float32)
+    slide = _pose(np.eye(3), np.array([0.2, 0.0, 0.0]))
+    p0, p1 = _correspondences(rng, wall, slide)
+    assert label_pair(p0, p1, K, wall, np.eye(4), slide).plane_share == 1.0
+    box = wall.copy()
+    box[:, : W // 3] = 1.5  # the left third of the image: 1.5 m nearer (~36 px of parallax)
+    p0, p1 = _correspondences(rng, box, slide)
+    on_box = p0[:, 0] < W // 3
+    labels = label_pair(p0, p1, K, box, np.eye(4), slide)
+    assert labels.plane_share == pytest.approx(1.0 - on_box.mean())
+    pan = _pose(_rot_y(0.2), np.zeros(3))
+    p0, p1 = _correspondences(rng, _blocky_depth(rng), pan)
+    assert label_pair(p0, p1, K, _blocky_depth(rng), np.eye(4), pan).plane_share == 1.0
+    assert math.isnan(label_pair(p0, p1, K, None, np.eye(4), pan).plane_share)
+    X, valid = backproject(p0, box, K)
+    assert math.isnan(ground_truth_plane_share(p0, K, X, ~valid, np.eye(3), np.zeros(3)))
+
+
+def test_the_determined_label_keeps_e_and_f_off_planes_and_h_on_them():
+    # row 0, a plane (share 1): every pose good; row 1, a desk (share 0.4): every pose good;
+    # row 2, share 0.8 exactly (the plane holds the fire path's share); row 3, no depth
+    columns = {
+        'gt_baseline_m': np.full(4, 0.2),
+        'gt_plane_share': np.array([1.0, 0.4, 0.8, np.nan]),
+        'scale_rule': np.array(['median'] * 3 + ['no_depth'], dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        columns[f'{m}_ok'] = np.ones(4, dtype=int)
+        columns[f'{m}_et'] = np.full(4, 0.1)
+        columns[f'{m}_er_median'] = np.full(4, 0.1)
+        columns[f'{m}_er_first_two'] = np.full(4, 0.1)
+        columns[f'{m}_label'] = np.ones(4, dtype=int)
+    determined = relabel(columns, LabelConfig(method_label='determined'))
+    assert determined['E_label'].tolist() == [0, 1, 0, 1]
+    assert determined['F_label'].tolist() == [0, 1, 0, 1]
+    assert determined['H_label'].tolist() == [1, 0, 1, 1]
+    looser = relabel(columns, LabelConfig(method_label='determined', plane_share_max=0.9))
+    assert looser['E_label'].tolist() == [0, 1, 1, 1]
+    with pytest.raises(ConfigError, match='plane_share_max'):
+        LabelConfig(plane_share_max=0.0)
+
+
+def test_the_determined_label_is_the_same_pair_by_pair_and_on_tables():
+    rng = np.random.default_rng(5)
+    config = LabelConfig(method_label='determined')
+    for depth in (_blocky_depth(rng), np.full((H, W), 2.0, np.float32)):
+        T_cur = _pose(_rot_y(0.02), np.array([0.2, 0.0, 0.03]))
+        p0, p1 = _correspondences(rng, depth, T_cur)
+        labels = label_pair(p0, p1, K, depth, np.eye(4), T_cur, config)
+        good = {m: labels.outcomes[m].label(config) for m in 'FEH'}
+        planar = labels.plane_share >= config.plane_share_max
+        assert planar == bool(np.ptp(depth) == 0)
+        expected = {m: int(good[m] and planar == (m == 'H')) for m in 'FEH'}
+        assert {m: labels.label(m) for m in 'FEH'} == expected
+        row = {
+            'gt_baseline_m': np.array([labels.baseline_m]),
+            'gt_plane_share': np.array([labels.plane_share]),
+            'scale_rule': np.array(['median'], dtype=object),
+        }
+        for m, o in labels.outcomes.items():
+            row[f'{m}_ok'] = np.array([int(o.ok)])
+            row[f'{m}_et'] = np.array([o.et])
+            row[f'{m}_er_median'] = np.array([o.er_median])
+            row[f'{m}_er_first_two'] = np.array([o.er_first_two])
+        table = relabel(row, config)
+        assert {m: int(table[f'{m}_label'][0]) for m in 'FEH'} == expected
+
+
 def test_true_depths_of_undistorted_pixels_are_read_where_the_lens_puts_them():
     from initsel_ros.camera import Intrinsics
     from initsel_ros.learn.labels import true_depths

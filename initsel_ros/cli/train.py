@@ -214,11 +214,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     labels.add_argument(
         '--method-label',
-        choices=('good', 'best'),
+        choices=('good', 'best', 'determined'),  # labels.METHOD_LABELS (not imported)
         default=None,
-        help="F, E, H label rule: 'good' (the paper's: the method's own pose is good) or "
+        help="F, E, H label rule: 'good' (the paper's: the method's own pose is good), "
         "'best' (good, and within --best-margin E_t of the pair's best good pose: a method "
-        'the pair should be initialized with)',
+        "the pair should be initialized with) or 'determined' (good, and the scene fixes "
+        'the method: E and F need under 80%% of the tracks on one plane, H at least 80%%; '
+        'the gt_plane_share column)',
     )
     labels.add_argument(
         '--best-margin',

@@ -39,7 +39,7 @@ import numpy as np
 from initsel_ros import geometry
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, GeometryError, InitselError
-from initsel_ros.initialize import ESTIMATES_ONLY, initialize_pair
+from initsel_ros.initialize import ESTIMATES_ONLY, OFF_PLANE_MIN_PX, initialize_pair
 from initsel_ros.metrics import (
     reconstruction_error,
     relative_pose,
@@ -47,6 +47,7 @@ from initsel_ros.metrics import (
     translation_chordal_error,
 )
 from initsel_ros.names import POSE_METHODS  # the methods that get a pose label, in table order
+from initsel_ros.policy import PolicyConfig
 
 LOG = logging.getLogger(__name__)
 
@@ -95,10 +96,19 @@ class LabelConfig:
             the others do; ``best``: when its pose is good and its E_t is within
             ``best_margin`` of the lowest E_t of the pair's good poses, that is, when it is a
             method the pair should be initialized with (docs/learning.md, section 7: on
-            planes a degenerate E still lands within the margin of H about half the time).
+            planes a degenerate E still lands within the margin of H about half the time);
+            ``determined``: when its pose is good and the scene's geometry determines that
+            method's model: for E and F, less than ``plane_share_max`` of the tracks lie on
+            one plane (``gt_plane_share``; on a plane the 5-point fit has two exact solutions
+            and the 8-point fit a family of them, so a good pose there is luck), for H at
+            least that share. Pairs without depth (share unknown) keep the ``good`` label.
         best_margin: (float)
             The E_t margin of ``method_label='best'`` (the seed map's "chosen method best"
             criterion uses the same 0.05).
+        plane_share_max: (float)
+            The plane share of ``method_label='determined'``: the node's default
+            ``min_homography_plane_share`` (the share of the tracks H's plane must hold for
+            the fire path to take the plane for the scene).
     """
 
     et_max: float = 0.8
@@ -111,6 +121,7 @@ class LabelConfig:
     rotation_parallax_deg: float = 1.0
     method_label: str = 'good'
     best_margin: float = 0.05
+    plane_share_max: float = PolicyConfig().min_homography_plane_share
 
     def __post_init__(self) -> None:
         if self.rotation_label not in ROTATION_LABELS:
@@ -125,15 +136,29 @@ class LabelConfig:
             )
         if not (math.isfinite(self.best_margin) and self.best_margin >= 0.0):
             raise ConfigError(f'best_margin must be a finite number >= 0, got {self.best_margin}')
+        if not 0.0 < self.plane_share_max <= 1.0:
+            raise ConfigError(f'plane_share_max must be in (0, 1], got {self.plane_share_max}')
 
     def method_labels(
-        self, good: Mapping[str, np.ndarray], et: Mapping[str, np.ndarray]
+        self,
+        good: Mapping[str, np.ndarray],
+        et: Mapping[str, np.ndarray],
+        plane_share: np.ndarray | float = math.nan,
     ) -> dict[str, np.ndarray]:
-        """The F, E, H labels by ``method_label`` from each method's own verdict ``good``
-        and its E_t (arrays of one length, or scalars), as int64 arrays."""
+        """The F, E, H labels by ``method_label`` from each method's own verdict ``good``,
+        its E_t and the pair's ``gt_plane_share`` (arrays of one length, or scalars), as
+        int64 arrays."""
         good = {m: np.asarray(v).astype(bool) for m, v in good.items()}
         if self.method_label == 'good':
             return {m: v.astype(np.int64) for m, v in good.items()}
+        if self.method_label == 'determined':
+            share = np.asarray(plane_share, dtype=float)
+            known = np.isfinite(share)
+            with np.errstate(invalid='ignore'):
+                planar = known & (share >= self.plane_share_max)
+            off_plane = known & ~planar
+            determined = {m: ~known | (planar if m == 'H' else off_plane) for m in good}
+            return {m: (v & determined[m]).astype(np.int64) for m, v in good.items()}
         et = {m: np.asarray(v, dtype=float) for m, v in et.items()}
         # the lowest E_t among the pair's good poses (inf where none is good)
         lowest = np.min(np.stack([np.where(good[m], et[m], np.inf) for m in good]), axis=0)
@@ -157,7 +182,7 @@ class LabelConfig:
 #: The R label rules of :class:`LabelConfig` (``rotation_label``).
 ROTATION_LABELS = ('baseline', 'parallax')
 #: The F, E, H label rules of :class:`LabelConfig` (``method_label``).
-METHOD_LABELS = ('good', 'best')
+METHOD_LABELS = ('good', 'best', 'determined')
 
 
 @dataclass(frozen=True)
@@ -197,8 +222,8 @@ class MethodOutcome:
 class PairLabels:
     """Ground truth of one pair: baseline, rotation, parallax, R label and per-method
     outcomes (``parallax_deg``: the median angle between the two cameras' rays to the pair's
-    ground-truth points, degrees; ``static_share``: :func:`ground_truth_static_share`; both
-    NaN without depth)."""
+    ground-truth points, degrees; ``static_share``: :func:`ground_truth_static_share`;
+    ``plane_share``: :func:`ground_truth_plane_share`; all three NaN without depth)."""
 
     baseline_m: float
     rotation_deg: float
@@ -209,6 +234,7 @@ class PairLabels:
     has_depth: bool = True
     parallax_deg: float = math.nan
     static_share: float = math.nan
+    plane_share: float = math.nan
 
     @property
     def r_label(self) -> int:
@@ -226,7 +252,7 @@ class PairLabels:
             return self._good(method)
         good = {m: self._good(m) for m in self.outcomes}
         et = {m: o.et for m, o in self.outcomes.items()}
-        return int(self.config.method_labels(good, et)[method])
+        return int(self.config.method_labels(good, et, self.plane_share)[method])
 
     def _good(self, method: str) -> int:
         outcome = self.outcomes[method]
@@ -417,6 +443,7 @@ def label_pair_points(
     outcomes = estimate_outcomes(p0, p1, K, gt_points, gt_valid, t_gt, config, R_gt)
     parallax = ground_truth_parallax_deg(gt_points, gt_valid, np.asarray(R_gt), t_gt)
     static = ground_truth_static_share(p1, K, gt_points, gt_valid, np.asarray(R_gt), t_gt)
+    plane = ground_truth_plane_share(p0, K, gt_points, gt_valid, np.asarray(R_gt), t_gt)
     return PairLabels(
         baseline,
         rotation,
@@ -427,6 +454,7 @@ def label_pair_points(
         has_depth=has_depth,
         parallax_deg=parallax,
         static_share=static,
+        plane_share=plane,
     )
 
 
@@ -469,21 +497,83 @@ def ground_truth_static_share(
         the current camera and, through the homography, within ``tolerance_px`` of the track:
         1 for a static scene; NaN with fewer than 4 such points or no homography.
     """
+    use, ahead, projected = _moved_projections(K, points, valid, R, t)
+    if projected is None:
+        return math.nan
+    tracked = np.asarray(p1, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
+    return _homography_share(projected, tracked, tolerance_px, int(np.sum(use)))
+
+
+def _moved_projections(
+    K: np.ndarray, points: np.ndarray, valid: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Ground-truth points moved with the camera and projected into the current frame.
+
+    Returns ``use`` (the points known and finite), ``ahead`` (of those, in front of the
+    current camera) and their (M, 1, 2) float32 projections; None with fewer than 4 ahead.
+    """
     use = np.asarray(valid, dtype=bool) & np.isfinite(np.asarray(points, dtype=float)).all(axis=1)
     X = np.asarray(points, dtype=float)[use] @ np.asarray(R, dtype=float).T
     X += np.asarray(t, dtype=float).reshape(1, 3)
     ahead = X[:, 2] > 1e-9
     if ahead.sum() < 4:
-        return math.nan
+        return use, ahead, None
     x = X[ahead] @ np.asarray(K, dtype=float).T
-    projected = (x[:, :2] / x[:, 2:3]).astype(np.float32).reshape(-1, 1, 2)
-    tracked = np.asarray(p1, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
-    H, inliers = cv2.findHomography(projected, tracked, cv2.RANSAC, tolerance_px)
+    return use, ahead, (x[:, :2] / x[:, 2:3]).astype(np.float32).reshape(-1, 1, 2)
+
+
+def _homography_share(src: np.ndarray, dst: np.ndarray, tolerance_px: float, total: int) -> float:
+    """Of ``total`` tracks, the share a homography fitted by RANSAC from ``src`` to ``dst``
+    ((M, 1, 2) float32) maps within ``tolerance_px``; NaN when no homography is found."""
+    H, inliers = cv2.findHomography(src, dst, cv2.RANSAC, tolerance_px)
     if H is None or inliers is None:
         return math.nan
-    mapped = cv2.perspectiveTransform(projected.astype(np.float64), H).reshape(-1, 2)
-    error = np.hypot(*(mapped - tracked.reshape(-1, 2)).T)
-    return float(np.sum(error <= tolerance_px) / np.sum(use))
+    mapped = cv2.perspectiveTransform(src.astype(np.float64), H).reshape(-1, 2)
+    error = np.hypot(*(mapped - dst.reshape(-1, 2)).T)
+    return float(np.sum(error <= tolerance_px) / total)
+
+
+#: A track lies on the scene's plane when the homography of the ground-truth flow puts it
+#: within this many pixels of where the ground truth does: the fire path's bound for a track
+#: off H's plane (:data:`initsel_ros.initialize.OFF_PLANE_MIN_PX`).
+PLANE_TOLERANCE_PX = OFF_PLANE_MIN_PX
+
+
+def ground_truth_plane_share(
+    p0: np.ndarray,
+    K: np.ndarray,
+    points: np.ndarray,
+    valid: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    tolerance_px: float = PLANE_TOLERANCE_PX,
+) -> float:
+    """Share of a pair's tracks whose true flow one homography explains: the largest plane.
+
+    Each track's ground-truth point is moved with the camera and projected into the current
+    frame (noise-free flow); a homography fitted robustly (RANSAC) from the reference pixels
+    to those projections finds the largest set one plane (or a pure rotation, or a baseline
+    too short to show depth) accounts for. 1 for a plane, a pure rotation and a still camera;
+    lower as more of the scene shows depth off that plane.
+
+    Args:
+        p0: (N, 2) reference pixels of the tracks (undistorted), where ``points`` were read.
+        K: (3, 3) camera matrix.
+        points: (N, 3) the tracks' reference points in the reference camera frame, metres.
+        valid: (N,) where ``points`` is known.
+        R, t: the current camera's pose, ``x_cur = R x_ref + t`` (metres).
+        tolerance_px: how far from its true projection the homography may put a track.
+
+    Returns:
+        Of the tracks with a finite ground-truth point, the share in front of the current
+        camera that the homography puts within ``tolerance_px``; NaN with fewer than 4 such
+        points or no homography.
+    """
+    use, ahead, projected = _moved_projections(K, points, valid, R, t)
+    if projected is None:
+        return math.nan
+    reference = np.asarray(p0, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
+    return _homography_share(reference, projected, tolerance_px, int(np.sum(use)))
 
 
 def ground_truth_parallax_deg(
@@ -581,7 +671,19 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
                 label = np.where(no_depth, ok & (et < config.et_max) & rotation_ok, label)
         out[f'{m}_er'] = er
         good[m], et_of[m] = label, et
-    for m, label in config.method_labels(good, et_of).items():
+    plane_share = np.asarray(
+        columns.get('gt_plane_share', np.full(len(baseline), np.nan)), dtype=float
+    )
+    if (
+        config.method_label == 'determined'
+        and np.isnan(plane_share[~no_depth]).all()
+        and (~no_depth).any()
+    ):
+        LOG.warning(
+            "relabel: method_label 'determined' on a table without gt_plane_share (an older "
+            "table): the F, E, H labels stay the paper's"
+        )
+    for m, label in config.method_labels(good, et_of, plane_share).items():
         out[f'{m}_label'] = label
     parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
     out['R_label'] = config.rotation_labels(baseline, parallax)
@@ -592,6 +694,7 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
 __all__ = [
     'METHOD_LABELS',
     'NO_DEPTH',
+    'PLANE_TOLERANCE_PX',
     'POSE_METHODS',
     'ROTATION_ERROR_MAX_DEG',
     'ROTATION_LABELS',
@@ -603,6 +706,7 @@ __all__ = [
     'backproject',
     'estimate_outcomes',
     'ground_truth_parallax_deg',
+    'ground_truth_plane_share',
     'ground_truth_points',
     'ground_truth_static_share',
     'label_pair',

@@ -187,6 +187,7 @@ def pair_row(
         'gt_rotation_deg': labels.rotation_deg,
         'gt_parallax_deg': labels.parallax_deg,
         'gt_static_share': labels.static_share,
+        'gt_plane_share': labels.plane_share,
         'R_label': labels.r_label,
         'scale_rule': labels.scale_rule,
     }

@@ -5,8 +5,9 @@ One row per (reference frame, current frame) pair. Columns (see docs/learning.md
 - identity: ``sequence, batch, ref_index, cur_index, ref_stamp, cur_stamp, source, width,
   height, n_tracks``
 - ground truth: ``gt_baseline_m, gt_rotation_deg, gt_parallax_deg, gt_static_share,
-  R_label`` (the median parallax angle of the pair's points and the share of its tracks the
-  ground truth explains as a static scene, both NaN without depth)
+  gt_plane_share, R_label`` (the median parallax angle of the pair's points, the share of its
+  tracks the ground truth explains as a static scene and the share on its largest plane, all
+  NaN without depth)
 - the 23 features twice: ``paper__<name>`` (the authors' 640x480 scaling) and ``free__<name>``
   (resolution-free scaling); training picks one set through the model file's scaling
 - extra cheap features: ``x_*`` (see :data:`EXTRA_NAMES`)
@@ -68,11 +69,17 @@ ID_COLUMNS: tuple[tuple[str, type], ...] = (
     ('gt_rotation_deg', float),
     ('gt_parallax_deg', float),
     ('gt_static_share', float),
+    ('gt_plane_share', float),
     ('R_label', int),
 )
 
 #: Columns added after tables were first written: an older table without them reads as NaN.
-ADDED_COLUMNS: tuple[str, ...] = ('gt_parallax_deg', 'x_rotation_departure', 'gt_static_share')
+ADDED_COLUMNS: tuple[str, ...] = (
+    'gt_parallax_deg',
+    'x_rotation_departure',
+    'gt_static_share',
+    'gt_plane_share',
+)
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
     ('disp_mean_px', float),

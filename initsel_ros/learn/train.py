@@ -670,6 +670,11 @@ def train_models(
                 if labels.method_label == 'best'
                 else {}
             ),
+            **(
+                {'method_label': 'determined', 'plane_share_max': labels.plane_share_max}
+                if labels.method_label == 'determined'
+                else {}
+            ),
             'scale_rule': rules[0] if len(rules) == 1 else rules,
             'relabelled_at_training': config.labels is not None,
         },
