@@ -354,6 +354,39 @@ def test_the_plane_share_is_the_largest_share_of_tracks_one_plane_explains():
     assert math.isnan(ground_truth_plane_share(p0, K, X, ~valid, np.eye(3), np.zeros(3)))
 
 
+def test_the_rotation_share_and_the_flow_label_see_depth_in_pixels_not_metres():
+    """5 cm is a baseline before a wall 1 m away and none before one 20 m away: the flow
+    label tells them apart, the paper's baseline rule does not; a pan is a rotation."""
+    from initsel_ros.learn.labels import ground_truth_rotation_share
+
+    rng = np.random.default_rng(4)
+    flow = LabelConfig(rotation_label='flow')
+    slide = _pose(np.eye(3), np.array([0.05, 0.0, 0.0]))
+    for distance, share in ((1.0, 0.0), (20.0, 1.0)):  # 27 px and 1.3 px of parallax
+        wall = np.full((H, W), distance, np.float32)
+        p0, p1 = _correspondences(rng, wall, slide)
+        labels = label_pair(p0, p1, K, wall, np.eye(4), slide, flow)
+        assert labels.rotation_share == share
+        assert labels.r_label == int(share == 1.0)
+        assert label_pair(p0, p1, K, wall, np.eye(4), slide).r_label == 1  # <= 5 cm
+    pan = _pose(_rot_y(0.2), np.zeros(3))
+    depth = _blocky_depth(rng)
+    p0, p1 = _correspondences(rng, depth, pan)
+    assert label_pair(p0, p1, K, depth, np.eye(4), pan, flow).r_label == 1
+    X, valid = backproject(p0, depth, K)
+    assert math.isnan(ground_truth_rotation_share(p0, K, X, ~valid, np.eye(3), np.zeros(3)))
+    # on a table: the share where known, the baseline rule without depth
+    columns = {
+        'gt_baseline_m': np.array([0.01, 0.01, 0.5]),
+        'gt_rotation_share': np.array([0.5, np.nan, 0.9]),
+        'scale_rule': np.array(['median', 'no_depth', 'median'], dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        for column in ('ok', 'et', 'er_median', 'er_first_two', 'label'):
+            columns[f'{m}_{column}'] = np.ones(3)
+    assert relabel(columns, flow)['R_label'].tolist() == [0, 1, 1]
+
+
 def test_the_determined_label_keeps_e_and_f_off_planes_and_h_on_them():
     # row 0, a plane (share 1): every pose good; row 1, a desk (share 0.4): every pose good;
     # row 2, share 0.8 exactly (the plane holds the fire path's share); row 3, no depth

@@ -201,10 +201,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     labels.add_argument(
         '--rotation-label',
-        choices=('baseline', 'parallax'),
+        choices=('baseline', 'parallax', 'flow'),
         default=None,
-        help="R label rule: the paper's baseline (default) or the pair's median ground-truth "
-        'parallax angle under --rotation-parallax (rows without depth keep the baseline rule)',
+        help="R label rule: the paper's baseline (default), the pair's median ground-truth "
+        "parallax angle under --rotation-parallax, or 'flow' (the rotation alone explains "
+        "at least 80%% of the tracks' true flow within 2.5 px: the gt_rotation_share column); "
+        'rows without depth keep the baseline rule',
     )
     labels.add_argument(
         '--rotation-parallax',

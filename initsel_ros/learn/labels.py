@@ -82,6 +82,10 @@ class LabelConfig:
             ground-truth parallax angle of the pair's points is under ``rotation_parallax_deg``
             (no usable baseline for *this* scene: 5 cm is a baseline at 1 m and none at 10 m);
             rows without depth (no parallax) keep the baseline rule.
+            ``flow``: R label = 1 when the true flow of at least ``plane_share_max`` of the
+            tracks is the rotation's (``gt_rotation_share``: within the plane tolerance of
+            where the rotation alone puts them), so that no usable depth shows in the image,
+            whatever the scene's distance; rows without depth keep the baseline rule.
         rotation_parallax_deg: (float)
             The parallax threshold of ``rotation_label='parallax'``, degrees.
         scale_rule: (ScaleRule)
@@ -167,12 +171,23 @@ class LabelConfig:
                 m: (good[m] & (et[m] <= lowest + self.best_margin)).astype(np.int64) for m in good
             }
 
-    def rotation_labels(self, baseline_m: np.ndarray, parallax_deg: np.ndarray) -> np.ndarray:
-        """(N,) int64 R labels from the ground-truth baselines and median parallax angles."""
+    def rotation_labels(
+        self,
+        baseline_m: np.ndarray,
+        parallax_deg: np.ndarray,
+        rotation_share: np.ndarray | float = math.nan,
+    ) -> np.ndarray:
+        """(N,) int64 R labels from the ground-truth baselines, median parallax angles and
+        rotation shares (:func:`ground_truth_rotation_share`)."""
         baseline_m = np.asarray(baseline_m, dtype=float)
         by_baseline = baseline_m <= self.rotation_baseline_m
         if self.rotation_label == 'baseline':
             return by_baseline.astype(np.int64)
+        if self.rotation_label == 'flow':
+            share = np.broadcast_to(np.asarray(rotation_share, dtype=float), by_baseline.shape)
+            with np.errstate(invalid='ignore'):
+                by_flow = share >= self.plane_share_max
+            return np.where(np.isfinite(share), by_flow, by_baseline).astype(np.int64)
         parallax_deg = np.asarray(parallax_deg, dtype=float)
         with np.errstate(invalid='ignore'):
             by_parallax = parallax_deg < self.rotation_parallax_deg
@@ -180,7 +195,7 @@ class LabelConfig:
 
 
 #: The R label rules of :class:`LabelConfig` (``rotation_label``).
-ROTATION_LABELS = ('baseline', 'parallax')
+ROTATION_LABELS = ('baseline', 'parallax', 'flow')
 #: The F, E, H label rules of :class:`LabelConfig` (``method_label``).
 METHOD_LABELS = ('good', 'best', 'determined')
 
@@ -223,7 +238,8 @@ class PairLabels:
     """Ground truth of one pair: baseline, rotation, parallax, R label and per-method
     outcomes (``parallax_deg``: the median angle between the two cameras' rays to the pair's
     ground-truth points, degrees; ``static_share``: :func:`ground_truth_static_share`;
-    ``plane_share``: :func:`ground_truth_plane_share`; all three NaN without depth)."""
+    ``plane_share``: :func:`ground_truth_plane_share`; ``rotation_share``:
+    :func:`ground_truth_rotation_share`; all four NaN without depth)."""
 
     baseline_m: float
     rotation_deg: float
@@ -235,11 +251,14 @@ class PairLabels:
     parallax_deg: float = math.nan
     static_share: float = math.nan
     plane_share: float = math.nan
+    rotation_share: float = math.nan
 
     @property
     def r_label(self) -> int:
         """The R label by ``config.rotation_label`` (:meth:`LabelConfig.rotation_labels`)."""
-        return int(self.config.rotation_labels(self.baseline_m, self.parallax_deg))
+        return int(
+            self.config.rotation_labels(self.baseline_m, self.parallax_deg, self.rotation_share)
+        )
 
     @property
     def scale_rule(self) -> str:
@@ -444,6 +463,9 @@ def label_pair_points(
     parallax = ground_truth_parallax_deg(gt_points, gt_valid, np.asarray(R_gt), t_gt)
     static = ground_truth_static_share(p1, K, gt_points, gt_valid, np.asarray(R_gt), t_gt)
     plane = ground_truth_plane_share(p0, K, gt_points, gt_valid, np.asarray(R_gt), t_gt)
+    rotation_share = ground_truth_rotation_share(
+        p0, K, gt_points, gt_valid, np.asarray(R_gt), t_gt
+    )
     return PairLabels(
         baseline,
         rotation,
@@ -455,6 +477,7 @@ def label_pair_points(
         parallax_deg=parallax,
         static_share=static,
         plane_share=plane,
+        rotation_share=rotation_share,
     )
 
 
@@ -576,6 +599,35 @@ def ground_truth_plane_share(
     return _homography_share(reference, projected, tolerance_px, int(np.sum(use)))
 
 
+def ground_truth_rotation_share(
+    p0: np.ndarray,
+    K: np.ndarray,
+    points: np.ndarray,
+    valid: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    tolerance_px: float = PLANE_TOLERANCE_PX,
+) -> float:
+    """Share of a pair's tracks whose true flow the camera's rotation alone explains.
+
+    Each track's ground-truth point is moved with the camera and projected into the current
+    frame; the rotation alone (the homography ``K R K^-1``) puts the reference pixel within
+    ``tolerance_px`` of it where the translation shows no depth there: 1 for a pure rotation
+    and a still camera, lower as the baseline shows against the scene's distance.
+
+    Args and the NaN cases as in :func:`ground_truth_plane_share`.
+    """
+    use, ahead, projected = _moved_projections(K, points, valid, R, t)
+    if projected is None:
+        return math.nan
+    K = np.asarray(K, dtype=float)
+    rotation = K @ np.asarray(R, dtype=float) @ np.linalg.inv(K)
+    reference = np.asarray(p0, dtype=np.float64)[use][ahead].reshape(-1, 1, 2)
+    mapped = cv2.perspectiveTransform(reference, rotation).reshape(-1, 2)
+    error = np.hypot(*(mapped - projected.reshape(-1, 2)).T)
+    return float(np.sum(error <= tolerance_px) / np.sum(use))
+
+
 def ground_truth_parallax_deg(
     points: np.ndarray, valid: np.ndarray, R: np.ndarray, t: np.ndarray
 ) -> float:
@@ -686,7 +738,10 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     for m, label in config.method_labels(good, et_of, plane_share).items():
         out[f'{m}_label'] = label
     parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
-    out['R_label'] = config.rotation_labels(baseline, parallax)
+    rotation_share = np.asarray(
+        columns.get('gt_rotation_share', np.full(len(baseline), np.nan)), dtype=float
+    )
+    out['R_label'] = config.rotation_labels(baseline, parallax, rotation_share)
     out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
     return out
 
@@ -708,6 +763,7 @@ __all__ = [
     'ground_truth_parallax_deg',
     'ground_truth_plane_share',
     'ground_truth_points',
+    'ground_truth_rotation_share',
     'ground_truth_static_share',
     'label_pair',
     'label_pair_points',

@@ -188,6 +188,7 @@ def pair_row(
         'gt_parallax_deg': labels.parallax_deg,
         'gt_static_share': labels.static_share,
         'gt_plane_share': labels.plane_share,
+        'gt_rotation_share': labels.rotation_share,
         'R_label': labels.r_label,
         'scale_rule': labels.scale_rule,
     }

@@ -5,9 +5,9 @@ One row per (reference frame, current frame) pair. Columns (see docs/learning.md
 - identity: ``sequence, batch, ref_index, cur_index, ref_stamp, cur_stamp, source, width,
   height, n_tracks``
 - ground truth: ``gt_baseline_m, gt_rotation_deg, gt_parallax_deg, gt_static_share,
-  gt_plane_share, R_label`` (the median parallax angle of the pair's points, the share of its
-  tracks the ground truth explains as a static scene and the share on its largest plane, all
-  NaN without depth)
+  gt_plane_share, gt_rotation_share, R_label`` (the median parallax angle of the pair's
+  points, the share of its tracks the ground truth explains as a static scene, the share on
+  its largest plane and the share the rotation alone explains, all NaN without depth)
 - the 23 features twice: ``paper__<name>`` (the authors' 640x480 scaling) and ``free__<name>``
   (resolution-free scaling); training picks one set through the model file's scaling
 - extra cheap features: ``x_*`` (see :data:`EXTRA_NAMES`)
@@ -70,6 +70,7 @@ ID_COLUMNS: tuple[tuple[str, type], ...] = (
     ('gt_parallax_deg', float),
     ('gt_static_share', float),
     ('gt_plane_share', float),
+    ('gt_rotation_share', float),
     ('R_label', int),
 )
 
@@ -79,6 +80,7 @@ ADDED_COLUMNS: tuple[str, ...] = (
     'x_rotation_departure',
     'gt_static_share',
     'gt_plane_share',
+    'gt_rotation_share',
 )
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (

@@ -670,9 +670,10 @@ def train_models(
                 if labels.method_label == 'best'
                 else {}
             ),
+            **({'method_label': 'determined'} if labels.method_label == 'determined' else {}),
             **(
-                {'method_label': 'determined', 'plane_share_max': labels.plane_share_max}
-                if labels.method_label == 'determined'
+                {'plane_share_max': labels.plane_share_max}
+                if labels.method_label == 'determined' or labels.rotation_label == 'flow'
                 else {}
             ),
             'scale_rule': rules[0] if len(rules) == 1 else rules,
