@@ -14,7 +14,7 @@ from table_fixtures import synthetic_table
 from initsel_ros.cli import main
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.features import EXTRA_FEATURE_NAMES, FEATURE_NAMES
-from initsel_ros.learn.table import write_table
+from initsel_ros.learn.table import PairTable, write_table
 from initsel_ros.learn.train import (
     Family,
     TrainConfig,
@@ -218,6 +218,34 @@ def test_train_models_refuses_single_class_labels_by_default():
         train_models(synthetic_table(F_label=0), TrainConfig())
     report = train_models(synthetic_table(F_label=0), TrainConfig(allow_degenerate=True))
     assert report.models.models['F'].bias < -math.log(1e4)
+
+
+def test_the_determined_and_flow_labels_relabel_the_training_pairs(tmp_path):
+    from initsel_ros.learn.labels import LabelConfig, relabel
+
+    table = synthetic_table()
+    rng = np.random.default_rng(1)
+    columns = dict(table.columns)
+    columns['scale_rule'] = np.array(['median'] * len(table), dtype=object)
+    columns['gt_plane_share'] = rng.uniform(0.0, 1.0, len(table))
+    columns['gt_rotation_share'] = rng.uniform(0.0, 1.0, len(table))
+    for m in 'FEH':
+        columns[f'{m}_ok'] = np.ones(len(table), dtype=int)
+        columns[f'{m}_et'] = rng.uniform(0.0, 1.0, len(table))
+        columns[f'{m}_er_median'] = np.full(len(table), 0.1)
+    path = tmp_path / 'pairs.csv'
+    write_table(PairTable(columns), path)
+    out = tmp_path / 'models.json'
+    options = ['--method-label', 'determined', '--rotation-label', 'flow']
+    assert main(['train', str(path), '--out', str(out), '--family', 'logistic', *options]) == 0
+    meta = ModelSet.load(out).metadata
+    assert meta['labels']['method_label'] == 'determined'
+    assert meta['labels']['rotation_label'] == 'flow'
+    assert meta['labels']['plane_share_max'] == 0.8
+    expected = relabel(columns, LabelConfig(method_label='determined', rotation_label='flow'))
+    positives = meta['training_data']['positives']
+    assert positives == {m: int(expected[f'{m}_label'].sum()) for m in 'FEHR'}
+    assert positives['E'] < int((columns['E_et'] < 0.8).sum())  # the planar pairs left out
 
 
 def test_the_model_file_records_the_threshold_prior_and_the_r_label_rule(tmp_path):
