@@ -387,6 +387,22 @@ def test_the_rotation_share_and_the_flow_label_see_depth_in_pixels_not_metres():
     assert relabel(columns, flow)['R_label'].tolist() == [0, 1, 1]
 
 
+def test_the_determined_and_flow_labels_on_an_older_table_say_they_fall_back(caplog):
+    columns = {
+        'gt_baseline_m': np.array([0.01, 0.5]),
+        'scale_rule': np.array(['median', 'median'], dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        for column in ('ok', 'et', 'er_median', 'er_first_two', 'label'):
+            columns[f'{m}_{column}'] = np.full(2, 0.5)
+    config = LabelConfig(method_label='determined', rotation_label='flow')
+    out = relabel(columns, config)
+    assert out['R_label'].tolist() == [1, 0]  # the 5 cm rule
+    assert out['E_label'].tolist() == [1, 1]  # the paper's
+    assert 'without gt_plane_share' in caplog.text
+    assert 'without gt_rotation_share' in caplog.text
+
+
 def test_the_determined_label_keeps_e_and_f_off_planes_and_h_on_them():
     # row 0, a plane (share 1): every pose good; row 1, a desk (share 0.4): every pose good;
     # row 2, share 0.8 exactly (the plane holds the fire path's share); row 3, no depth

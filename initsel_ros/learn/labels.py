@@ -611,9 +611,10 @@ def ground_truth_rotation_share(
     """Share of a pair's tracks whose true flow the camera's rotation alone explains.
 
     Each track's ground-truth point is moved with the camera and projected into the current
-    frame; the rotation alone (the homography ``K R K^-1``) puts the reference pixel within
-    ``tolerance_px`` of it where the translation shows no depth there: 1 for a pure rotation
-    and a still camera, lower as the baseline shows against the scene's distance.
+    frame; a track counts when the rotation alone (the homography ``K R K^-1``) maps its
+    reference pixel within ``tolerance_px`` of that projection, so the translation shows no
+    depth there: 1 for a pure rotation and a still camera, lower as the baseline shows
+    against the scene's distance.
 
     Args and the NaN cases as in :func:`ground_truth_plane_share`.
     """
@@ -726,21 +727,22 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     plane_share = np.asarray(
         columns.get('gt_plane_share', np.full(len(baseline), np.nan)), dtype=float
     )
-    if (
-        config.method_label == 'determined'
-        and np.isnan(plane_share[~no_depth]).all()
-        and (~no_depth).any()
-    ):
-        LOG.warning(
-            "relabel: method_label 'determined' on a table without gt_plane_share (an older "
-            "table): the F, E, H labels stay the paper's"
-        )
-    for m, label in config.method_labels(good, et_of, plane_share).items():
-        out[f'{m}_label'] = label
-    parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
     rotation_share = np.asarray(
         columns.get('gt_rotation_share', np.full(len(baseline), np.nan)), dtype=float
     )
+    for rule_in_use, column, share, falls_back in (
+        (config.method_label == 'determined', 'gt_plane_share', plane_share, "the paper's"),
+        (config.rotation_label == 'flow', 'gt_rotation_share', rotation_share, 'the 5 cm'),
+    ):
+        if rule_in_use and (~no_depth).any() and np.isnan(share[~no_depth]).all():
+            LOG.warning(
+                'relabel: a table without %s (written before it): its rows keep %s labels',
+                column,
+                falls_back,
+            )
+    for m, label in config.method_labels(good, et_of, plane_share).items():
+        out[f'{m}_label'] = label
+    parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
     out['R_label'] = config.rotation_labels(baseline, parallax, rotation_share)
     out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
     return out
