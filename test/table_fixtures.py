@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 
 from initsel_ros.learn.table import PairTable, schema
@@ -13,24 +15,26 @@ def synthetic_table(
     """A schema-complete table with learnable labels (features drive them), 6 batches of
     ``sequences`` sequences.
 
+    Each column is drawn from its own generator (seeded by ``seed`` and the column's name), so
+    a column added to the schema leaves the others' values as they were.
     ``constant_labels`` (e.g. ``R_label=1``) fixes whole label columns.
     """
-    rng = np.random.default_rng(seed)
-    rows = []
-    for i in range(n):
-        row = {}
-        for name, kind in schema():
-            row[name] = (
-                float(rng.normal())
-                if kind is float
-                else (int(rng.integers(0, 2)) if kind is int else 'median')
-            )
-        row['sequence'] = f'seq{i % sequences}'
-        row['batch'] = i % 6
-        signal = row['free__disparity_mean']
-        for m in ('F', 'E', 'H'):
-            row[f'{m}_label'] = int(signal + 0.3 * rng.normal() > 0)
-        row['R_label'] = int(signal + 0.3 * rng.normal() < 0)
-        row.update(constant_labels)
-        rows.append(row)
-    return PairTable.from_rows(rows)
+    columns: dict[str, np.ndarray] = {}
+    for name, kind in schema():
+        rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
+        if kind is float:
+            columns[name] = rng.normal(size=n)
+        elif kind is int:
+            columns[name] = rng.integers(0, 2, n).astype(np.int64)
+        else:
+            columns[name] = np.full(n, 'median', dtype=object)
+    columns['sequence'] = np.array([f'seq{i % sequences}' for i in range(n)], dtype=object)
+    columns['batch'] = np.arange(n, dtype=np.int64) % 6
+    signal = columns['free__disparity_mean']
+    rng = np.random.default_rng([seed, zlib.crc32(b'labels')])
+    for m in ('F', 'E', 'H'):
+        columns[f'{m}_label'] = (signal + 0.3 * rng.normal(size=n) > 0).astype(np.int64)
+    columns['R_label'] = (signal + 0.3 * rng.normal(size=n) < 0).astype(np.int64)
+    for name, value in constant_labels.items():
+        columns[name] = np.full(n, value, dtype=np.int64)
+    return PairTable(columns)
