@@ -33,7 +33,9 @@ def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO
     """A text handle whose contents replace ``path`` when the block ends without an error.
 
     The parent folders are made; the file gets the usual permissions (the process umask,
-    like any ``open``); on an error the temporary file is removed and ``path`` is untouched.
+    like any ``open``); its contents are synced to disk before the rename, so a crash leaves
+    the old file or the new one, never an empty one; on an error the temporary file is
+    removed and ``path`` is untouched.
 
     Raises:
         OutputError: ``path`` is a folder, or its folder cannot be made or written in.
@@ -48,6 +50,8 @@ def atomic_text(path: Path | str, newline: str | None = None) -> Iterator[TextIO
     try:
         with handle:
             yield handle
+            handle.flush()
+            os.fsync(handle.fileno())  # on disk before the rename makes it the file
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)

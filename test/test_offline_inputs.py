@@ -52,6 +52,21 @@ def test_the_writers_refuse_a_folder_leave_nothing_behind_and_follow_the_umask(t
     assert sorted(p.name for p in tmp_path.iterdir()) == ['models.json', 'pairs.csv']
 
 
+def test_a_written_file_reaches_the_disk_before_it_replaces_the_old_one(tmp_path, monkeypatch):
+    from initsel_ros import output
+
+    events = []
+    real_fsync, real_replace = os.fsync, os.replace
+    monkeypatch.setattr(output.os, 'fsync', lambda fd: events.append('fsync') or real_fsync(fd))
+    monkeypatch.setattr(
+        output.os, 'replace', lambda a, b: events.append('replace') or real_replace(a, b)
+    )
+    with output.atomic_text(tmp_path / 'table.csv') as handle:
+        handle.write('a,b\n')
+    assert events == ['fsync', 'replace']
+    assert (tmp_path / 'table.csv').read_text() == 'a,b\n'
+
+
 @pytest.mark.parametrize(
     'option,value,reason',
     [
