@@ -225,6 +225,22 @@ def test_relabel_by_parallax_keeps_the_baseline_rule_where_there_is_none():
         LabelConfig(rotation_label='depth')
 
 
+def _table_row(labels) -> dict[str, np.ndarray]:
+    """The pair-table columns :func:`relabel` reads, for one labelled pair."""
+    row = {
+        'gt_baseline_m': np.array([labels.baseline_m]),
+        'gt_plane_share': np.array([labels.plane_share]),
+        'gt_rotation_share': np.array([labels.rotation_share]),
+        'scale_rule': np.array(['median'], dtype=object),
+    }
+    for m, o in labels.outcomes.items():
+        row[f'{m}_ok'] = np.array([int(o.ok)])
+        row[f'{m}_et'] = np.array([o.et])
+        row[f'{m}_er_median'] = np.array([o.er_median])
+        row[f'{m}_er_first_two'] = np.array([o.er_first_two])
+    return row
+
+
 def test_the_best_method_label_keeps_only_the_methods_a_pair_should_use():
     # row 0, a plane: H at 0.01, E landing at 0.30 and F at 0.70 from degenerate fits, all
     # "good" under the paper's 0.8; row 1, a desk: E 0.02 and F 0.06 (within 0.05), H 0.40;
@@ -271,16 +287,7 @@ def test_the_best_method_label_is_the_same_pair_by_pair_and_on_tables():
     et = {m: labels.outcomes[m].et if good[m] else np.inf for m in 'FEH'}
     winner = min(et, key=et.get)
     assert {m: labels.label(m) for m in 'FEH'} == {m: int(m == winner) for m in 'FEH'}
-    row = {
-        'gt_baseline_m': np.array([labels.baseline_m]),
-        'scale_rule': np.array(['median'], dtype=object),
-    }
-    for m, o in labels.outcomes.items():
-        row[f'{m}_ok'] = np.array([int(o.ok)])
-        row[f'{m}_et'] = np.array([o.et])
-        row[f'{m}_er_median'] = np.array([o.er_median])
-        row[f'{m}_er_first_two'] = np.array([o.er_first_two])
-    table = relabel(row, config)
+    table = relabel(_table_row(labels), config)
     assert {m: int(table[f'{m}_label'][0]) for m in 'FEH'} == {m: labels.label(m) for m in 'FEH'}
 
 
@@ -439,17 +446,7 @@ def test_the_determined_label_is_the_same_pair_by_pair_and_on_tables():
         assert planar == bool(np.ptp(depth) == 0)
         expected = {m: int(good[m] and planar == (m == 'H')) for m in 'FEH'}
         assert {m: labels.label(m) for m in 'FEH'} == expected
-        row = {
-            'gt_baseline_m': np.array([labels.baseline_m]),
-            'gt_plane_share': np.array([labels.plane_share]),
-            'scale_rule': np.array(['median'], dtype=object),
-        }
-        for m, o in labels.outcomes.items():
-            row[f'{m}_ok'] = np.array([int(o.ok)])
-            row[f'{m}_et'] = np.array([o.et])
-            row[f'{m}_er_median'] = np.array([o.er_median])
-            row[f'{m}_er_first_two'] = np.array([o.er_first_two])
-        table = relabel(row, config)
+        table = relabel(_table_row(labels), config)
         assert {m: int(table[f'{m}_label'][0]) for m in 'FEH'} == expected
 
 
