@@ -241,7 +241,7 @@ def test_the_determined_and_flow_labels_relabel_the_training_pairs(tmp_path):
     meta = ModelSet.load(out).metadata
     assert meta['labels']['method_label'] == 'determined'
     assert meta['labels']['rotation_label'] == 'flow'
-    assert meta['labels']['plane_share_max'] == 0.8
+    assert meta['labels']['dominant_share'] == 0.8
     expected = relabel(columns, LabelConfig(method_label='determined', rotation_label='flow'))
     positives = meta['training_data']['positives']
     assert positives == {m: int(expected[f'{m}_label'].sum()) for m in 'FEHR'}

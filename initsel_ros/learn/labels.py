@@ -82,7 +82,7 @@ class LabelConfig:
             ground-truth parallax angle of the pair's points is under ``rotation_parallax_deg``
             (no usable baseline for *this* scene: 5 cm is a baseline at 1 m and none at 10 m);
             rows without depth (no parallax) keep the baseline rule.
-            ``flow``: R label = 1 when the true flow of at least ``plane_share_max`` of the
+            ``flow``: R label = 1 when the true flow of at least ``dominant_share`` of the
             tracks is the rotation's (``gt_rotation_share``: within the plane tolerance of
             where the rotation alone puts them), so that no usable depth shows in the image,
             whatever the scene's distance; rows without depth keep the baseline rule.
@@ -102,16 +102,21 @@ class LabelConfig:
             method the pair should be initialized with (docs/learning.md, section 7: on
             planes a degenerate E still lands within the margin of H about half the time);
             ``determined``: when its pose is good and the scene's geometry determines that
-            method's model: for E and F, less than ``plane_share_max`` of the tracks lie on
-            one plane (``gt_plane_share``; on a plane the 5-point fit has two exact solutions
-            and the 8-point fit a family of them, so a good pose there is luck), for H at
-            least that share. Pairs without depth (share unknown) keep the ``good`` label.
+            method's model: for E and F, less than ``dominant_share`` of the tracks lie on
+            one homography's flow (``gt_plane_share``: a plane, where the 5-point fit has
+            two exact solutions and the 8-point fit a family of them, or a baseline too
+            short to show depth, where the translation is not observed: a good pose there is
+            luck), for H at least that share. ``dominant_share`` is the fire path's policy
+            share, not a bound of the geometry: a fifth of the tracks off the plane already
+            fix E. Pairs whose share is unknown (no depth, too few points ahead) keep the
+            ``good`` label (:func:`relabel` counts them).
         best_margin: (float)
             The E_t margin of ``method_label='best'`` (the seed map's "chosen method best"
             criterion uses the same 0.05).
-        plane_share_max: (float)
-            The plane share of ``method_label='determined'``: the node's default
-            ``min_homography_plane_share`` (the share of the tracks H's plane must hold for
+        dominant_share: (float)
+            The share of the tracks that makes one homography (a plane, or the rotation) the
+            scene, for ``method_label='determined'`` and ``rotation_label='flow'``: the
+            node's default ``min_homography_plane_share`` (the share H's plane must hold for
             the fire path to take the plane for the scene).
     """
 
@@ -125,7 +130,7 @@ class LabelConfig:
     rotation_parallax_deg: float = 1.0
     method_label: str = 'good'
     best_margin: float = 0.05
-    plane_share_max: float = PolicyConfig().min_homography_plane_share
+    dominant_share: float = PolicyConfig().min_homography_plane_share
 
     def __post_init__(self) -> None:
         if self.rotation_label not in ROTATION_LABELS:
@@ -140,8 +145,8 @@ class LabelConfig:
             )
         if not (math.isfinite(self.best_margin) and self.best_margin >= 0.0):
             raise ConfigError(f'best_margin must be a finite number >= 0, got {self.best_margin}')
-        if not 0.0 < self.plane_share_max <= 1.0:
-            raise ConfigError(f'plane_share_max must be in (0, 1], got {self.plane_share_max}')
+        if not 0.0 < self.dominant_share <= 1.0:
+            raise ConfigError(f'dominant_share must be in (0, 1], got {self.dominant_share}')
 
     def method_labels(
         self,
@@ -159,7 +164,7 @@ class LabelConfig:
             share = np.asarray(plane_share, dtype=float)
             known = np.isfinite(share)
             with np.errstate(invalid='ignore'):
-                planar = known & (share >= self.plane_share_max)
+                planar = known & (share >= self.dominant_share)
             off_plane = known & ~planar
             determined = {m: ~known | (planar if m == 'H' else off_plane) for m in good}
             return {m: (v & determined[m]).astype(np.int64) for m, v in good.items()}
@@ -184,9 +189,9 @@ class LabelConfig:
         if self.rotation_label == 'baseline':
             return by_baseline.astype(np.int64)
         if self.rotation_label == 'flow':
-            share = np.broadcast_to(np.asarray(rotation_share, dtype=float), by_baseline.shape)
+            share = np.asarray(rotation_share, dtype=float)
             with np.errstate(invalid='ignore'):
-                by_flow = share >= self.plane_share_max
+                by_flow = share >= self.dominant_share
             return np.where(np.isfinite(share), by_flow, by_baseline).astype(np.int64)
         parallax_deg = np.asarray(parallax_deg, dtype=float)
         with np.errstate(invalid='ignore'):
@@ -551,6 +556,14 @@ def _homography_share(src: np.ndarray, dst: np.ndarray, tolerance_px: float, tot
     H, inliers = cv2.findHomography(src, dst, cv2.RANSAC, tolerance_px)
     if H is None or inliers is None:
         return math.nan
+    return _share_within(src, dst, H, tolerance_px, total)
+
+
+def _share_within(
+    src: np.ndarray, dst: np.ndarray, H: np.ndarray, tolerance_px: float, total: int
+) -> float:
+    """Of ``total`` tracks, the share the homography ``H`` maps from ``src`` to within
+    ``tolerance_px`` of ``dst`` ((M, 1, 2) arrays)."""
     mapped = cv2.perspectiveTransform(src.astype(np.float64), H).reshape(-1, 2)
     error = np.hypot(*(mapped - dst.reshape(-1, 2)).T)
     return float(np.sum(error <= tolerance_px) / total)
@@ -559,7 +572,7 @@ def _homography_share(src: np.ndarray, dst: np.ndarray, tolerance_px: float, tot
 #: A track lies on the scene's plane when the homography of the ground-truth flow puts it
 #: within this many pixels of where the ground truth does: the fire path's bound for a track
 #: off H's plane (:data:`initsel_ros.initialize.OFF_PLANE_MIN_PX`).
-PLANE_TOLERANCE_PX = OFF_PLANE_MIN_PX
+FLOW_TOLERANCE_PX = OFF_PLANE_MIN_PX
 
 
 def ground_truth_plane_share(
@@ -569,7 +582,7 @@ def ground_truth_plane_share(
     valid: np.ndarray,
     R: np.ndarray,
     t: np.ndarray,
-    tolerance_px: float = PLANE_TOLERANCE_PX,
+    tolerance_px: float = FLOW_TOLERANCE_PX,
 ) -> float:
     """Share of a pair's tracks whose true flow one homography explains: the largest plane.
 
@@ -588,15 +601,15 @@ def ground_truth_plane_share(
         tolerance_px: how far from its true projection the homography may put a track.
 
     Returns:
-        Of the tracks with a finite ground-truth point, the share in front of the current
-        camera that the homography puts within ``tolerance_px``; NaN with fewer than 4 such
+        Of the tracks whose ground-truth point is known and in front of the current camera,
+        the share the homography puts within ``tolerance_px``; NaN with fewer than 4 such
         points or no homography.
     """
     use, ahead, projected = _moved_projections(K, points, valid, R, t)
     if projected is None:
         return math.nan
     reference = np.asarray(p0, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
-    return _homography_share(reference, projected, tolerance_px, int(np.sum(use)))
+    return _homography_share(reference, projected, tolerance_px, len(projected))
 
 
 def ground_truth_rotation_share(
@@ -606,7 +619,7 @@ def ground_truth_rotation_share(
     valid: np.ndarray,
     R: np.ndarray,
     t: np.ndarray,
-    tolerance_px: float = PLANE_TOLERANCE_PX,
+    tolerance_px: float = FLOW_TOLERANCE_PX,
 ) -> float:
     """Share of a pair's tracks whose true flow the camera's rotation alone explains.
 
@@ -623,10 +636,8 @@ def ground_truth_rotation_share(
         return math.nan
     K = np.asarray(K, dtype=float)
     rotation = K @ np.asarray(R, dtype=float) @ np.linalg.inv(K)
-    reference = np.asarray(p0, dtype=np.float64)[use][ahead].reshape(-1, 1, 2)
-    mapped = cv2.perspectiveTransform(reference, rotation).reshape(-1, 2)
-    error = np.hypot(*(mapped - projected.reshape(-1, 2)).T)
-    return float(np.sum(error <= tolerance_px) / np.sum(use))
+    reference = np.asarray(p0, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
+    return _share_within(reference, projected, rotation, tolerance_px, len(projected))
 
 
 def ground_truth_parallax_deg(
@@ -730,15 +741,19 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     rotation_share = np.asarray(
         columns.get('gt_rotation_share', np.full(len(baseline), np.nan)), dtype=float
     )
-    for rule_in_use, column, share, falls_back in (
+    for rule_in_use, column, share, older_rule in (
         (config.method_label == 'determined', 'gt_plane_share', plane_share, "the paper's"),
         (config.rotation_label == 'flow', 'gt_rotation_share', rotation_share, 'the 5 cm'),
     ):
-        if rule_in_use and (~no_depth).any() and np.isnan(share[~no_depth]).all():
+        unknown = int(np.sum(np.isnan(share[~no_depth])))
+        if rule_in_use and unknown:
             LOG.warning(
-                'relabel: a table without %s (written before it): its rows keep %s labels',
+                'relabel: %d of the %d rows with depth have no %s (a table written before '
+                'the column, or under 4 ground-truth points ahead): they keep %s labels',
+                unknown,
+                int(np.sum(~no_depth)),
                 column,
-                falls_back,
+                older_rule,
             )
     for m, label in config.method_labels(good, et_of, plane_share).items():
         out[f'{m}_label'] = label
@@ -749,9 +764,9 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
 
 
 __all__ = [
+    'FLOW_TOLERANCE_PX',
     'METHOD_LABELS',
     'NO_DEPTH',
-    'PLANE_TOLERANCE_PX',
     'POSE_METHODS',
     'ROTATION_ERROR_MAX_DEG',
     'ROTATION_LABELS',

@@ -665,14 +665,10 @@ def train_models(
                 if labels.rotation_label == 'parallax'
                 else {}
             ),
+            **({'method_label': labels.method_label} if labels.method_label != 'good' else {}),
+            **({'best_margin': labels.best_margin} if labels.method_label == 'best' else {}),
             **(
-                {'method_label': 'best', 'best_margin': labels.best_margin}
-                if labels.method_label == 'best'
-                else {}
-            ),
-            **({'method_label': 'determined'} if labels.method_label == 'determined' else {}),
-            **(
-                {'plane_share_max': labels.plane_share_max}
+                {'dominant_share': labels.dominant_share}
                 if labels.method_label == 'determined' or labels.rotation_label == 'flow'
                 else {}
             ),
