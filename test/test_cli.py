@@ -184,3 +184,11 @@ def test_train_options_name_every_feature_the_models_can_read():
 
     assert PAPER == FEATURE_NAMES
     assert EXTRA == EXTRA_FEATURE_NAMES
+
+
+def test_train_options_name_every_label_rule():
+    from initsel_ros.cli import train
+    from initsel_ros.learn import labels
+
+    assert train.METHOD_LABELS == labels.METHOD_LABELS
+    assert train.ROTATION_LABELS == labels.ROTATION_LABELS

@@ -17,6 +17,9 @@ PAPER = (  # features.FEATURE_NAMES
     *(f'{c}_range' for c in ('x0', 'y0', 'x1', 'y1')),
     *(f'direction_{45 * k}' for k in range(8)),
 )
+#: learn.labels.ROTATION_LABELS and METHOD_LABELS (not imported: --help loads no OpenCV)
+ROTATION_LABELS = ('baseline', 'parallax', 'flow')
+METHOD_LABELS = ('good', 'best', 'determined')
 EXTRA = (  # features.EXTRA_FEATURE_NAMES (not imported: --help loads no OpenCV)
     'x_disp_p10',
     'x_disp_p50',
@@ -201,7 +204,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     labels.add_argument(
         '--rotation-label',
-        choices=('baseline', 'parallax', 'flow'),
+        choices=ROTATION_LABELS,
         default=None,
         help="R label rule: the paper's baseline (default), the pair's median ground-truth "
         "parallax angle under --rotation-parallax, or 'flow' (the rotation alone explains "
@@ -216,7 +219,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     labels.add_argument(
         '--method-label',
-        choices=('good', 'best', 'determined'),  # labels.METHOD_LABELS (not imported)
+        choices=METHOD_LABELS,
         default=None,
         help="F, E, H label rule: 'good' (the paper's: the method's own pose is good), "
         "'best' (good, and within --best-margin E_t of the pair's best good pose: a method "
