@@ -443,6 +443,23 @@ def test_an_e_winner_stands_when_a_fifth_of_the_tracks_it_fits_lie_off_the_plane
     assert 'the tracks are a plane' in fire.detail and off and int(off[1]) <= 60, fire.detail
 
 
+@pytest.mark.parametrize('seed', [1, 5])
+def test_an_f_winner_stands_off_the_plane_as_e_does(seed):
+    # The same poster before the wall with F and H only: F's triangulated points off H's
+    # plane carry the rule as E's do (the rule's figures were measured with E winners).
+    p0, p1, t = _wall_and_poster(220, seed)
+    methods = (Method.F, Method.H)
+    fire = initialize_pair(p0, p1, K, methods, FireConfig(policy=PolicyConfig(min_points=230)))
+    gric = {score.method: score.gric for score in fire.selection.scores}
+    assert gric[Method.H] < gric[Method.F] and fire.estimate('H').n_points < 230  # (premise)
+    assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.F, fire.detail
+    assert translation_chordal_error(t, fire.seed.t) < 0.01
+    p0, p1, _ = _wall_and_poster(250, seed)
+    fire = initialize_pair(p0, p1, K, methods, FireConfig(policy=PolicyConfig(min_points=260)))
+    assert fire.reason is Reason.TOO_FEW_POINTS and fire.seed is None, fire.detail
+    assert 'tracks lie off its plane, triangulated by F' in fire.detail
+
+
 @pytest.mark.parametrize('seed', [0, 1, 2])
 def test_tracking_noise_is_no_depth_off_a_plane(seed):
     # 2 px of noise on a wall's tracks puts many of E's points 2.5 px from H's transfer: the
