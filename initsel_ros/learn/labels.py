@@ -701,7 +701,10 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
     ``ok and E_t < et_max and m_rot_err_deg < rotation_error_max_deg``; a table without the
     ``m_rot_err_deg`` column keeps their stored label as the rotation verdict, so only
     ``et_max`` is re-applied to them (logged once). With ``method_label='best'`` a good pose
-    keeps its label only where it is among the pair's best (:meth:`LabelConfig.method_labels`).
+    keeps its label only where it is among the pair's best, with ``'determined'`` only where
+    ``gt_plane_share`` says the scene fixes the method (:meth:`LabelConfig.method_labels`);
+    ``rotation_label='flow'`` reads ``gt_rotation_share``. Rows with depth whose share is
+    unknown keep the older rule (logged with their count).
     """
     out = dict(columns)
     rule = ScaleRule(config.scale_rule)
@@ -735,12 +738,8 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
                 label = np.where(no_depth, ok & (et < config.et_max) & rotation_ok, label)
         out[f'{m}_er'] = er
         good[m], et_of[m] = label, et
-    plane_share = np.asarray(
-        columns.get('gt_plane_share', np.full(len(baseline), np.nan)), dtype=float
-    )
-    rotation_share = np.asarray(
-        columns.get('gt_rotation_share', np.full(len(baseline), np.nan)), dtype=float
-    )
+    plane_share = _column_or_nan(columns, 'gt_plane_share', len(baseline))
+    rotation_share = _column_or_nan(columns, 'gt_rotation_share', len(baseline))
     for rule_in_use, column, share, older_rule in (
         (config.method_label == 'determined', 'gt_plane_share', plane_share, "the paper's"),
         (config.rotation_label == 'flow', 'gt_rotation_share', rotation_share, 'the 5 cm'),
@@ -757,10 +756,15 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
             )
     for m, label in config.method_labels(good, et_of, plane_share).items():
         out[f'{m}_label'] = label
-    parallax = np.asarray(columns.get('gt_parallax_deg', np.full(len(baseline), np.nan)))
+    parallax = _column_or_nan(columns, 'gt_parallax_deg', len(baseline))
     out['R_label'] = config.rotation_labels(baseline, parallax, rotation_share)
     out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
     return out
+
+
+def _column_or_nan(columns: Mapping[str, np.ndarray], name: str, n: int) -> np.ndarray:
+    """A table's float column ``name``, or ``n`` NaNs for a table written before it."""
+    return np.asarray(columns.get(name, np.full(n, np.nan)), dtype=float)
 
 
 __all__ = [
