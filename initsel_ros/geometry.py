@@ -316,11 +316,13 @@ def estimate_pose(
 ) -> PoseEstimate:
     """Recover the relative pose with one method and triangulate the map points.
 
-    F and H are robustly estimated with RANSAC (OpenCV's 8-point fit on the inliers, and
-    4-point DLT with Faugeras-Lustman decomposition); E with RANSAC over Nister's 5-point
-    solver. F and E poses are the ``recoverPose`` candidate with the most points in front of
-    both cameras; H's is chosen by :func:`choose_homography_decomposition` (and refused when
-    ambiguous).
+    F and E are robustly estimated with OpenCV's USAC (``cv2.USAC_ACCURATE``: local
+    optimization, and for F the DEGENSAC test that keeps a plane holding most tracks from
+    giving a plane-degenerate F) over the 8-point and Nister's 5-point solvers; H with RANSAC
+    (4-point DLT, Faugeras-Lustman decomposition). All three are deterministic: the same
+    tracks give the same estimate. F and E poses are the ``recoverPose`` candidate with the
+    most points in front of both cameras; H's is chosen by
+    :func:`choose_homography_decomposition` (and refused when ambiguous).
     Kept points are inliers in front of both cameras, reprojecting within
     ``max_reprojection_px`` and seen with at least ``min_point_parallax_deg`` of parallax.
 
@@ -329,9 +331,9 @@ def estimate_pose(
         p0: (N, 2) reference pixels (undistorted).
         p1: (N, 2) current pixels (undistorted).
         K: (3, 3) camera matrix.
-        ransac_threshold_px: RANSAC inlier threshold, pixels.
-        confidence: RANSAC confidence.
-        max_iterations: RANSAC iteration cap (F and H).
+        ransac_threshold_px: inlier threshold of the robust fits, pixels.
+        confidence: their confidence.
+        max_iterations: their iteration cap (F and H; E keeps OpenCV's 1,000).
         max_reprojection_px: largest reprojection error of a kept point, pixels.
         min_point_parallax_deg: smallest parallax of a kept point, degrees.
         min_points: fewer kept points than this makes the estimate not ``ok``.
@@ -407,7 +409,7 @@ def estimate_pose(
         if method is Method.F:
             try:
                 F, mask = cv2.findFundamentalMat(
-                    f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
+                    f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
                 )
             except cv2.error as exc:
                 return _failure(method, n, _opencv_failure('findFundamentalMat', exc))
@@ -418,7 +420,7 @@ def estimate_pose(
         else:
             try:
                 E, mask = cv2.findEssentialMat(
-                    f0, f1, K, cv2.RANSAC, confidence, ransac_threshold_px
+                    f0, f1, K, cv2.USAC_ACCURATE, confidence, ransac_threshold_px
                 )
             except cv2.error as exc:  # e.g. OpenCV 5.1's solvePoly assertion on a degenerate
                 return _failure(method, n, _opencv_failure('findEssentialMat', exc))  # sample
