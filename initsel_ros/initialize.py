@@ -471,6 +471,7 @@ def _estimate_and_choose(
         return FireResult(
             first_problem, selection.summary(), residual, estimates, checks, selection
         )
+    selection = _plane_over_degenerate_fit(selection, estimates, ref, cur, policy, residual)
     winner = next(e for e in estimates if e.method is selection.winner)
     background = None
     if residual is not None and config.background_test:
@@ -742,6 +743,47 @@ def _better_model_not_ready(
         f'{won.method.value} {won.gric:.0f}{depth}), and {best.method.value} is not ready: '
         f'{best.problem}',
     )
+
+
+def _plane_over_degenerate_fit(
+    selection: Selection,
+    estimates: Sequence[PoseEstimate],
+    ref: np.ndarray,
+    cur: np.ndarray,
+    policy: PolicyConfig,
+    residual: RotationTest | None,
+) -> Selection:
+    """H in place of an E or F that won GRIC where the tracks are a plane; else ``selection``.
+
+    The mirror of :func:`_better_model_not_ready`'s plane rule, for an H that passed: when H's
+    plane is the scene (:func:`plane_is_the_scene`) and the points the E or F winner
+    triangulates do not put :data:`BACKGROUND_MIN_TRACKS` tracks off it, leaving it less than
+    ``policy.min_homography_plane_share`` of them, the winner's lower GRIC comes from the few
+    tracks off the plane (mistracks, which a plane-and-parallax fit such as USAC's DEGENSAC
+    takes in as depth), and its pose from a degenerate fit: H is the model the tracks hold.
+    """
+    if selection.winner not in (Method.E, Method.F):
+        return selection
+    plane = next((e for e in estimates if e.method is Method.H), None)
+    scores = {s.method: s for s in selection.scores}
+    if plane is None or Method.H not in scores or not scores[Method.H].ok:
+        return selection
+    if not plane_is_the_scene(plane, policy):
+        return selection
+    winner = next(e for e in estimates if e.method is selection.winner)
+    noise_px = residual.noise_px if residual is not None else 0.0
+    off = off_plane_support(winner, plane, ref, cur, noise_px)
+    if off >= BACKGROUND_MIN_TRACKS and len(ref) - off < policy.min_homography_plane_share * len(
+        ref
+    ):
+        return selection
+    won = scores[selection.winner]
+    why = (
+        f'H: the tracks are a plane (H holds {plane_share(plane):.0%} of them, and '
+        f'{won.method.value}, GRIC {won.gric:.0f} < H {scores[Method.H].gric:.0f}, puts only '
+        f'{off} off it: a degenerate fit)'
+    )
+    return replace(selection, winner=Method.H, why=why)
 
 
 def off_plane_support(

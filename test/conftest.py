@@ -69,6 +69,23 @@ def floor_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def floor_batch_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The README seed map's floor batch 180 (floor_near_test, seed 23, near frames 260-271):
+    at its last verification frame the fire path's F, from a plane-and-parallax fit (OpenCV's
+    USAC with DEGENSAC) that takes a few mistracks for depth, scores a lower GRIC than the H
+    that holds the floor."""
+    return _render(
+        tmp_path_factory,
+        'floor_batch',
+        scene='floor',
+        trajectory='near',
+        frames=12,
+        start=260,
+        seed=23,
+    )
+
+
+@pytest.fixture(scope='session')
 def wall_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One textured wall (a single plane) seen from the arc trajectory, 60 frames."""
     return _render(
