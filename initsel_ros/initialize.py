@@ -724,6 +724,15 @@ def _better_model_not_ready(
     best = min(better, key=lambda s: s.gric)
     kind = 'a plane' if best.method is Method.H else 'not a plane'
     depth = ''
+    if best.method is not Method.H and _plane_holds(
+        next(e for e in estimates if e.method is best.method),
+        next(e for e in estimates if e.method is Method.H),
+        ref,
+        cur,
+        policy,
+        noise_px,
+    ):
+        return None
     if best.method is Method.H:
         winner = next(e for e in estimates if e.method is won.method)
         plane = next(e for e in estimates if e.method is Method.H)
@@ -768,15 +777,11 @@ def _plane_over_degenerate_fit(
     scores = {s.method: s for s in selection.scores}
     if plane is None or Method.H not in scores or not scores[Method.H].ok:
         return selection
-    if not plane_is_the_scene(plane, policy):
-        return selection
     winner = next(e for e in estimates if e.method is selection.winner)
     noise_px = residual.noise_px if residual is not None else 0.0
-    off = off_plane_support(winner, plane, ref, cur, noise_px)
-    if off >= BACKGROUND_MIN_TRACKS and len(ref) - off < policy.min_homography_plane_share * len(
-        ref
-    ):
+    if not _plane_holds(winner, plane, ref, cur, policy, noise_px):
         return selection
+    off = off_plane_support(winner, plane, ref, cur, noise_px)
     won = scores[selection.winner]
     why = (
         f'H: the tracks are a plane (H holds {plane_share(plane):.0%} of them, and '
@@ -784,6 +789,27 @@ def _plane_over_degenerate_fit(
         f'{off} off it: a degenerate fit)'
     )
     return replace(selection, winner=Method.H, why=why)
+
+
+def _plane_holds(
+    deep: PoseEstimate,
+    plane: PoseEstimate,
+    ref: np.ndarray,
+    cur: np.ndarray,
+    policy: PolicyConfig,
+    noise_px: float,
+) -> bool:
+    """Is H's ``plane`` the scene whatever the E or F ``deep`` scores: its plane holds it
+    (:func:`plane_is_the_scene`), and ``deep``'s triangulated points do not put
+    :data:`BACKGROUND_MIN_TRACKS` tracks off it, leaving it less than
+    ``policy.min_homography_plane_share`` of them (:func:`off_plane_support`)? Then a lower
+    GRIC of ``deep`` comes from the few tracks off the plane (noise and mistracks, which a
+    plane-and-parallax fit such as USAC's DEGENSAC takes in as depth), not from depth."""
+    if not plane_is_the_scene(plane, policy):
+        return False
+    off = off_plane_support(deep, plane, ref, cur, noise_px)
+    n = len(ref)
+    return not (off >= BACKGROUND_MIN_TRACKS and n - off < policy.min_homography_plane_share * n)
 
 
 def off_plane_support(
