@@ -1042,4 +1042,27 @@ def test_a_camera_info_after_frames_says_it_starts_a_new_reference(
     status = h.send_array(shifted(texture(16), 1, 0), 1.033)
     assert status.new_reference and status.intrinsics_source == 'camera_info'
     err = capfd.readouterr().err
-    assert "after 1 frame with the camera.* parameters': new reference" in err
+    assert (
+        "after 1 frame with the camera.* parameters': a new reference if they change the "
+        "intrinsics fitted to the frames' size" in err
+    )
+
+
+def test_a_camera_info_of_another_size_for_the_same_camera_keeps_the_reference(
+    harness_factory, tmp_path, capfd
+):
+    # A probe's camera_info switched to 320x240 (K scaled alike) while the frames stayed
+    # 640x480: the log said 'new reference', but fitted to the frames' size the intrinsics
+    # are the same and none was taken. The log says what happens; the mismatch is warned.
+    h = harness_factory(model_file=double_model_file(tmp_path))
+    camera = Intrinsics(381.0, 381.0, 319.5, 239.5, 640, 480)
+    h.send_camera_info(camera)
+    img = texture(16)
+    assert h.send_array(img, 1.0).new_reference
+    h.send_camera_info(camera.scaled(320, 240))
+    status = h.send_array(shifted(img, 1, 0), 1.033)
+    assert not status.new_reference and status.frames_since_reference == 1
+    assert status.intrinsics['fx'] == pytest.approx(381.0)
+    err = capfd.readouterr().err
+    assert "a new reference if they change the intrinsics fitted to the frames' size" in err
+    assert 'images are 640x480 but the camera_info intrinsics are for 320x240' in err

@@ -378,10 +378,15 @@ class SelectorNode(Node):
         self._tf_publisher()
 
     def _what_new_intrinsics_do(self) -> str:
-        """The log's words for what other intrinsics do to the selector now."""
+        """The log's words for what other intrinsics do to the selector now (they reach it
+        fitted to the frames' size: a camera_info of another size for the same camera, its
+        intrinsics scaled alike, changes nothing)."""
         if self._selector.initialized and self._settings.mode is Mode.ONCE:
-            return 'a new reference once ~/reset starts over (mode once has initialized)'
-        return 'new reference'
+            return (
+                'a new reference once ~/reset starts over (mode once has initialized), if '
+                "they change the intrinsics fitted to the frames' size"
+            )
+        return "a new reference if they change the intrinsics fitted to the frames' size"
 
     def _tf_publisher(self) -> Any:
         """The /tf publisher, created on first need; None when off or tf2_msgs is missing."""
