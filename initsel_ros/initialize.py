@@ -709,7 +709,8 @@ def _better_model_not_ready(
     at least :data:`BACKGROUND_MIN_TRACKS` of them lie off H's plane
     (:func:`off_plane_support`, ``noise_px`` the tracking noise) and H's plane keeps less
     than ``policy.min_homography_plane_share`` of the tracks (the share the pose check asks
-    of H for its plane to be the scene), the winner stands.
+    of H for its plane to be the scene), the winner stands. Conversely a failed E or F of
+    lower GRIC does not hold back an H whose plane holds the scene (:func:`_plane_holds`).
     """
     scores = {s.method: s for s in selection.scores}
     won = scores.get(selection.winner) if selection.winner is not None else None
@@ -762,15 +763,9 @@ def _plane_over_degenerate_fit(
     policy: PolicyConfig,
     residual: RotationTest | None,
 ) -> Selection:
-    """H in place of an E or F that won GRIC where the tracks are a plane; else ``selection``.
-
-    The mirror of :func:`_better_model_not_ready`'s plane rule, for an H that passed: when H's
-    plane is the scene (:func:`plane_is_the_scene`) and the points the E or F winner
-    triangulates do not put :data:`BACKGROUND_MIN_TRACKS` tracks off it, leaving it less than
-    ``policy.min_homography_plane_share`` of them, the winner's lower GRIC comes from the few
-    tracks off the plane (mistracks, which a plane-and-parallax fit such as USAC's DEGENSAC
-    takes in as depth), and its pose from a degenerate fit: H is the model the tracks hold.
-    """
+    """H in place of an E or F that won GRIC over an H that passed, where H's plane holds the
+    scene (:func:`_plane_holds`): the winner's pose is then a degenerate fit. Else
+    ``selection``."""
     if selection.winner not in (Method.E, Method.F):
         return selection
     plane = next((e for e in estimates if e.method is Method.H), None)
@@ -784,9 +779,9 @@ def _plane_over_degenerate_fit(
     off = off_plane_support(winner, plane, ref, cur, noise_px)
     won = scores[selection.winner]
     why = (
-        f'H: the tracks are a plane (H holds {plane_share(plane):.0%} of them, and '
-        f'{won.method.value}, GRIC {won.gric:.0f} < H {scores[Method.H].gric:.0f}, puts only '
-        f'{off} off it: a degenerate fit)'
+        f"the tracks are H's plane ({plane_share(plane):.0%} of them): {won.method.value}'s "
+        f'lower GRIC ({won.gric:.0f} < {scores[Method.H].gric:.0f}) comes from {off} tracks '
+        'off it, a degenerate fit'
     )
     return replace(selection, winner=Method.H, why=why)
 
