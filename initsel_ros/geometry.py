@@ -316,12 +316,12 @@ def estimate_pose(
 ) -> PoseEstimate:
     """Recover the relative pose with one method and triangulate the map points.
 
-    F and E are robustly estimated with OpenCV's USAC (``cv2.USAC_ACCURATE``: local
-    optimization, and for F the DEGENSAC test that keeps a plane holding most tracks from
-    giving a plane-degenerate F) over the 8-point and Nister's 5-point solvers; H with RANSAC
-    (4-point DLT, Faugeras-Lustman decomposition). All three are deterministic: the same
-    tracks give the same estimate. F and E poses are the ``recoverPose`` candidate with the
-    most points in front of both cameras; H's is chosen by
+    E is robustly estimated with OpenCV's USAC (``cv2.USAC_ACCURATE``, local optimization)
+    over Nister's 5-point solver; F with RANSAC over the 8-point fit (USAC's plane-and-parallax
+    fit took tracking errors along the epipolar lines of a noisy wall for depth and scored a
+    lower GRIC than H there); H with RANSAC (4-point DLT, Faugeras-Lustman decomposition). All
+    three are deterministic: the same tracks give the same estimate. F and E poses are the
+    ``recoverPose`` candidate with the most points in front of both cameras; H's is chosen by
     :func:`choose_homography_decomposition` (and refused when ambiguous).
     Kept points are inliers in front of both cameras, reprojecting within
     ``max_reprojection_px`` and seen with at least ``min_point_parallax_deg`` of parallax.
@@ -409,7 +409,7 @@ def estimate_pose(
         if method is Method.F:
             try:
                 F, mask = cv2.findFundamentalMat(
-                    f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
+                    f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
                 )
             except cv2.error as exc:
                 return _failure(method, n, _opencv_failure('findFundamentalMat', exc))

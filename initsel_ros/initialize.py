@@ -471,7 +471,6 @@ def _estimate_and_choose(
         return FireResult(
             first_problem, selection.summary(), residual, estimates, checks, selection
         )
-    selection = _plane_over_degenerate_fit(selection, estimates, ref, cur, policy, residual)
     winner = next(e for e in estimates if e.method is selection.winner)
     background = None
     if residual is not None and config.background_test:
@@ -709,8 +708,7 @@ def _better_model_not_ready(
     at least :data:`BACKGROUND_MIN_TRACKS` of them lie off H's plane
     (:func:`off_plane_support`, ``noise_px`` the tracking noise) and H's plane keeps less
     than ``policy.min_homography_plane_share`` of the tracks (the share the pose check asks
-    of H for its plane to be the scene), the winner stands. Conversely a failed E or F of
-    lower GRIC does not hold back an H whose plane holds the scene (:func:`_plane_holds`).
+    of H for its plane to be the scene), the winner stands.
     """
     scores = {s.method: s for s in selection.scores}
     won = scores.get(selection.winner) if selection.winner is not None else None
@@ -725,15 +723,6 @@ def _better_model_not_ready(
     best = min(better, key=lambda s: s.gric)
     kind = 'a plane' if best.method is Method.H else 'not a plane'
     depth = ''
-    if best.method is not Method.H and _plane_holds(
-        next(e for e in estimates if e.method is best.method),
-        next(e for e in estimates if e.method is Method.H),
-        ref,
-        cur,
-        policy,
-        noise_px,
-    ):
-        return None
     if best.method is Method.H:
         winner = next(e for e in estimates if e.method is won.method)
         plane = next(e for e in estimates if e.method is Method.H)
@@ -753,58 +742,6 @@ def _better_model_not_ready(
         f'{won.method.value} {won.gric:.0f}{depth}), and {best.method.value} is not ready: '
         f'{best.problem}',
     )
-
-
-def _plane_over_degenerate_fit(
-    selection: Selection,
-    estimates: Sequence[PoseEstimate],
-    ref: np.ndarray,
-    cur: np.ndarray,
-    policy: PolicyConfig,
-    residual: RotationTest | None,
-) -> Selection:
-    """H in place of an E or F that won GRIC over an H that passed, where H's plane holds the
-    scene (:func:`_plane_holds`): the winner's pose is then a degenerate fit. Else
-    ``selection``."""
-    if selection.winner not in (Method.E, Method.F):
-        return selection
-    plane = next((e for e in estimates if e.method is Method.H), None)
-    scores = {s.method: s for s in selection.scores}
-    if plane is None or Method.H not in scores or not scores[Method.H].ok:
-        return selection
-    winner = next(e for e in estimates if e.method is selection.winner)
-    noise_px = residual.noise_px if residual is not None else 0.0
-    if not _plane_holds(winner, plane, ref, cur, policy, noise_px):
-        return selection
-    off = off_plane_support(winner, plane, ref, cur, noise_px)
-    won = scores[selection.winner]
-    why = (
-        f"the tracks are H's plane ({plane_share(plane):.0%} of them): {won.method.value}'s "
-        f'lower GRIC ({won.gric:.0f} < {scores[Method.H].gric:.0f}) comes from {off} tracks '
-        'off it, a degenerate fit'
-    )
-    return replace(selection, winner=Method.H, why=why)
-
-
-def _plane_holds(
-    deep: PoseEstimate,
-    plane: PoseEstimate,
-    ref: np.ndarray,
-    cur: np.ndarray,
-    policy: PolicyConfig,
-    noise_px: float,
-) -> bool:
-    """Is H's ``plane`` the scene whatever the E or F ``deep`` scores: its plane holds it
-    (:func:`plane_is_the_scene`), and ``deep``'s triangulated points do not put
-    :data:`BACKGROUND_MIN_TRACKS` tracks off it, leaving it less than
-    ``policy.min_homography_plane_share`` of them (:func:`off_plane_support`)? Then a lower
-    GRIC of ``deep`` comes from the few tracks off the plane (noise and mistracks, which a
-    plane-and-parallax fit such as USAC's DEGENSAC takes in as depth), not from depth."""
-    if not plane_is_the_scene(plane, policy):
-        return False
-    off = off_plane_support(deep, plane, ref, cur, noise_px)
-    n = len(ref)
-    return not (off >= BACKGROUND_MIN_TRACKS and n - off < policy.min_homography_plane_share * n)
 
 
 def off_plane_support(

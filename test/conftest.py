@@ -69,44 +69,6 @@ def floor_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
-def floor_batch_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The README seed map's floor batch 180 (floor_near_test, seed 23, near frames 260-271):
-    at its last verification frame the fire path's F, from a plane-and-parallax fit (OpenCV's
-    USAC with DEGENSAC) that takes a few mistracks for depth, scores a lower GRIC than the H
-    that holds the floor."""
-    return _render(
-        tmp_path_factory,
-        'floor_batch',
-        scene='floor',
-        trajectory='near',
-        frames=12,
-        start=260,
-        seed=23,
-    )
-
-
-@pytest.fixture(scope='session')
-def table_top_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The planar-arc family's table top of holdout seed 11 at 2 grey levels of noise (a
-    floor seen from 1.5 m at 70 degrees, 15 cm arc), its first 18 frames: on the last
-    verification frame of its H, F (USAC, failing its parallax floor) scores a lower GRIC
-    than H on this pure plane."""
-    from initsel_ros.synth.effects import Effects
-    from initsel_ros.synth.trajectories import ArcPath
-
-    return _render(
-        tmp_path_factory,
-        'table_top',
-        scene='floor',
-        trajectory='arc',
-        frames=18,
-        seed=11,
-        arc=ArcPath(distance=1.5, extent=0.15, elevation_deg=70),
-        effects=Effects(noise=2.0),
-    )
-
-
-@pytest.fixture(scope='session')
 def wall_arc_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One textured wall (a single plane) seen from the arc trajectory, 60 frames."""
     return _render(

@@ -319,8 +319,8 @@ def _poster_over_a_table(baseline: float, seed: int = 7, noise_px: float = 0.1):
     R = cv2.Rodrigues(np.array([0.0, -np.arctan2(baseline, 1.1), 0.0]))[0]
     t = -R @ np.array([baseline, 0.0, 0.0])
     proj = (rays * depth[:, None] @ R.T + t) @ K.T
-    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, 0.1, p0.shape)
-    return p0 + rng.normal(0, 0.1, p0.shape), p1, t / np.linalg.norm(t)
+    p1 = proj[:, :2] / proj[:, 2:3] + rng.normal(0, noise_px, p0.shape)
+    return p0 + rng.normal(0, noise_px, p0.shape), p1, t / np.linalg.norm(t)
 
 
 @pytest.mark.parametrize('seed', [7, 8])
@@ -448,18 +448,18 @@ def test_an_e_winner_stands_when_a_fifth_of_the_tracks_it_fits_lie_off_the_plane
     assert 'the tracks are a plane' in fire.detail and off and int(off[1]) <= 60, fire.detail
 
 
-@pytest.mark.parametrize(('seed', 'waits_seed'), [(4, 1), (37, 6)])
-def test_an_f_winner_stands_off_the_plane_as_e_does(seed, waits_seed):
+@pytest.mark.parametrize('seed', [1, 5])
+def test_an_f_winner_stands_off_the_plane_as_e_does(seed):
     # The same poster before the wall with F and H only: F's triangulated points off H's
     # plane carry the rule as E's do (the rule's figures were measured with E winners).
-    p0, p1, t = _wall_and_poster(230, seed)
+    p0, p1, t = _wall_and_poster(220, seed)
     methods = (Method.F, Method.H)
-    fire = initialize_pair(p0, p1, K, methods, FireConfig(policy=PolicyConfig(min_points=240)))
+    fire = initialize_pair(p0, p1, K, methods, FireConfig(policy=PolicyConfig(min_points=230)))
     gric = {score.method: score.gric for score in fire.selection.scores}
-    assert gric[Method.H] < gric[Method.F] and fire.estimate('H').n_points < 240  # (premise)
+    assert gric[Method.H] < gric[Method.F] and fire.estimate('H').n_points < 230  # (premise)
     assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.F, fire.detail
     assert translation_chordal_error(t, fire.seed.t) < 0.01
-    p0, p1, _ = _wall_and_poster(250, waits_seed)
+    p0, p1, _ = _wall_and_poster(250, seed)
     fire = initialize_pair(p0, p1, K, methods, FireConfig(policy=PolicyConfig(min_points=260)))
     assert fire.reason is Reason.TOO_FEW_POINTS and fire.seed is None, fire.detail
     assert 'tracks lie off its plane, triangulated by F' in fire.detail
@@ -479,7 +479,8 @@ def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
     # A wall (70 % of the tracks) and objects off it: E fits all of them and scores a lower
     # GRIC than H, which fits the wall. With E's parallax floor out of reach, H would win
     # alone; it waits for E instead. (H's own floor is for a plane that is the whole scene:
-    # this wall is 70 % of it, so by default H's pose check holds it to E's floor.)
+    # this wall is 70 % of it, so by default H's pose check holds it to E's floor already; the
+    # better-model test is seen with that share rule off.)
     wall = two_view(planar=True, seed=4)
     objects = two_view(planar=False, seed=5)
     p0 = np.vstack((wall[0][:175], objects[0][:75]))
@@ -491,14 +492,10 @@ def test_an_h_winner_waits_when_the_tracks_have_depth_and_e_is_not_ready():
     assert '< 5 (H triangulates 6' in fire.detail and "E's floor applies" in fire.detail, (
         fire.detail
     )
-    # Where the policy calls a plane of 60 % the scene, H's plane (70 %) is the scene: E's
-    # lower GRIC, from the objects' 75 tracks, is no reason to wait (its points put fewer
-    # off the plane than the 40 % that would make the plane less than the scene).
-    gric = {s.method: s.gric for s in fire.selection.scores}
-    assert gric[Method.E] < gric[Method.H]
-    sixty = replace(far, min_homography_plane_share=0.6)
-    fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=sixty))
-    assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.H, fire.detail
+    any_share = replace(far, min_homography_plane_share=0.0)
+    fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=any_share))
+    assert fire.reason is Reason.LOW_PARALLAX and fire.seed is None, fire.detail
+    assert 'the tracks are not a plane (GRIC E' in fire.detail
     near = PolicyConfig(min_homography_parallax_deg=0.5)
     fire = initialize_pair(p0, p1, K, (Method.E, Method.H), FireConfig(policy=near))
     assert fire.reason is Reason.INITIALIZED and fire.seed.method is Method.E

@@ -391,29 +391,6 @@ def test_a_planar_wall_initializes_with_h_and_an_accurate_pose(wall_arc_sequence
     assert e_t < 0.1 and rot < 1.0
 
 
-def test_a_floor_publishes_h_where_a_degenerate_f_scores_the_lower_gric(floor_batch_sequence):
-    # One plane, the floor: H is verified on 5 frames; on the last, the fire path runs again
-    # and F, fitted to the plane and a few mistracks, scores a lower GRIC than H. F's pose
-    # there is a degenerate plane's (E_t 0.11 against H's 0.008): H must stay.
-    seq, _, result = _first_init(floor_batch_sequence, SelectorConfig())
-    init = result.initialization
-    assert init.method.value == 'H', result.decision.detail
-    e_t, rot = _pose_errors(seq, init)
-    assert e_t < 0.05 and rot < 0.5
-
-
-def test_a_failed_f_with_a_lower_gric_does_not_refuse_the_h_of_a_table_top(table_top_sequence):
-    # A pure plane at 2 grey levels of noise: on the H candidate's last verification frame,
-    # F (USAC's plane-and-parallax fit, under E's parallax floor) scores 2 lower than H, and
-    # "the tracks fit F better than H: not a plane" refused a correct H every 6 frames for
-    # 50 frames. H's plane holds every track F triangulates: the plane is the scene.
-    seq, i, result = _first_init(table_top_sequence, SelectorConfig())
-    init = result.initialization
-    assert init.method.value == 'H' and i <= 12, (i, result.decision.detail)
-    e_t, rot = _pose_errors(seq, init)
-    assert e_t < 0.05 and rot < 0.5
-
-
 def test_a_walls_published_points_lie_on_it(wall_arc_sequence):
     from initsel_ros.learn.labels import true_depths
     from initsel_ros.metrics import depth_error
