@@ -627,19 +627,10 @@ def _rest_moves_with_winner(
 
 
 def _second_motion(support: MotionSupport, n_tracks: int) -> bool:
-    """Are the tracks that contradict a winner's motion a motion's worth
-    (:func:`_a_motions_worth`), not mistracks, and either more than those that support it or
-    :data:`SECOND_MOTION_SHARE` of the tracks with parallax?"""
+    """Do the tracks that contradict a winner's motion outnumber those that support it, and
+    are they a motion's worth (:func:`_a_motions_worth`), not mistracks?"""
     against = support.contradicting
-    many = against > support.supporting or against >= SECOND_MOTION_SHARE * support.measurable
-    return many and _a_motions_worth(against, n_tracks)
-
-
-#: A third of the tracks with parallax contradicting a winner's motion are a second motion
-#: whichever is larger: two views cannot tell which of two rigid motions is the world's (a
-#: panel holding 58 % of the view and sliding down while the camera slid right gave H 59
-#: degrees off, the room's 42 % contradicting it), and a person walking past holds less.
-SECOND_MOTION_SHARE = 1.0 / 3.0
+    return against > support.supporting and _a_motions_worth(against, n_tracks)
 
 
 def _a_motions_worth(count: int, n_tracks: int) -> bool:

@@ -809,12 +809,10 @@ def test_the_rotation_statistic_of_a_poster_follows_the_baseline_not_the_noise_e
     assert max(noise) <= 1.2 * min(noise), noise
 
 
-def _object_overtaking_a_slide(
-    seed: int = 4, n_room: int = 170, n_board: int = 110
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A camera sliding 15 cm past a room 2-4 m deep (``n_room`` tracks) while a board 1.4 m
-    away (``n_board`` tracks, a person walking past) moves the other way relative to it.
-    Returns the pixels of both views and the camera's true unit translation."""
+def _object_overtaking_a_slide(seed: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A camera sliding 15 cm past a room 2-4 m deep (170 tracks) while a board 1.4 m away
+    (110 tracks, a person walking past) moves the other way relative to it. Returns the
+    pixels of both views and the camera's true unit translation."""
     rng = np.random.default_rng(seed)
     R = cv2.Rodrigues(np.array([0.0, 0.004, 0.0]))[0]
     t_camera = np.array([-0.15, 0.0, 0.0])  # x1 = R x0 + t: the camera moves along +x
@@ -827,8 +825,8 @@ def _object_overtaking_a_slide(
         p1 = proj[:, :2] / proj[:, 2:] + rng.normal(0, 0.2, (n, 2))
         return np.column_stack([u, v]) + rng.normal(0, 0.2, (n, 2)), p1
 
-    room = views(n_room, rng.uniform(2.0, 4.0, n_room), t_camera)
-    board = views(n_board, np.full(n_board, 1.4), t_board)
+    room = views(170, rng.uniform(2.0, 4.0, 170), t_camera)
+    board = views(110, np.full(110, 1.4), t_board)
     p0 = np.vstack([room[0], board[0]])
     p1 = np.vstack([room[1], board[1]])
     return p0, p1, t_camera / np.linalg.norm(t_camera)
@@ -843,30 +841,11 @@ def test_a_winner_whose_motion_the_rest_of_the_scene_contradicts_is_refused(monk
     board = initialize_pair(p0, p1, K, (Method.H,))  # H alone: the board is its plane
     assert board.reason is Reason.POSE_FAILED and board.seed is None
     assert 'H failed (two motions: of the' in board.detail
-    # E fits the room, and the board's 110 of 280 tracks (39 %) contradict it: a third or
-    # more of the tracks with parallax on another rigid motion, which two views cannot tell
-    # from the world's (the next test), so the pair waits as well
-    both = initialize_pair(p0, p1, K, (Method.E, Method.H))
-    assert both.reason is Reason.POSE_FAILED and 'E failed (two motions' in both.detail
-    # a smaller board (60 of 230 tracks, 26 %): E on the room stands
-    q0, q1, t_small = _object_overtaking_a_slide(n_board=60)
-    room = initialize_pair(q0, q1, K, (Method.E, Method.H))
-    assert room.reason is Reason.INITIALIZED and float(room.seed.t @ t_small) > 0.99
+    both = initialize_pair(p0, p1, K, (Method.E, Method.H))  # E fits the room
+    assert both.reason is Reason.INITIALIZED and float(both.seed.t @ t_true) > 0.99
     monkeypatch.setattr(initialize, '_second_motion', lambda support, n: False)
     blind = initialize_pair(p0, p1, K, (Method.H,))
     assert blind.reason is Reason.INITIALIZED and float(blind.seed.t @ t_true) < -0.9
-
-
-def test_an_object_moving_on_its_own_with_most_of_the_tracks_is_refused_too():
-    # A probe's panel holding 58 % of the view, sliding down while the camera slid right:
-    # H on the panel was published 59 degrees off, the room's 42 % contradicting it but
-    # outnumbered. Here the board holds 170 tracks and the room 110: whichever a model fits,
-    # the other third or more contradicts it, and nothing is published.
-    p0, p1, _ = _object_overtaking_a_slide(n_room=110, n_board=170)
-    for methods in ((Method.H,), (Method.E, Method.H), (Method.F, Method.E, Method.H)):
-        fire = initialize_pair(p0, p1, K, methods)
-        assert fire.reason is Reason.POSE_FAILED and fire.seed is None, fire.detail
-        assert 'failed (two motions' in fire.detail
 
 
 def test_a_static_scene_supports_its_motion():
