@@ -525,29 +525,35 @@ def ground_truth_static_share(
         the current camera and, through the homography, within ``tolerance_px`` of the track:
         1 for a static scene; NaN with fewer than 4 such points or no homography.
     """
-    use, ahead, projected = _moved_projections(K, points, valid, R, t)
+    known, kept, projected = _moved_projections(K, points, valid, R, t)
     if projected is None:
         return math.nan
-    tracked = np.asarray(p1, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
-    return _homography_share(projected, tracked, tolerance_px, int(np.sum(use)))
+    return _homography_share(projected, _tracks(p1, kept), tolerance_px, known)
 
 
 def _moved_projections(
     K: np.ndarray, points: np.ndarray, valid: np.ndarray, R: np.ndarray, t: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+) -> tuple[int, np.ndarray, np.ndarray | None]:
     """Ground-truth points moved with the camera and projected into the current frame.
 
-    Returns ``use`` (the points known and finite), ``ahead`` (of those, in front of the
-    current camera) and their (M, 1, 2) float32 projections; None with fewer than 4 ahead.
+    Returns how many points are known and finite, ``kept`` (N,) the tracks whose point is
+    known, finite and in front of the current camera, and their (M, 1, 2) float32
+    projections; None with fewer than 4 kept.
     """
     use = np.asarray(valid, dtype=bool) & np.isfinite(np.asarray(points, dtype=float)).all(axis=1)
     X = np.asarray(points, dtype=float)[use] @ np.asarray(R, dtype=float).T
     X += np.asarray(t, dtype=float).reshape(1, 3)
-    ahead = X[:, 2] > 1e-9
-    if ahead.sum() < 4:
-        return use, ahead, None
-    x = X[ahead] @ np.asarray(K, dtype=float).T
-    return use, ahead, (x[:, :2] / x[:, 2:3]).astype(np.float32).reshape(-1, 1, 2)
+    kept = use.copy()
+    kept[use] = X[:, 2] > 1e-9
+    if kept.sum() < 4:
+        return int(use.sum()), kept, None
+    x = X[kept[use]] @ np.asarray(K, dtype=float).T
+    return int(use.sum()), kept, (x[:, :2] / x[:, 2:3]).astype(np.float32).reshape(-1, 1, 2)
+
+
+def _tracks(pixels: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """The (M, 1, 2) float32 pixels of the ``kept`` tracks."""
+    return np.asarray(pixels, dtype=np.float32)[kept].reshape(-1, 1, 2)
 
 
 def _homography_share(src: np.ndarray, dst: np.ndarray, tolerance_px: float, total: int) -> float:
@@ -605,11 +611,10 @@ def ground_truth_plane_share(
         the share the homography puts within ``tolerance_px``; NaN with fewer than 4 such
         points or no homography.
     """
-    use, ahead, projected = _moved_projections(K, points, valid, R, t)
+    _, kept, projected = _moved_projections(K, points, valid, R, t)
     if projected is None:
         return math.nan
-    reference = np.asarray(p0, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
-    return _homography_share(reference, projected, tolerance_px, len(projected))
+    return _homography_share(_tracks(p0, kept), projected, tolerance_px, len(projected))
 
 
 def ground_truth_rotation_share(
@@ -631,13 +636,12 @@ def ground_truth_rotation_share(
 
     Args and the NaN cases as in :func:`ground_truth_plane_share`.
     """
-    use, ahead, projected = _moved_projections(K, points, valid, R, t)
+    _, kept, projected = _moved_projections(K, points, valid, R, t)
     if projected is None:
         return math.nan
     K = np.asarray(K, dtype=float)
     rotation = K @ np.asarray(R, dtype=float) @ np.linalg.inv(K)
-    reference = np.asarray(p0, dtype=np.float32)[use][ahead].reshape(-1, 1, 2)
-    return _share_within(reference, projected, rotation, tolerance_px, len(projected))
+    return _share_within(_tracks(p0, kept), projected, rotation, tolerance_px, len(projected))
 
 
 def ground_truth_parallax_deg(
