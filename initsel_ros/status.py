@@ -93,8 +93,10 @@ class NodeCounters:
             stamps (lost on the way, or a camera that paused).
         intrinsics_source: 'parameters' (camera.*) or 'camera_info'.
         intrinsics: the intrinsics in use (fx, fy, cx, cy, width, height), or None.
-        intrinsics_warning: why the intrinsics in use are doubtful: guessed, or the last
-            camera_info refused ('' when they are not).
+        intrinsics_guessed: the pose uses guessed intrinsics, or the last camera_info was
+            refused.
+        intrinsics_warning: why the intrinsics in use are doubtful: guessed, the last
+            camera_info refused, or scaled from another image size ('' when they are not).
         bit_depth: significant bits used to scale 16-bit images (None until one arrives).
         stamp_issues: stamp issue ('negative', 'zero', 'duplicate', 'out_of_order',
             'restart') -> frames.
@@ -111,6 +113,7 @@ class NodeCounters:
     missing_frames: int = 0
     intrinsics_source: str = 'parameters'
     intrinsics: Mapping[str, Any] | None = None
+    intrinsics_guessed: bool = False
     intrinsics_warning: str = ''
     bit_depth: int | None = None
     stamp_issues: Mapping[str, int] = field(default_factory=dict)
@@ -241,7 +244,7 @@ class FrameStatus:
             missing_frames=int(counters.missing_frames),
             intrinsics_source=counters.intrinsics_source,
             intrinsics=None if counters.intrinsics is None else dict(counters.intrinsics),
-            intrinsics_guessed=bool(counters.intrinsics_warning),
+            intrinsics_guessed=bool(counters.intrinsics_guessed),
             intrinsics_warning=counters.intrinsics_warning,
             bit_depth=counters.bit_depth,
             stamp_issues=dict(counters.stamp_issues),
@@ -276,9 +279,10 @@ class FrameStatus:
 
     @property
     def diagnostic_level(self) -> str:
-        """'WARN' for a WARN reason, guessed intrinsics or frames from more than one camera,
-        else 'OK' (``/diagnostics``)."""
-        warn = self.level == 'WARN' or self.intrinsics_guessed or bool(self.source_warning)
+        """'WARN' for a WARN reason, doubtful intrinsics (guessed, refused or scaled from
+        another size) or frames from more than one camera, else 'OK' (``/diagnostics``)."""
+        doubtful = self.intrinsics_guessed or bool(self.intrinsics_warning)
+        warn = self.level == 'WARN' or doubtful or bool(self.source_warning)
         return 'WARN' if warn else 'OK'
 
     def diagnostic_values(self) -> dict[str, str]:
@@ -294,6 +298,8 @@ class FrameStatus:
             else f'{self.reason.value}: {self.detail}',
             'intrinsics': (
                 f'guessed: {self.intrinsics_warning}'
+                if self.intrinsics_guessed
+                else f'{self.intrinsics_source}: {self.intrinsics_warning}'
                 if self.intrinsics_warning
                 else self.intrinsics_source
             ),

@@ -922,7 +922,8 @@ def test_frames_wider_than_max_tracking_width_are_tracked_shrunk_and_published_f
     assert (used['width'], used['height']) == (640, 480)
     assert used['fx'] == pytest.approx(big.fx / 2)
     assert used['cx'] == pytest.approx((big.cx + 0.5) / 2 - 0.5)
-    assert 'scaling the intrinsics' not in capfd.readouterr().err
+    assert 'scaled to the images' not in capfd.readouterr().err
+    assert statuses[-1].intrinsics_warning == ''
     h.wait_until(lambda: h.poses and h.clouds, what='init/pose and init/points')
     cur, ref = init_and_reference(statuses)
     assert_good_direction(sequence, h.poses[0], ref, cur)
@@ -1066,3 +1067,10 @@ def test_a_camera_info_of_another_size_for_the_same_camera_keeps_the_reference(
     err = capfd.readouterr().err
     assert "a new reference if they change the intrinsics fitted to the frames' size" in err
     assert 'images are 640x480 but the camera_info intrinsics are for 320x240' in err
+    # the mismatch is in ~/status too (it was only in the log), without calling them guessed
+    assert 'images are 640x480 but the camera_info intrinsics are for 320x240: scaled' in (
+        status.intrinsics_warning
+    )
+    assert not status.intrinsics_guessed and status.diagnostic_level == 'WARN'
+    h.send_camera_info(camera)
+    assert h.send_array(shifted(img, 2, 0), 1.066).intrinsics_warning == ''

@@ -172,6 +172,9 @@ def test_diagnostic_values_are_the_published_key_values():
     guessed = replace(_status(), intrinsics_guessed=True, intrinsics_warning='fr3 scaled')
     assert guessed.diagnostic_level == 'WARN' and guessed.level == 'OK'
     assert guessed.diagnostic_values()['intrinsics'] == 'guessed: fr3 scaled'
+    scaled = replace(_status(), intrinsics_warning='images are 640x480 but ...')
+    assert scaled.diagnostic_level == 'WARN' and not scaled.intrinsics_guessed
+    assert scaled.diagnostic_values()['intrinsics'] == 'camera_info: images are 640x480 but ...'
 
 
 @pytest.mark.parametrize(

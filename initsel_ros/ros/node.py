@@ -212,7 +212,8 @@ class SelectorNode(Node):
         self._stamps = StampMonitor(self._tolerance_ns(self._settings))
         self._backlog = BacklogWatch()
         self._initializations = 0
-        self._intrinsics_warning = ''
+        self._intrinsics_warning = ''  # why the intrinsics are a guess ('' when they are not)
+        self._intrinsics_scaled = ''  # the images' size is not the intrinsics' ('' when it is)
         self._guess_logged = False
         self._tf_self_logged = False
         self._info_refused = ''  # why the last camera_info was refused ('' when it was not)
@@ -873,6 +874,7 @@ class SelectorNode(Node):
         base = self._base_intrinsics()
         wanted = base
         self._intrinsics_warning = ''
+        self._intrinsics_scaled = ''
         same_size = (width, height) == (base.width, base.height)
         guessed = (
             self._intrinsics_source == 'parameters'
@@ -896,10 +898,13 @@ class SelectorNode(Node):
                 self.get_logger().warning(f'GUESSED INTRINSICS: {self._intrinsics_warning}')
         if not same_size:
             if not guessed:
-                self.get_logger().warning(
+                self._intrinsics_scaled = (
                     f'images are {width}x{height} but the {self._intrinsics_source} intrinsics '
-                    f'are for {base.width}x{base.height}: scaling the intrinsics',
-                    throttle_duration_sec=WARN_THROTTLE_S,
+                    f'are for {base.width}x{base.height}: scaled to the images (right for a '
+                    'resized image, wrong for a cropped one)'
+                )
+                self.get_logger().warning(
+                    self._intrinsics_scaled, throttle_duration_sec=WARN_THROTTLE_S
                 )
             try:  # a guess is a sensor of that size; given intrinsics, the image resized
                 wanted = (
@@ -958,8 +963,12 @@ class SelectorNode(Node):
             missing_frames=self._stamps.missing,
             intrinsics_source=self._intrinsics_source,
             intrinsics=self._selector.intrinsics.to_dict(),
+            intrinsics_guessed=bool(self._info_refused or self._intrinsics_warning),
             intrinsics_warning='; '.join(
-                filter(None, (self._refused_note(), self._intrinsics_warning))
+                filter(
+                    None,
+                    (self._refused_note(), self._intrinsics_warning, self._intrinsics_scaled),
+                )
             ),
             bit_depth=self._selector.bit_depth.bits or None,
             stamp_issues=self._stamps.counts,
