@@ -503,6 +503,14 @@ def decide_pair(
     return decide(probs, thresholds, len(ref), mean_disparity, policy, referred)
 
 
+def _lost_at_once(before: int) -> str:
+    """The detail's note when a frame lost most of the tracks the one before it had."""
+    return (
+        f'; {before} tracks on the frame before, lost at once: the view was blocked or changed, '
+        'the image went dark or saturated, or the camera moved too fast to track'
+    )
+
+
 def _fits_better_than_h(selection: Selection | None) -> str:
     """'E better than H (GRIC a against b)' when E or F has a lower GRIC than H among a fire path's
     candidates, whether or not they passed the pose check (the tracks are then no plane);
@@ -684,6 +692,7 @@ class Selector:
         if not self.tracker.has_reference or self.tracker.image_shape != gray.shape:
             return self._new_reference(gray, stamp_ns, Reason.NEW_REFERENCE, index)
 
+        before = self.tracker.n_tracks
         tracks = self.tracker.track(gray)
         self._frame_tracks = tracks
         since = self.tracker.frames_since_reference
@@ -698,6 +707,8 @@ class Selector:
         elif decision.reason is Reason.ROTATION:
             decision = _rotation_said(decision, self.thresholds)
         if decision.reason is Reason.TOO_FEW_TRACKS:
+            if before >= 2 * self.config.policy.min_tracks:
+                decision = replace(decision, detail=decision.detail + _lost_at_once(before))
             if self._candidate is not None:
                 decision = replace(
                     decision,

@@ -164,10 +164,18 @@ def test_without_the_rotation_guard_the_pose_check_refuses_the_shift():
 
 def test_losing_the_tracks_starts_a_new_reference():
     sel = Selector(constant_models(), CAMERA, SelectorConfig(policy=PolicyConfig(min_tracks=50)))
-    sel.process(texture(7), ns(0.0))
+    detected = sel.process(texture(7), ns(0.0)).decision.n_tracks
     result = sel.process(np.zeros((480, 640), np.uint8), ns(0.1))
     assert result.decision.reason is Reason.TOO_FEW_TRACKS
     assert result.new_reference and result.reference_stamp_ns == ns(0.1)
+    # the status names what happened: the tracks of the frame before lost at once
+    before = result.decision.detail.split('; ')[1]
+    assert detected >= 250 and before.startswith(f'{detected} tracks on the frame before')
+    assert 'lost at once: the view was blocked' in before
+    # a black reference has no tracks to lose: no such note
+    result = sel.process(np.zeros((480, 640), np.uint8), ns(0.2))
+    assert result.decision.reason is Reason.TOO_FEW_TRACKS
+    assert 'lost at once' not in result.decision.detail
 
 
 def test_reference_is_renewed_after_max_frames():
