@@ -40,9 +40,12 @@ class Photometric(str, Enum):
       with saturated or black pixels left out; the previous frame's are kept from its own step
       when it was not mapped); when they change the frame's brightness by more than
       ``photometric_min_change`` grey levels, the frame is mapped by them and tracked again,
-      starting from the first pass's result. Each frame is so kept at the reference's
-      brightness; frames without a brightness change are tracked exactly as with ``none``
-      (and a first look at the means' mean and spread skips the robust fit on them).
+      starting from the first pass's result. A first pass that loses a quarter of the tracks
+      or more (a step of exposure or gain can lose all of them) first tries a mapping fitted
+      to the whole frames' intensity quantiles (:func:`fit_gain_bias_global`). Each frame is
+      so kept at the reference's brightness; frames without a brightness change are tracked
+      exactly as with ``none`` (and a first look at the means' mean and spread skips the
+      robust fit on them).
     - ``zncc``: both frames are locally normalized (zero mean, unit variance over the KLT
       window) before tracking, which removes any local gain and bias.
     """
@@ -404,13 +407,19 @@ class KltTracker:
         a, b = self._gain_bias
         mapped = gray if (a, b) == (1.0, 0.0) else _map(gray, a, b)
         nxt, keep, back = self._lk(prev, mapped)
+        tolerance = cfg.photometric_min_change
+        remapped = False
+        if keep.sum() < _JUMP_KEPT_SHARE * len(keep):  # a brightness jump, or lost anyway
+            jump = self._track_brightness_jump(prev, gray, (a, b), int(keep.sum()))
+            if jump is not None:
+                (a, b), mapped, (nxt, keep, back) = jump
+                self.photometric_remaps += 1
+                remapped, tolerance = True, _GAIN_BIAS_SETTLED
         if self._prev_patches is not None:  # read last frame, at these very points
             m_prev, ok_prev = self._prev_patches
         else:
             m_prev, ok_prev = _patch_means_at(prev, self._cur, np.ones(len(self._cur), bool), k)
         self._prev_patches = None
-        tolerance = cfg.photometric_min_change
-        remapped = False
         m_cur, ok_cur = m_prev, np.zeros_like(ok_prev)
         for _ in range(_GAIN_BIAS_ROUNDS):
             m_cur, ok_cur = _patch_means_at(gray, nxt, keep, k)
@@ -441,6 +450,27 @@ class KltTracker:
         self._gain_bias = (a, b)
         self.last_gain_bias = (a, b)
         return nxt, keep, mapped
+
+    def _track_brightness_jump(
+        self, prev: np.ndarray, gray: np.ndarray, mapping: tuple[float, float], kept: int
+    ) -> tuple[tuple[float, float], np.ndarray, tuple[np.ndarray, ...]] | None:
+        """Where a pass lost many tracks (too many, perhaps, to fit a gain and bias from):
+        the mapping fitted to the two whole frames' intensity quantiles
+        (:func:`fit_gain_bias_global`) and the pass under it, when that mapping changes the
+        frame by at least :data:`_JUMP_MIN_CHANGE` grey levels and its pass keeps more tracks;
+        else None."""
+        fit = fit_gain_bias_global(prev, gray)
+        if fit is None:
+            return None
+        a, b = fit
+        a_old, b_old = mapping
+        if np.max(np.abs((a - a_old) * _INTENSITY_ENDS + (b - b_old))) < _JUMP_MIN_CHANGE:
+            return None
+        mapped = _map(gray, a, b)
+        result = self._lk(prev, mapped)
+        if int(result[1].sum()) <= kept:
+            return None
+        return (a, b), mapped, result
 
 
 def _patch_means_at(
@@ -473,6 +503,17 @@ _MIN_PHOTOMETRIC_POINTS = 20
 _GAIN_BIAS_ROUNDS = 4
 #: refits stop when the mapping changes a patch mean by less than this, grey levels
 _GAIN_BIAS_SETTLED = 0.1
+#: A pass that keeps less than this share of the tracks looks for a brightness jump in the
+#: whole frames (a step of the camera's exposure or gain loses most tracks at once; motion
+#: at video rates loses a few a frame).
+_JUMP_KEPT_SHARE = 0.75
+#: The quantiles of the whole frames' intensities that a brightness jump is fitted to, and
+#: the intensities at which a change of mapping is judged (the ends of a typical frame's).
+_GLOBAL_QUANTILES = np.linspace(0.05, 0.95, 19)
+_INTENSITY_ENDS = np.array([25.0, 230.0])
+#: The least change of brightness at those ends, grey levels, that is taken for a jump (KLT
+#: itself holds its tracks through a few grey levels; the patches' fit follows those).
+_JUMP_MIN_CHANGE = 10.0
 
 
 def fit_gain_bias(
@@ -504,6 +545,39 @@ def fit_gain_bias(
     m_prev, ok_prev = patch_means(prev, p_prev, window_px)
     m_cur, ok_cur = patch_means(cur, p_cur, window_px)
     return _fit_patch_means(m_prev, m_cur, ok_prev & ok_cur, iterations)
+
+
+def fit_gain_bias_global(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float] | None:
+    """Gain and bias mapping ``cur`` onto ``prev`` brightness, ``prev ~ a * cur + b``, from
+    the two whole frames: a least-squares line through their intensity quantiles at 5, 10,
+    ..., 95 % (from their histograms), leaving out the quantiles black or saturated in either.
+
+    Between frames at video rate the view changes little and the distributions match but for
+    the mapping, so this needs no tracks: it is the estimate when a jump of exposure or gain
+    lost them (:class:`KltTracker` then tracks again under it, and refines it from the patches).
+
+    Returns:
+        ``(a, b)``, or None when fewer than 5 quantiles qualify, they span less than 10 grey
+        levels, or the gain is outside 0.2-5.
+    """
+    q_prev, q_cur = _intensity_quantiles(prev), _intensity_quantiles(cur)
+    use = (q_prev > _BLACK) & (q_prev < _SATURATED) & (q_cur > _BLACK) & (q_cur < _SATURATED)
+    x, y = q_cur[use], q_prev[use]
+    if len(x) < 5 or np.ptp(x) < 10:
+        return None
+    dx = x - x.mean()
+    a = float(dx @ (y - y.mean())) / float(dx @ dx)
+    if not 0.2 < a < 5.0:
+        return None
+    return a, float(y.mean() - a * x.mean())
+
+
+def _intensity_quantiles(img: np.ndarray) -> np.ndarray:
+    """The grey levels at :data:`_GLOBAL_QUANTILES` of a uint8 frame (the first level whose
+    cumulative share reaches each)."""
+    hist = cv2.calcHist([img], [0], None, [256], [0, 256]).ravel()
+    cdf = np.cumsum(hist) / max(float(hist.sum()), 1.0)
+    return np.searchsorted(cdf, _GLOBAL_QUANTILES).astype(np.float64)
 
 
 def _fit_patch_means(

@@ -92,6 +92,29 @@ def test_gain_bias_compensation_holds_tracks_through_an_auto_exposure_ramp():
     assert a * 1.5 == pytest.approx(0.7, rel=0.03) and abs(b) < 3
 
 
+def test_gain_bias_holds_tracks_through_steps_of_exposure_that_lose_them_otherwise():
+    # An auto-exposure cycling in steps (as a probe's camera did): 0.55 -> 1.45 is a jump of
+    # 2.6 times, which loses every track when the frame is first tracked under the last mapping.
+    gains = np.array([1.0, 1.0, 0.55, 0.55, 1.45, 1.45, 0.8, 1.25, 1.0])
+    error, tracker = _track_ramp('gain_bias', gains)
+    assert len(error) >= 0.9 * tracker.reference_tracks
+    assert np.median(error) < 0.1
+    a, b = tracker.last_gain_bias  # the last frame (gain 1.0) mapped onto the first (1.0)
+    assert abs((a - 1.0) * 140 + b) < 3
+
+
+def test_global_gain_bias_fit_reads_the_whole_frames():
+    from initsel_ros.tracking import fit_gain_bias_global
+
+    prev = (texture(5).astype(np.float32) * 0.6 + 60).astype(np.uint8)  # 60-213
+    cur = _exposed(shifted(prev, 3.0, 1.0), 1.6, -20.0)  # moved a little; the top saturates
+    a, b = fit_gain_bias_global(prev, cur)
+    assert 1 / a == pytest.approx(1.6, rel=0.03) and -b / a == pytest.approx(-20.0, abs=3)
+    flat = np.full_like(prev, 128)
+    assert fit_gain_bias_global(flat, flat) is None  # no intensity spread to fit
+    assert fit_gain_bias_global(prev, np.zeros_like(prev)) is None  # all black: nothing to read
+
+
 def test_gain_bias_mode_tracks_exactly_as_plain_klt_without_brightness_changes():
     gains = np.ones(8)
     plain, _ = _track_ramp('none', gains)
