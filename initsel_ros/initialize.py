@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from initsel_ros.geometry import (
+    ROTATION_RADIAL_TERMS,
     Method,
     PoseEstimate,
     RotationTest,
@@ -96,6 +97,10 @@ class FireConfig:
         refine: bundle-adjust the winner's seed map.
         map_max_reprojection_px: after refinement, points reprojecting worse than this in
             either image leave the map, pixels.
+        radial_terms: radial distortion terms the rotation test also tries
+            (:data:`geometry.ROTATION_RADIAL_TERMS`: a pan through a lens whose distortion
+            the camera does not state; empty for a camera that states its distortion, whose
+            pixels arrive undistorted).
     """
 
     policy: PolicyConfig = field(default_factory=PolicyConfig)
@@ -105,6 +110,7 @@ class FireConfig:
     select: bool = True
     refine: bool = True
     map_max_reprojection_px: float = MAP_MAX_REPROJECTION_PX
+    radial_terms: tuple[float, ...] = ROTATION_RADIAL_TERMS
 
 
 #: The fire path's estimators alone: no rotation test, selection or refinement (what the
@@ -394,7 +400,9 @@ def initialize_pair(
         threshold = policy.min_rotation_residual_sigma
         wants_h = any(Method(m) is Method.H for m in methods)
         plane_floor = min(policy.min_plane_residual_sigma, threshold) if wants_h else threshold
-        residual = rotation_test(ref, cur, K, enough_below=plane_floor)
+        residual = rotation_test(
+            ref, cur, K, enough_below=plane_floor, radial_terms=config.radial_terms
+        )
         if not residual.statistic >= plane_floor:
             return FireResult(
                 Reason.ROTATION,

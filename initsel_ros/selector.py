@@ -17,7 +17,12 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import Camera
-from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
+from initsel_ros.geometry import (
+    ROTATION_RADIAL_TERMS,
+    Method,
+    RotationTest,
+    rotation_angle_deg,
+)
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import (
     FireConfig,
@@ -1004,6 +1009,9 @@ class Selector:
             policy=self.config.policy,
             ransac_threshold_px=self.config.ransac_threshold_px,
             refine=self.config.refine,
+            # a camera that states its distortion is undistorted; one that states none may
+            # be a lens whose distortion was left out (rotation_test)
+            radial_terms=() if self.intrinsics.has_distortion else ROTATION_RADIAL_TERMS,
         )
 
     def _verify(

@@ -119,6 +119,47 @@ def test_the_rotation_test_separates_a_pan_from_a_baseline_against_the_noise():
     assert np.isnan(rotation_test(p0[:7], p1[:7], K).statistic)  # under 8 tracks
 
 
+def _through_a_lens(
+    X: np.ndarray, rvec: tuple[float, ...], tvec: tuple[float, ...], K: np.ndarray, noise_px: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels of the points X (reference camera frame) in the reference camera and in one
+    moved by (rvec, tvec), through a 74-degree lens with barrel distortion k1 -0.25, k2 0.05
+    (a webcam's, left out of its camera_info), with noise."""
+    rng = np.random.default_rng(7)
+    D = np.array([-0.25, 0.05, 0.0, 0.0, 0.0])
+    views = []
+    for r, t in (((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), (rvec, tvec)):
+        px, _ = cv2.projectPoints(X, np.array(r), np.array(t), K, D)
+        views.append(px.reshape(-1, 2) + rng.normal(0, noise_px, (len(X), 2)))
+    return views[0], views[1]
+
+
+def test_the_rotation_test_can_see_a_pan_through_a_lens_whose_distortion_was_left_out():
+    from initsel_ros.geometry import ROTATION_RADIAL_TERMS, rotation_test
+    from initsel_ros.policy import PolicyConfig
+
+    policy = PolicyConfig()
+    K = np.array([[420.0, 0.0, 319.5], [0.0, 420.0, 239.5], [0.0, 0.0, 1.0]])
+    rng = np.random.default_rng(3)
+    # points 1-4 m away over most of the view, then a 7 degree pan
+    X = np.column_stack([rng.uniform(-0.65, 0.65, (300, 2)), np.ones(300)])
+    X *= rng.uniform(1.0, 4.0, (300, 1))
+    p0, p1 = _through_a_lens(X, (0.0, 0.12, 0.0), (0.0, 0.0, 0.0), K, 0.2)
+    keep = (
+        (p0 >= 0).all(1) & (p0 < [640, 480]).all(1) & (p1 >= 0).all(1) & (p1 < [640, 480]).all(1)
+    )
+    p0, p1 = p0[keep], p1[keep]
+    # a pinhole's rotation leaves the lens's bending: parallax, as E's publication on a
+    # probe's pan at zero baseline showed
+    assert rotation_test(p0, p1, K).statistic > policy.min_rotation_residual_sigma
+    bent = rotation_test(p0, p1, K, radial_terms=ROTATION_RADIAL_TERMS)
+    assert bent.statistic < policy.min_plane_residual_sigma and bent.radial_term < 0
+    # a sideways step of 12 cm through the same lens keeps its parallax
+    a, b = _through_a_lens(X, (0.0, 0.02, 0.0), (-0.12, 0.0, 0.0), K, 0.2)
+    step = rotation_test(a, b, K, radial_terms=ROTATION_RADIAL_TERMS)
+    assert step.statistic > 2 * policy.min_rotation_residual_sigma
+
+
 def test_the_rotation_test_is_not_fooled_by_objects_moving_on_their_own():
     from geometry_fixtures import K, least_quantile_rotation_px
 

@@ -137,6 +137,33 @@ def test_a_noisy_miscalibrated_pan_is_a_rotation_at_the_noise_level():
     assert 'x the noise' in fire.detail
 
 
+def test_a_pan_through_a_lens_whose_distortion_was_left_out_is_a_rotation_unless_it_was_stated():
+    from model_fixtures import constant_models
+    from test_geometry import _through_a_lens
+
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.selector import Selector
+
+    wide = np.array([[420.0, 0.0, 319.5], [0.0, 420.0, 239.5], [0.0, 0.0, 1.0]])
+    rng = np.random.default_rng(4)
+    X = np.column_stack([rng.uniform(-0.6, 0.6, (300, 2)), np.ones(300)])
+    X *= rng.uniform(1.0, 4.0, (300, 1))
+    p0, p1 = _through_a_lens(X, (0.01, 0.12, 0.0), (0.0, 0.0, 0.0), wide, 0.2)
+    methods = (Method.E, Method.F, Method.H)
+    # the fire path tries radial terms by default: a rotation, said with its term
+    fire = initialize_pair(p0, p1, wide, methods)
+    assert fire.reason is Reason.ROTATION and fire.rotation.radial_term < 0
+    # without them (a camera that states its distortion: its pixels arrive undistorted) the
+    # bending is parallax, and an estimate goes ahead on a zero baseline
+    bare = initialize_pair(p0, p1, wide, methods, FireConfig(radial_terms=()))
+    assert bare.reason is not Reason.ROTATION and bare.estimates
+    # the selector passes them exactly when its camera states no distortion
+    camera = Intrinsics(420.0, 420.0, 319.5, 239.5, 640, 480)
+    plain = Selector(constant_models(), camera)
+    stated = Selector(constant_models(), replace(camera, distortion=(-0.25, 0.05, 0.0, 0.0)))
+    assert plain._fire_config().radial_terms and not stated._fire_config().radial_terms
+
+
 def test_close_homography_decompositions_are_both_kept_and_a_later_view_tells_them_apart():
     from geometry_fixtures import TOWARD_A_WALL_TURN, toward_a_wall, view_of
 
