@@ -734,15 +734,18 @@ def _radial_rotation_quantile(
 ) -> tuple[float, float, float]:
     """The least-squares rotation's ``quantile`` residual under each radial term and focal
     scale at once (the tracks undistorted by the division model of each term, in pixels of
-    the nominal K; one refit on the tracks at or under that quantile); returns (lowest
-    residual in pixels, its focal scale, its radial term)."""
+    the nominal K; :data:`RADIAL_REFITS` refits on the tracks at or under that quantile);
+    returns (lowest residual in pixels, its focal scale, its radial term)."""
     f = np.array([K[0, 0], K[1, 1]])
     c = np.array([K[0, 2], K[1, 2]])
     lam = np.asarray(radial_terms, dtype=np.float64)[:, None, None]  # (L, 1, 1)
 
     def undistorted(p: np.ndarray) -> np.ndarray:  # (L, N, 2) pixels
         x = (p - c) / f
-        return x / (1.0 + lam * (x * x).sum(axis=1, keepdims=True)) * f + c
+        # (the model folds beyond 1 + lambda r^2 = 0, past 115 degrees across for -0.3: held
+        # off there, those tracks only grow the residual)
+        scale_r = np.maximum(1.0 + lam * (x * x).sum(axis=1, keepdims=True), 0.25)
+        return x / scale_r * f + c
 
     ua, ub = undistorted(a), undistorted(b)
     scale = np.asarray(scales, dtype=np.float64)
