@@ -21,7 +21,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from initsel_ros.benchmarks.common import Timing, rss_bytes, time_calls
-from initsel_ros.geometry import ROTATION_FOCAL_SCALES
+from initsel_ros.geometry import (
+    RADIAL_FOCAL_SCALES,
+    ROTATION_FOCAL_SCALES,
+    ROTATION_RADIAL_TERMS,
+)
 
 if TYPE_CHECKING:
     from initsel_ros.features import Camera
@@ -238,7 +242,8 @@ class FireTimes:
 #: Names of the fire path's steps, in :attr:`FireTimes.parts` order.
 FIRE_PARTS = (
     f'rotation test (least-quantile fits under {len(ROTATION_FOCAL_SCALES)} focal scales at '
-    'once, noise from H- and F-RANSAC)',
+    f'once, least-squares ones under {len(ROTATION_RADIAL_TERMS)} radial terms x '
+    f'{RADIAL_FOCAL_SCALES} scales, noise from H- and F-RANSAC)',
     'the rotation fit under the nominal K alone, noise known (not in the total)',
     'F + E + H estimates',
     'GRIC selection (with the E refit)',
@@ -280,8 +285,9 @@ def time_fire(pairs: list[Any], K: np.ndarray, repeat: int) -> FireTimes:
         pair = pairs[i % m]
         return initialize_pair(pair.p0, pair.p1, K, methods, config)
 
-    def guard(i: int) -> float:
-        return rotation_test(pairs[i % m].p0, pairs[i % m].p1, K).statistic
+    def guard(i: int) -> float:  # (the fire path's terms: its pairs have no distortion)
+        pair = pairs[i % m]
+        return rotation_test(pair.p0, pair.p1, K, radial_terms=config.radial_terms).statistic
 
     noise = [rotation_test(p.p0, p.p1, K).noise_px for p in pairs]
 
