@@ -313,14 +313,15 @@ def _resolve_ambiguity(estimate: PoseEstimate, policy: PolicyConfig) -> PoseEsti
     variation seen at a small baseline such a winner was the mirrored one as often as not.
     """
     rival = estimate.alternative
-    if rival is None or check_pose(rival, policy, plane_share(estimate)) is None:
+    why = None if rival is None else check_pose(rival, policy, plane_share(estimate))
+    if why is None:
         return estimate
     return replace(
         estimate,
         ok=False,
         reason=(
             f'homography decomposition ambiguous: {estimate.n_points} vs {rival.n_points} '
-            'points, and the runner-up fails the pose check'
+            f'points, and the runner-up fails the pose check ({why.value})'
         ),
         alternative=None,
         ambiguous=True,

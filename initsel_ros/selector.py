@@ -345,9 +345,12 @@ def _rotation_said(decision: Decision, thresholds: Mapping[str, float]) -> Decis
     explains: the decision's own cost stays the models')."""
     vetoed = f', vetoing {", ".join(decision.vetoed)}' if decision.vetoed else ''
     p_r, t_r = decision.probabilities.get('R', 0.0), thresholds.get('R', 0.5)
+    said = 'only rotated'
+    if decision.mean_disparity < STILL_DISPARITY_PX:  # (R's class is 'no baseline')
+        said = 'has hardly moved'
     return replace(
         decision,
-        detail=f'model R says the camera only rotated (p {p_r:.2f} >= {t_r:.2f}{vetoed}; mean '
+        detail=f'model R says the camera {said} (p {p_r:.2f} >= {t_r:.2f}{vetoed}; mean '
         f'disparity {decision.mean_disparity:.1f} px)',
     )
 
