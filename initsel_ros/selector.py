@@ -753,11 +753,13 @@ class Selector:
             result = _noted(result, f'{aged}: this frame is the new reference')
             result = self._reanchor(result, gray, stamp_ns)
         elif self._candidate is None and self._rotated_away(result):
+            statistic = result.rotation.statistic if result.rotation is not None else math.nan
             result = _noted(
                 result,
                 f"{self.tracker.n_tracks} of the reference's {self.tracker.reference_tracks} "
                 f'tracks are left, the view has moved {result.decision.mean_disparity:.0f} px '
-                'and the camera only rotated: this frame is the new reference (no baseline '
+                f'and the camera only rotated as far as the tracks tell (the rotation test '
+                f'{statistic:.1f} x the noise): this frame is the new reference (no baseline '
                 'lost)',
             )
             result = self._reanchor(result, gray, stamp_ns)

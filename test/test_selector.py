@@ -636,6 +636,11 @@ def test_a_pan_re_references_when_its_background_leaves_the_view_behind_moving_b
     assert all(
         'this frame is the new reference (no baseline lost)' in r.decision.detail for r in turned
     )
+    # the claim comes with its evidence (a prober read it as a fact about the camera)
+    assert all(
+        f'the rotation test {r.rotation.statistic:.1f} x the noise)' in r.decision.detail
+        for r in turned
+    )
     # without the new references the boards initialize E, as they did before
     never = run(SelectorConfig(rotation_rereference_share=0.0))
     assert any(r.initialization for r in never)
