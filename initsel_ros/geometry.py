@@ -11,6 +11,7 @@ against ground truth (E_t, E_R, rotation error) are in :mod:`initsel_ros.metrics
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import cv2
@@ -622,11 +623,11 @@ def _scaled_squared_residuals(
     Ks: np.ndarray,
     dtype: type[np.floating] = np.float64,
 ) -> np.ndarray:
-    """Squared pixel distances between ``pixels`` (N, 2) and bearings rotated and projected,
-    for S focal scales at once: (S, H, 3, 3) rotations, (S, N, 3) bearings and (S, 3, 3)
-    camera matrices -> (S, N, H) squared pixel residuals (inf behind the camera). Squared:
-    quantiles and the best hypothesis are the same without the square roots, which only the
-    returned residual needs."""
+    """Squared pixel distances between ``pixels`` (N, 2), or (S, N, 2) for pixels of their
+    own per scale, and bearings rotated and projected, for S focal scales at once: (S, H, 3,
+    3) rotations, (S, N, 3) bearings and (S, 3, 3) camera matrices -> (S, N, H) squared pixel
+    residuals (inf behind the camera). Squared: quantiles and the best hypothesis are the
+    same without the square roots, which only the returned residual needs."""
     M = (Ks[:, None] @ R).transpose(0, 2, 3, 1).astype(dtype)  # (S, row, j, H)
     b0, pixels = b0.astype(dtype, copy=False), pixels.astype(dtype, copy=False)
     # one product per scale and image row: (N, 3) bearings against the H rows, contiguous
@@ -634,9 +635,9 @@ def _scaled_squared_residuals(
     with np.errstate(divide='ignore', invalid='ignore'):
         w = 1.0 / z
         x *= w
-        x -= pixels[:, :1]
+        x -= pixels[..., :1]
         y *= w
-        y -= pixels[:, 1:]
+        y -= pixels[..., 1:]
         x *= x
         y *= y
         x += y
@@ -664,6 +665,24 @@ def _two_point_rotations(b0: np.ndarray, b1: np.ndarray) -> np.ndarray:
     return frame(b1) @ np.swapaxes(frame(b0), -1, -2)
 
 
+def _focal_scaled(K: np.ndarray, scales: Sequence[float]) -> np.ndarray:
+    """(S, 3, 3): ``K`` with fx and fy times each of ``scales``."""
+    Ks = np.repeat(K[None], len(scales), axis=0)
+    Ks[:, 0, 0] *= np.asarray(scales)
+    Ks[:, 1, 1] *= np.asarray(scales)
+    return Ks
+
+
+def _unit_bearings(pixels: np.ndarray, Ks: np.ndarray) -> np.ndarray:
+    """(S, N, 3) unit bearings of (N, 2) ``pixels`` (or (S, N, 2), one set per camera) under
+    each of the (S, 3, 3) camera matrices ``Ks``."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    rays = np.concatenate([pixels, np.ones((*pixels.shape[:-1], 1))], axis=-1)
+    bearings = rays @ np.linalg.inv(Ks).transpose(0, 2, 1)
+    bearings /= np.linalg.norm(bearings, axis=-1, keepdims=True)
+    return bearings
+
+
 def _rotation_quantile_over_scales(
     a: np.ndarray,
     b: np.ndarray,
@@ -686,14 +705,8 @@ def _rotation_quantile_over_scales(
     scale is returned at once, as a sequential search stopping there would (a plain pan).
     """
     n, count = a.shape[0], len(scales)
-    Ks = np.repeat(K[None], count, axis=0)
-    Ks[:, 0, 0] *= np.asarray(scales)
-    Ks[:, 1, 1] *= np.asarray(scales)
-    K_inv = np.linalg.inv(Ks)
-    b0 = homogeneous(a) @ K_inv.transpose(0, 2, 1)  # (S, N, 3)
-    b1 = homogeneous(b) @ K_inv.transpose(0, 2, 1)
-    b0 /= np.linalg.norm(b0, axis=2, keepdims=True)
-    b1 /= np.linalg.norm(b1, axis=2, keepdims=True)
+    Ks = _focal_scaled(K, scales)
+    b0, b1 = _unit_bearings(a, Ks), _unit_bearings(b, Ks)  # (S, N, 3)
 
     def quantile_of(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(S, 3, 3) rotations -> their squared residuals (S, N) and quantile (S,)."""
@@ -745,47 +758,28 @@ def _radial_rotation_quantile(
     c = np.array([K[0, 2], K[1, 2]])
     lam = np.asarray(radial_terms, dtype=np.float64)[:, None, None]  # (L, 1, 1)
 
-    def undistorted(p: np.ndarray) -> np.ndarray:  # (L, N, 2) pixels
+    def undistorted(p: np.ndarray) -> np.ndarray:  # (L * S, N, 2) pixels, term-major
         x = (p - c) / f
         # (the model folds beyond 1 + lambda r^2 = 0, past 115 degrees across for -0.3: held
         # off there, those tracks only grow the residual)
         scale_r = np.maximum(1.0 + lam * (x * x).sum(axis=1, keepdims=True), 0.25)
-        return x / scale_r * f + c
+        return np.repeat(x / scale_r * f + c, len(scales), axis=0)
 
     ua, ub = undistorted(a), undistorted(b)
-    scale = np.asarray(scales, dtype=np.float64)
-    Ks = np.repeat(K[None], len(scales), axis=0)
-    Ks[:, 0, 0] *= scale
-    Ks[:, 1, 1] *= scale
+    Ks = np.tile(_focal_scaled(K, scales), (len(radial_terms), 1, 1))  # (L * S, 3, 3)
+    b0, b1 = _unit_bearings(ua, Ks), _unit_bearings(ub, Ks)
 
-    def bearings(u: np.ndarray) -> np.ndarray:  # (L, S, N, 3), unit length
-        out = np.empty((len(radial_terms), len(scales), u.shape[1], 3))
-        out[..., :2] = (u[:, None] - c) / (f * scale[:, None, None])[None]
-        out[..., 2] = 1.0
-        x, y = out[..., 0], out[..., 1]
-        out /= np.sqrt(x * x + y * y + 1.0)[..., None]
-        return out
-
-    b0, b1 = bearings(ua), bearings(ub)
-    u, v = ub[:, None, :, 0], ub[:, None, :, 1]  # (L, 1, N)
-
-    def squared(R: np.ndarray) -> np.ndarray:  # (L, S, 3, 3) -> (L, S, N)
-        proj = b0 @ np.swapaxes(Ks[None] @ R, -1, -2)
-        z = proj[..., 2]
-        with np.errstate(divide='ignore', invalid='ignore'):
-            dx = proj[..., 0] / z - u
-            dy = proj[..., 1] / z - v
-            out = dx * dx + dy * dy
-        out[~(z > 0)] = np.inf
-        return out
+    def squared(R: np.ndarray) -> np.ndarray:  # (L * S, 3, 3) -> (L * S, N)
+        return _scaled_squared_residuals(R[:, None], b0, ub, Ks)[:, :, 0]
 
     err = squared(_kabsch(b0, b1))
-    best = _lower_quantile(err, quantile)  # (L, S)
+    best = _lower_quantile(err, quantile)  # (L * S,)
     for _ in range(RADIAL_REFITS):
         better = err <= best[..., None]
         err = squared(_kabsch(b0 * better[..., None], b1))
         refit = _lower_quantile(err, quantile)
         best = np.where(np.count_nonzero(better, axis=-1) >= 3, np.minimum(best, refit), best)
+    best = best.reshape(len(radial_terms), len(scales))
     i, j = np.unravel_index(int(np.argmin(best)), best.shape)
     return float(np.sqrt(best[i, j])), float(scales[j]), float(radial_terms[i])
 
