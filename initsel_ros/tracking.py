@@ -433,7 +433,7 @@ class KltTracker:
                 break
             a_new, b_new, means = fit
             span = _order_statistics(means, (0.05, 0.95))  # robust ends of the intensities
-            change = np.max(np.abs((a_new - a) * span + (b_new - b)))
+            change = _mapping_change((a, b), (a_new, b_new), span)
             if change <= tolerance:
                 break
             if not remapped:
@@ -463,14 +463,21 @@ class KltTracker:
         if fit is None:
             return None
         a, b = fit
-        a_old, b_old = mapping
-        if np.max(np.abs((a - a_old) * _INTENSITY_ENDS + (b - b_old))) < _JUMP_MIN_CHANGE:
+        if _mapping_change(mapping, fit, _INTENSITY_ENDS) < _JUMP_MIN_CHANGE:
             return None
         mapped = _map(gray, a, b)
         result = self._lk(prev, mapped)
         if int(result[1].sum()) <= kept:
             return None
         return (a, b), mapped, result
+
+
+def _mapping_change(
+    old: tuple[float, float], new: tuple[float, float], intensities: np.ndarray
+) -> float:
+    """The most the mapping ``new`` (gain, bias) moves any of ``intensities`` from where
+    ``old`` puts them, grey levels."""
+    return float(np.max(np.abs((new[0] - old[0]) * intensities + (new[1] - old[1]))))
 
 
 def _patch_means_at(
