@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from initsel_ros.errors import GeometryError
+from initsel_ros.geometry import ROTATION_FOCAL_SCALES
 
 FEATURE_NAMES: tuple[str, ...] = (
     'count',
@@ -77,13 +78,14 @@ EXTRA_FEATURE_NAMES: tuple[str, ...] = (
     'x_homography_dlt_residual',  # RMS algebraic residual of the linear (DLT) homography / diag
     # Needs the camera (input_plan's ``camera``; NaN without it):
     'x_rotation_departure',  # how far the linear homography departs from a rotation K R K^-1
+    'x_rotation_departure_focal',  # the same, least over the rotation test's focal scales
 )
 #: The extra features computed from the Gram matrix of the fit rows, in this order.
 MOMENT_FEATURE_NAMES: tuple[str, ...] = EXTRA_FEATURE_NAMES[7:]
 #: A pinhole camera as the features need it: (fx, fy, cx, cy), pixels.
 Camera = tuple[float, float, float, float]
 #: The extra features that need the camera's intrinsics (``input_plan(camera=...)``).
-CAMERA_FEATURE_NAMES: tuple[str, ...] = ('x_rotation_departure',)
+CAMERA_FEATURE_NAMES: tuple[str, ...] = ('x_rotation_departure', 'x_rotation_departure_focal')
 #: Every feature name a model may read: the paper's 23, then the extra ones.
 ALL_FEATURE_NAMES: tuple[str, ...] = FEATURE_NAMES + EXTRA_FEATURE_NAMES
 
@@ -233,6 +235,9 @@ _LOG_GRID = math.log(_GRID_CELLS * _GRID_CELLS)
 _DIRECTION_EDGES = (np.arange(8) - 3.5) * (math.pi / 4)
 _EXTRA_INDEX = {name: i for i, name in enumerate(EXTRA_FEATURE_NAMES)}
 _ROTATION_DEPARTURE = _EXTRA_INDEX['x_rotation_departure']
+_FOCAL_DEPARTURE = _EXTRA_INDEX['x_rotation_departure_focal']
+_CAMERA_FEATURES = frozenset({_ROTATION_DEPARTURE, _FOCAL_DEPARTURE})
+_FOCAL_SCALES = np.array(ROTATION_FOCAL_SCALES)
 _ONE = np.ones(1)
 _EYE3 = np.eye(3).ravel()
 
@@ -380,7 +385,7 @@ class InputPlan:
         # Rows of the Gram matrix: none; X, Y, 1, u, v and |d| (the affine fit, the moments);
         # with the products uX ... vY (the homographies).
         moments = bool(wanted & set(range(7, len(EXTRA_FEATURE_NAMES))))
-        linear = {_EXTRA_INDEX['x_homography_dlt_residual'], _ROTATION_DEPARTURE}
+        linear = {_EXTRA_INDEX['x_homography_dlt_residual'], *_CAMERA_FEATURES}
         products = self._homography or bool(wanted & linear)
         self._fit_rows = _FIT_ROWS if products else 6 if moments or 5 in wanted else 0
         # The fit's coordinates: pixels minus the image centre, times a power of two (scale);
@@ -390,7 +395,7 @@ class InputPlan:
         self._to_fit = _to_fit_matrix(0.5 * width, 0.5 * height, scale)
         # The camera (fx, fy, cx, cy) in fit coordinates, when a model reads its features.
         self._camera_fit: tuple[float, float, float, float] | None = None
-        if camera is not None and _ROTATION_DEPARTURE in wanted:
+        if camera is not None and wanted & _CAMERA_FEATURES:
             fx, fy, cx, cy = camera  # (input_plan made it four floats)
             if not (math.isfinite(fx + fy + cx + cy) and fx > 0 and fy > 0):
                 raise GeometryError(
@@ -555,7 +560,15 @@ def extra_features(
       ||G^T G - I||_F. Zero for any pure rotation (whatever the scene); about sqrt(2) |t| / d
       for a plane at distance d slid along it by t (its flow stays close to a rotation's, but
       not this) and 1.6 |t| / d moving toward it; unitless, and the same at any image size and
-      field of view. NaN without a camera, below 4 points or when the fit fails.
+      field of view. NaN without a camera, below 4 points or when the fit fails;
+    * ``x_rotation_departure_focal`` (needs ``camera``): the least of the same over the
+      focal lengths the rotation test allows (``geometry.ROTATION_FOCAL_SCALES``, 0.87-1.15
+      of the stated one): a 5-degree pan through a focal length 10 % off departs from a
+      rotation by 0.024, as far as a slide along a wall by a sixtieth of its distance does,
+      and by this measure by a tenth of that; the slide's own departure shrinks by at most
+      1.15, and an arc that turns to keep the wall centred keeps it too. A camera that turns
+      toward the side it slides to by about as much (in radians, against |t| / d) reads as
+      such a pan: to first order, it is one.
 
     All but the percentiles and the grid come from one Gram matrix of a few rows over the
     points. The pair table stores exactly these values.
@@ -566,7 +579,7 @@ def extra_features(
         width: image width, pixels.
         height: image height, pixels.
         names: which features, any subset of ``EXTRA_FEATURE_NAMES`` in any order.
-        camera: (fx, fy, cx, cy), pixels, for ``x_rotation_departure``.
+        camera: (fx, fy, cx, cy), pixels, for the ``x_rotation_departure*`` features.
 
     Returns:
         (len(names),) float64 in the order of ``names``; all NaN for an empty set.
@@ -836,9 +849,10 @@ def _fit_features(pair: MeasuredPair, plan: InputPlan, values: list[float]) -> N
             if plan._homography:
                 values[6] = _homography_residual(fit[0:5], vector * factor) * unit
             if plan._camera_fit is not None:
-                values[_ROTATION_DEPARTURE] = _rotation_departure(
-                    (vector * factor).ravel().tolist(), plan._camera_fit
-                )
+                g = _rotation_map((vector * factor).ravel().tolist(), plan._camera_fit)
+                values[_ROTATION_DEPARTURE] = _departure(g)
+                if _FOCAL_DEPARTURE in plan._pick:
+                    values[_FOCAL_DEPARTURE] = _least_focal_departure(g)
 
 
 def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | None:
@@ -863,30 +877,58 @@ def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | No
     return max(float(system[8, 8] - system[8, 0:8] @ h[:, 0]), 0.0), h, 1.0
 
 
-def _rotation_departure(h: list[float], camera_fit: tuple[float, float, float, float]) -> float:
-    """||G^T G - I||_F of G = K^-1 H K / cbrt(det H): how far the homography ``h`` (its 8
-    entries, h33 = 1) of the fit coordinates is from a rotation, with ``camera_fit`` = (fx,
-    fy, cx, cy) of K in those coordinates; NaN for a singular H. Written out on floats: a
-    3 x 3 product in numpy costs more than all of it."""
+def _rotation_map(
+    h: list[float], camera_fit: tuple[float, float, float, float]
+) -> tuple[tuple[float, ...], ...] | None:
+    """The rows of G = K^-1 H K / cbrt(det H) for the homography ``h`` (its 8 entries, h33 =
+    1) of the fit coordinates, with ``camera_fit`` = (fx, fy, cx, cy) of K in those
+    coordinates: a rotation for any pure rotation; None for a singular H. Written out on
+    floats: a 3 x 3 product in numpy costs more than all of it."""
     a, b, p, q = camera_fit
     h0, h1, h2, h3, h4, h5, h6, h7 = h
     det = h0 * (h4 - h5 * h7) - h1 * (h3 - h5 * h6) + h2 * (h3 * h7 - h4 * h6)
     if not (math.isfinite(det) and det != 0.0):
-        return math.nan
+        return None
     # H K, then K^-1 (H K): rows (r0 - p r2) / a, (r1 - q r2) / b, r2
     c2 = h6 * p + h7 * q + 1.0
     r2 = (h6 * a, h7 * b, c2)
     r0 = (h0 * a - p * r2[0], h1 * b - p * r2[1], h0 * p + h1 * q + h2 - p * c2)
     r1 = (h3 * a - q * r2[0], h4 * b - q * r2[1], h3 * p + h4 * q + h5 - q * c2)
-    g0 = [v / a for v in r0]
-    g1 = [v / b for v in r1]
-    s = abs(det) ** (-2.0 / 3.0)  # G / cbrt(det): G^T G / |det|^(2/3)
+    s = math.copysign(abs(det) ** (-1.0 / 3.0), det)
+    return (
+        tuple(v * s / a for v in r0),
+        tuple(v * s / b for v in r1),
+        tuple(v * s for v in r2),
+    )
+
+
+def _departure(g: tuple[tuple[float, ...], ...] | None) -> float:
+    """||G^T G - I||_F of :func:`_rotation_map`'s G: 0 for a rotation; NaN for None."""
+    if g is None:
+        return math.nan
+    g0, g1, g2 = g
     total = 0.0
     for i in range(3):
         for j in range(i, 3):
-            m = (g0[i] * g0[j] + g1[i] * g1[j] + r2[i] * r2[j]) * s - (i == j)
+            m = g0[i] * g0[j] + g1[i] * g1[j] + g2[i] * g2[j] - (i == j)
             total += m * m if i == j else 2.0 * m * m
     return math.sqrt(total)
+
+
+def _least_focal_departure(g: tuple[tuple[float, ...], ...] | None) -> float:
+    """The least :func:`_departure` of S^-1 G S over S = diag(s, s, 1), s in the rotation
+    test's focal scales (``geometry.ROTATION_FOCAL_SCALES``): the focal length the camera
+    states may be that far off, and a pan through the wrong one is G = S R S^-1, a rotation
+    again at the right s; a slide along a plane keeps its departure (divided by s). NaN for
+    None."""
+    if g is None:
+        return math.nan
+    G = np.array(g)
+    scaled = np.broadcast_to(G, (len(_FOCAL_SCALES), 3, 3)).copy()
+    scaled[:, 0:2, 2] /= _FOCAL_SCALES[:, None]
+    scaled[:, 2, 0:2] *= _FOCAL_SCALES[:, None]
+    gram = np.einsum('kji,kjl->kil', scaled, scaled) - np.eye(3)
+    return float(np.sqrt((gram * gram).sum(axis=(1, 2))).min())
 
 
 def _homography_residual(fit: np.ndarray, h: np.ndarray) -> float:

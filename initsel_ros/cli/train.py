@@ -38,6 +38,7 @@ EXTRA = (  # features.EXTRA_FEATURE_NAMES (not imported: --help loads no OpenCV)
     'x_affine_deformation',
     'x_homography_dlt_residual',
     'x_rotation_departure',
+    'x_rotation_departure_focal',
 )
 
 

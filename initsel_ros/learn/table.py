@@ -81,6 +81,7 @@ ADDED_COLUMNS: tuple[str, ...] = (
     'gt_static_share',
     'gt_plane_share',
     'gt_rotation_share',
+    'x_rotation_departure_focal',
 )
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
