@@ -6,6 +6,7 @@
 # `initsel train ... --leave-family-out config/families.yaml` (docs/learning.md, section 7).
 #   scripts/storeroom_family.sh [DATA_DIR]        (default /tmp/initsel-data; ~5 minutes)
 # Renders and the table are kept and reused; delete the CSV after a change to the labels.
+# DATASET_OPTIONS: more `initsel dataset` options (e.g. --fire-path).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 if [ -z "${INITSEL_ENV:-}" ]; then
@@ -42,5 +43,5 @@ render store_far_kitti_s209 --trajectory far --frames 150 --start 300 --seed 209
 SEQS=(store_far_s201 store_random_s202 store_random_s203 store_forward_s204 store_rotation_s205
       store_static_s206 store_arc_s207 store_random_euroc_s208 store_far_kitti_s209)
 [ -f "$D/storeroom.csv" ] || initsel dataset "${SEQS[@]/#/$D/}" --out "$D/storeroom.csv" \
-    --batch 30 --jobs 2 --quiet
+    --batch 30 --jobs 2 --quiet ${DATASET_OPTIONS:-}
 echo "wrote $D/storeroom.csv" >&2

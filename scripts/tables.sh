@@ -74,7 +74,9 @@ case "$table" in
         echo "wrote $OUT/robustness/*/seedmap.md" >&2
         ;;
     generalization)  # README "Generalization" (issue 21; about 25 minutes fresh, 6 with the
-        # pair tables kept): every scene family of config/families.yaml left out in turn
+        # pair tables kept): every scene family of config/families.yaml left out in turn;
+        # the tables hold the fire path's outcome, for the row of H by the fire path
+        export DATASET_OPTIONS=--fire-path
         source "$root/scripts/training_sequences.sh"
         make_training_tables  # the shipped recipe's tables, in DATA_DIR
         bash "$root/scripts/storeroom_family.sh" "$D"  # the second rendering style

@@ -38,14 +38,16 @@ render_training_sequences() {
 }
 make_training_tables() {  # the pair tables of the shipped recipe in $D (each kept when there):
     # train.csv (CLEAN), distill_twins.csv (TWINS) and distill_arcs.csv (the planar-arc
-    # family's tuning seeds 0-4, scripts/planar_arc.sh); needs $root, the project's root
+    # family's tuning seeds 0-4, scripts/planar_arc.sh); needs $root, the project's root.
+    # DATASET_OPTIONS: more `initsel dataset` options (scripts/tables.sh generalization:
+    # --fire-path)
     render_training_sequences
     [ -f "$D/train.csv" ] || initsel dataset "${CLEAN[@]/#/$D/}" --out "$D/train.csv" \
-        --batch 90 --jobs 2 --quiet
+        --batch 90 --jobs 2 --quiet ${DATASET_OPTIONS:-}
     [ -f "$D/distill_twins.csv" ] || initsel dataset "${TWINS[@]/#/$D/}" \
-        --out "$D/distill_twins.csv" --batch 90 --jobs 2 --quiet
+        --out "$D/distill_twins.csv" --batch 90 --jobs 2 --quiet ${DATASET_OPTIONS:-}
     bash "$root/scripts/planar_arc.sh" render-tune "$D/planar_arc"
     local arcs=("$D"/planar_arc/*_s[0-4])
     [ -f "$D/distill_arcs.csv" ] || initsel dataset "${arcs[@]}" --out "$D/distill_arcs.csv" \
-        --batch 35 --jobs 2 --quiet
+        --batch 35 --jobs 2 --quiet ${DATASET_OPTIONS:-}
 }

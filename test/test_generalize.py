@@ -9,8 +9,10 @@ from table_fixtures import synthetic_table
 from initsel_ros.cli import main
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.generalize import (
+    FIRE_H,
     Families,
     final_test,
+    fire_path_h,
     generalization_markdown,
     leave_family_out,
     score_family,
@@ -101,6 +103,7 @@ def test_a_family_without_pairs_is_logged_and_a_missing_reserved_one_is_an_error
     scores = leave_family_out(table, families, TrainConfig(folds=3), min_positives=5)
     assert {s.family for s in scores} == {'fx', 'desk'}
     assert 'families with no pairs in these tables, not scored: floor' in caplog.text
+    assert f'no fire-path outcome (initsel dataset --fire-path): no row of {FIRE_H}' in caplog.text
     with pytest.raises(DatasetError, match="no pairs of the reserved family 'walls'"):
         final_test(table, families, TrainConfig(folds=3))
     with pytest.raises(DatasetError, match='needs two families'):
@@ -203,3 +206,51 @@ def test_a_family_cap_thins_large_families_for_training_and_scores_all_held_out_
     scores = leave_family_out(table, families, TrainConfig(folds=3), 5, family_cap=50)
     assert sizes == [100, 100, 100]
     assert [s.pairs for s in scores[::4]] == [180, 60, 60]  # held out: every pair
+
+
+def test_h_by_the_fire_path_counts_the_pairs_a_models_yes_hands_it_and_it_publishes_h_on():
+    """Live, R's yes silences F and E, not H: H's yes alone still starts the fire path, which
+    may publish H where E fired too; its pose is good within the labels' E_t bound."""
+    n = 8
+    table = PairTable(
+        {
+            'fire_method': np.array(['H', 'H', 'H', 'E', 'H', 'none', 'H', 'H'], dtype=object),
+            'fire_et': np.array([0.05, 1.2, 0.05, 0.02, 0.05, np.nan, 0.3, 0.05]),
+        }
+    )
+    no = np.zeros(n, dtype=bool)
+    fired = {
+        'E': np.array([1, 1, 1, 1, 0, 0, 0, 0], bool),
+        'F': no,
+        'H': np.array([0, 0, 0, 0, 1, 1, 1, 0], bool),
+        'R': np.array([0, 0, 1, 0, 1, 0, 0, 0], bool),
+    }
+    published, good = fire_path_h(table, fired, et_max=0.8)
+    # pair 2: only E fired, and R vetoed it; pair 4: H fired with R, and H is not vetoed;
+    # pair 7: no model fired, so the fire path's H there is never run
+    assert list(np.flatnonzero(published)) == [0, 1, 4, 6]
+    assert list(np.flatnonzero(good)) == [0, 4, 6]
+    assert list(np.flatnonzero(fire_path_h(table, fired, et_max=0.1)[1])) == [0, 4]
+
+
+def test_the_fire_path_row_is_scored_and_shown_when_the_tables_hold_it():
+    table = _table_of(['far_s1'])
+    models = train_models(table, TrainConfig(folds=3)).models
+    scores = score_family(models, table, 'desk')
+    assert FIRE_H not in {s.model for s in scores}
+    cols = dict(table.columns)
+    rng = np.random.default_rng(1)
+    cols['fire_method'] = rng.choice(np.array(['E', 'H', 'none'], dtype=object), len(table))
+    cols['fire_et'] = rng.uniform(0.0, 1.0, len(table))
+    held = PairTable(cols)
+    scores = {s.model: s for s in score_family(models, held, 'desk', et_max=0.5)}
+    X = held.matrix(input_columns(models.input_names, models.scaling))
+    probs = models.predict_proba_batch(X)
+    fired = {m: probs[m] >= models.thresholds[m] for m in probs}
+    published, good = fire_path_h(held, fired, et_max=0.5)
+    y = np.asarray(held['H_label']).astype(bool)
+    assert published.any()
+    assert scores[FIRE_H].precision == pytest.approx(good.sum() / published.sum())
+    assert scores[FIRE_H].recall == pytest.approx((published & y).sum() / y.sum())
+    text = generalization_markdown(list(scores.values()))
+    assert f'{FIRE_H}: good share / recall' in text and 'the best of the decompositions' in text

@@ -104,6 +104,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--no-orbslam', action='store_true', help='skip the ORB-SLAM H/F scoring baseline (faster)'
     )
+    parser.add_argument(
+        '--fire-path',
+        action='store_true',
+        help="also run the node's whole fire path on each pair (E, F and H tried): the method "
+        "it publishes, or 'none', in the fire_method column (about 20 ms a pair)",
+    )
     parser.add_argument('--quiet', action='store_true', help='no progress bar')
 
 
@@ -142,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
         chunk=args.chunk,
         executor=args.executor,
         scheduler=args.scheduler,
+        fire_path=args.fire_path,
     )
     _warn_unused_options(args)
     hopeless = sources_without_batches(args.sources, config)

@@ -25,10 +25,12 @@ import numpy as np
 
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.evaluate import binary_scores
+from initsel_ros.learn.labels import LabelConfig
 from initsel_ros.learn.table import PairTable, table_probabilities
 from initsel_ros.learn.train import TrainConfig, label_column, prepare, train_models
 from initsel_ros.markdown import markdown_table, number
 from initsel_ros.models import METHODS, ModelSet
+from initsel_ros.policy import PolicyConfig
 
 LOG = logging.getLogger(__name__)
 
@@ -37,6 +39,10 @@ MIN_POSITIVES = 30
 
 #: The rows of the table: E, F and H after the R veto (as the policy uses them), and R.
 SCORED = ('E', 'F', 'H', 'R')
+#: The row of H as the node decides it, where the tables hold the fire path's outcome
+#: (``initsel dataset --fire-path``): a model's yes starts the fire path (R vetoing
+#: ``PolicyConfig.r_veto``), and the fire path publishes H (:func:`fire_path_h`).
+FIRE_H = 'H by the fire path'
 
 
 @dataclass(frozen=True)
@@ -127,9 +133,14 @@ class FamilyScore:
 
 
 def score_family(
-    models: ModelSet, test: PairTable, family: str, min_positives: int = MIN_POSITIVES
+    models: ModelSet,
+    test: PairTable,
+    family: str,
+    min_positives: int = MIN_POSITIVES,
+    et_max: float = 0.8,
 ) -> list[FamilyScore]:
-    """Score ``models`` (thresholds as they are) on the pairs of one family."""
+    """Score ``models`` (thresholds as they are) on the pairs of one family; with the fire
+    path's outcome in the table, H by the fire path too (:func:`fire_path_h`)."""
     probs, _ = table_probabilities(models, test)
     fired = {m: probs[m] >= models.thresholds[m] for m in METHODS}
     out = []
@@ -137,11 +148,55 @@ def score_family(
         y = np.asarray(test[label_column(m)]).astype(bool)
         pred = fired[m] if m == 'R' else fired[m] & ~fired['R']
         s = binary_scores(y, pred)
-        positives = int(y.sum())
-        precision = s.precision if s.predicted else math.nan
-        scored = positives >= min_positives
-        out.append(FamilyScore(family, m, len(test), positives, precision, s.recall, scored))
+        out.append(_family_score(family, m, len(test), y, s.precision, s.recall, s.predicted,
+                                 min_positives))  # fmt: skip
+    if has_fire_path(test):
+        y = np.asarray(test[label_column('H')]).astype(bool)
+        published, good = fire_path_h(test, fired, et_max)
+        precision = float(good.sum() / published.sum()) if published.any() else math.nan
+        recall = float((published & y).sum() / y.sum()) if y.any() else 0.0
+        out.append(_family_score(family, FIRE_H, len(test), y, precision, recall,
+                                 int(published.sum()), min_positives))  # fmt: skip
     return out
+
+
+def has_fire_path(table: PairTable) -> bool:
+    """Whether the table holds the fire path's outcome (``initsel dataset --fire-path``)."""
+    methods = np.asarray(table['fire_method'], dtype=object)
+    return bool(np.isin(methods, ('E', 'F', 'H', 'none')).any())
+
+
+def fire_path_h(
+    table: PairTable, fired: dict[str, np.ndarray], et_max: float = 0.8
+) -> tuple[np.ndarray, np.ndarray]:
+    """(published, good), (N,) bool each: pairs on which a model's yes starts the fire path
+    (F, E or H at their thresholds; R's yes silences ``PolicyConfig.r_veto``, F and E, so H's
+    yes alone still starts it) and the fire path publishes H; and of those, the ones whose
+    pose (the best of the decompositions it keeps for the verification frames) is within
+    ``et_max`` of the true direction, the E_t bound of the labels."""
+    veto = PolicyConfig().r_veto
+    started = np.zeros(len(table), dtype=bool)
+    for m in ('F', 'E', 'H'):
+        started |= fired[m] & ~(fired['R'] & (m in veto))
+    published = started & (np.asarray(table['fire_method'], dtype=object) == 'H')
+    et = np.asarray(table['fire_et'], dtype=float)
+    return published, published & (et < et_max)
+
+
+def _family_score(
+    family: str,
+    model: str,
+    pairs: int,
+    y: np.ndarray,
+    precision: float,
+    recall: float,
+    predicted: int,
+    min_positives: int,
+) -> FamilyScore:
+    positives = int(y.sum())
+    precision = precision if predicted else math.nan
+    return FamilyScore(family, model, pairs, positives, precision, recall,
+                       positives >= min_positives)  # fmt: skip
 
 
 def cap_families(
@@ -189,6 +244,11 @@ def leave_family_out(
         LOG.warning('families with no pairs in these tables, not scored: %s', ', '.join(empty))
     if len(present) < 2:
         raise DatasetError(f'leaving one family out needs two families with pairs: {present}')
+    if not has_fire_path(table):
+        LOG.warning(
+            'the tables hold no fire-path outcome (initsel dataset --fire-path): no row of %s',
+            FIRE_H,
+        )
     scores: list[FamilyScore] = []
     for family in present:
         rows = usable & (assigned != family)
@@ -234,7 +294,8 @@ def _score_held_out(
 ) -> list[FamilyScore]:
     """Train on ``train_rows`` and score every pair of ``family``."""
     models = train_models(table.select(train_rows), config).models
-    return score_family(models, table.select(assigned == family), family, min_positives)
+    et_max = (config.labels or LabelConfig()).et_max
+    return score_family(models, table.select(assigned == family), family, min_positives, et_max)
 
 
 def generalization_markdown(
@@ -246,18 +307,21 @@ def generalization_markdown(
     family, precision ``-``, is that model's worst)."""
     families = list(dict.fromkeys(s.family for s in scores))
     by = {(s.family, s.model): s for s in scores}
-    heads = (f'{m}{" after R veto" if m != "R" else ""}: precision / recall' for m in SCORED)
+    scored = [m for m in (*SCORED, FIRE_H) if any(s.model == m for s in scores)]
+    heads = [f'{m}{" after R veto" if m != "R" else ""}: precision / recall' for m in SCORED]
+    if FIRE_H in scored:
+        heads.append(f'{FIRE_H}: good share / recall')
     columns = ('held-out family', 'pairs', *(f'{h} (positives)' for h in heads))
     rows = []
     for f in families:
         cells = []
-        for m in SCORED:
+        for m in scored:
             s = by[(f, m)]
             mark = '' if s.scored else '*'
             cells.append(f'{number(s.precision)} / {number(s.recall)} ({s.positives}{mark})')
         rows.append((f, str(by[(f, SCORED[0])].pairs), *cells))
     mean_cells, worst_cells = [], []
-    for m in SCORED:
+    for m in scored:
         counted = [by[(f, m)] for f in families if by[(f, m)].scored]
         finite = [s for s in counted if math.isfinite(s.precision)]
         if not counted:
@@ -276,17 +340,27 @@ def generalization_markdown(
         f'\n\n`*`: fewer than {min_positives} positives, not counted in the mean and the worst;'
         ' `-`: the model never said yes on that family (no precision; the mean leaves it out).'
     )
+    if FIRE_H in scored:
+        note += (
+            f" {FIRE_H}: where a held-out model's yes starts the fire path (R silencing F and"
+            ' E) and it publishes H, the share whose pose (the best of the decompositions kept'
+            " for the verification frames) is within the labels' E_t bound, and the share of"
+            ' the H-labelled pairs on which it publishes H.'
+        )
     return markdown_table(columns, rows) + note
 
 
 __all__ = [
+    'FIRE_H',
     'MIN_POSITIVES',
     'SCORED',
     'Families',
     'FamilyScore',
     'cap_families',
     'final_test',
+    'fire_path_h',
     'generalization_markdown',
+    'has_fire_path',
     'leave_family_out',
     'score_family',
 ]

@@ -82,6 +82,8 @@ ADDED_COLUMNS: tuple[str, ...] = (
     'gt_plane_share',
     'gt_rotation_share',
     'x_rotation_departure_focal',
+    'fire_method',
+    'fire_et',
 )
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
@@ -153,6 +155,7 @@ def schema() -> tuple[tuple[str, type], ...]:
     for m in METHODS_FEH:
         cols += list(method_columns(m))
     cols.append(('scale_rule', str))
+    cols += [('fire_method', str), ('fire_et', float)]
     return tuple(cols)
 
 
