@@ -85,3 +85,33 @@ def test_report_markdown_and_csv_rows_carry_every_row(near_evaluation):
     assert names[: len(report.rows)] == [r.name for r in report.rows]
     assert names[len(report.rows) :] == [f'sequence level: {s.name}' for s in report.systems]
     assert 'No candidate families' in verdict(report)  # evaluated without --train
+
+
+def test_h_by_the_fire_path_is_a_row_where_the_table_holds_the_fire_paths_outcome(
+    near_evaluation,
+):
+    """Without the fire path's outcome in the table there is no such row; with it, the row
+    counts the pairs a model's yes hands to the fire path and on which it publishes H."""
+    from initsel_ros.learn.evaluate import evaluate, fire_path_h, fire_path_h_scores
+    from initsel_ros.learn.table import PairTable
+
+    table, models, report = near_evaluation
+    assert 'H by the fire path' not in {r.name for r in report.rows}
+    cols = dict(table.columns)
+    rng = np.random.default_rng(0)
+    cols['fire_method'] = rng.choice(np.array(['E', 'H', 'none'], dtype=object), len(table))
+    cols['fire_et'] = rng.uniform(0.0, 0.4, len(table))
+    held = PairTable(cols)
+    rows = {r.name: r for r in evaluate(held, models, et_max=0.2).rows}
+    probs = models.predict_proba_batch(
+        held.matrix(input_columns(models.input_names, models.scaling))
+    )
+    fired = {m: probs[m] >= models.thresholds[m] for m in METHODS}
+    published, good = fire_path_h(held, fired, et_max=0.2)
+    y = np.asarray(held['H_label']).astype(bool)
+    scores = rows['H by the fire path'].scores
+    assert scores == fire_path_h_scores(y, published, good)
+    assert 0 < good.sum() < published.sum() == scores.predicted
+    assert scores.precision == pytest.approx(good.sum() / published.sum())
+    assert scores.recall == pytest.approx((published & y).sum() / y.sum())
+    assert math.isnan(scores.accuracy)

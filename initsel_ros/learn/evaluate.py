@@ -84,6 +84,42 @@ def binary_scores(y: np.ndarray, pred: np.ndarray) -> Scores:
     return Scores(acc, precision, recall, f1, npred, pos, n)
 
 
+def has_fire_path(table: PairTable) -> bool:
+    """Whether the table holds the fire path's outcome (``initsel dataset --fire-path``)."""
+    methods = np.asarray(table['fire_method'], dtype=object)
+    return bool(np.isin(methods, ('E', 'F', 'H', 'none')).any())
+
+
+def fire_path_h(
+    table: PairTable, fired: dict[str, np.ndarray], et_max: float = 0.8
+) -> tuple[np.ndarray, np.ndarray]:
+    """(published, good), (N,) bool each: pairs on which a model's yes starts the fire path
+    (F, E or H at their thresholds; R's yes silences ``PolicyConfig.r_veto``, F and E, so H's
+    yes alone still starts it) and the fire path publishes H; and of those, the ones whose
+    pose (the best of the decompositions it keeps for the verification frames) is within
+    ``et_max`` of the true direction, the E_t bound of the labels."""
+    veto = PolicyConfig().r_veto
+    started = np.zeros(len(table), dtype=bool)
+    for m in ('F', 'E', 'H'):
+        started |= fired[m] & ~(fired['R'] & (m in veto))
+    published = started & (np.asarray(table['fire_method'], dtype=object) == 'H')
+    et = np.asarray(table['fire_et'], dtype=float)
+    return published, published & (et < et_max)
+
+
+def fire_path_h_scores(y: np.ndarray, published: np.ndarray, good: np.ndarray) -> Scores:
+    """Scores of H as the fire path decides it (:func:`fire_path_h`): precision is the share
+    of its H whose pose is good (``good``; its ambiguous H, kept with its rival for the
+    verification frames, counts when either is), recall the share of the H-labelled pairs
+    ``y`` on which it publishes H; no accuracy (the two do not share one confusion matrix)."""
+    y, published, good = (np.asarray(a).astype(bool) for a in (y, published, good))
+    npred, pos = int(published.sum()), int(y.sum())
+    precision = int(good.sum()) / npred if npred else 0.0
+    recall = int((published & y).sum()) / pos if pos else 0.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    return Scores(math.nan, precision, recall, f1, npred, pos, len(y))
+
+
 @dataclass(frozen=True)
 class EvalRow:
     """One line of the results table."""
@@ -350,6 +386,7 @@ def evaluate(
     train: PairTable | None = None,
     train_config: TrainConfig | None = None,
     candidates: Sequence[Candidate] = DEFAULT_CANDIDATES,
+    et_max: float = 0.8,
 ) -> EvalReport:
     """Score models and baselines on ``test`` (see module docstring).
 
@@ -360,6 +397,8 @@ def evaluate(
         train: training pairs, or None: when given, the ``candidates`` families are fitted on
             them in memory (thresholds by grouped cross-validation on ``train``, never on
             ``test``) and compared with the model file at equal recall and after the R veto.
+        et_max: the E_t bound of a good pose, for the row of H by the fire path (tables made
+            with ``initsel dataset --fire-path``).
     """
     paper = test.matrix(feature_columns(models.scaling))
     finite = np.all(np.isfinite(paper), axis=1)
@@ -392,6 +431,17 @@ def evaluate(
                 m,
                 binary_scores(y[m], fired[m] & ~fired['R']),
                 PAPER_RESULTS.get(name),
+            )
+        )
+    if has_fire_path(test):
+        rows.append(
+            EvalRow(
+                'H by the fire path',
+                'veto',
+                'H',
+                fire_path_h_scores(y['H'], *fire_path_h(test, fired, et_max)),
+                note="a model's yes starts the fire path, which publishes H; precision: the "
+                'share of its H whose pose is good',
             )
         )
     for stat in ('mean', 'median'):

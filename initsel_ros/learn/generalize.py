@@ -24,13 +24,17 @@ from pathlib import Path
 import numpy as np
 
 from initsel_ros.errors import ConfigError, DatasetError
-from initsel_ros.learn.evaluate import binary_scores
+from initsel_ros.learn.evaluate import (
+    binary_scores,
+    fire_path_h,
+    fire_path_h_scores,
+    has_fire_path,
+)
 from initsel_ros.learn.labels import LabelConfig
 from initsel_ros.learn.table import PairTable, table_probabilities
 from initsel_ros.learn.train import TrainConfig, label_column, prepare, train_models
 from initsel_ros.markdown import markdown_table, number
 from initsel_ros.models import METHODS, ModelSet
-from initsel_ros.policy import PolicyConfig
 
 LOG = logging.getLogger(__name__)
 
@@ -40,8 +44,7 @@ MIN_POSITIVES = 30
 #: The rows of the table: E, F and H after the R veto (as the policy uses them), and R.
 SCORED = ('E', 'F', 'H', 'R')
 #: The row of H as the node decides it, where the tables hold the fire path's outcome
-#: (``initsel dataset --fire-path``): a model's yes starts the fire path (R vetoing
-#: ``PolicyConfig.r_veto``), and the fire path publishes H (:func:`fire_path_h`).
+#: (``initsel dataset --fire-path``; ``evaluate.fire_path_h``).
 FIRE_H = 'H by the fire path'
 
 
@@ -152,35 +155,10 @@ def score_family(
                                  min_positives))  # fmt: skip
     if has_fire_path(test):
         y = np.asarray(test[label_column('H')]).astype(bool)
-        published, good = fire_path_h(test, fired, et_max)
-        precision = float(good.sum() / published.sum()) if published.any() else math.nan
-        recall = float((published & y).sum() / y.sum()) if y.any() else 0.0
-        out.append(_family_score(family, FIRE_H, len(test), y, precision, recall,
-                                 int(published.sum()), min_positives))  # fmt: skip
+        s = fire_path_h_scores(y, *fire_path_h(test, fired, et_max))
+        out.append(_family_score(family, FIRE_H, len(test), y, s.precision, s.recall,
+                                 s.predicted, min_positives))  # fmt: skip
     return out
-
-
-def has_fire_path(table: PairTable) -> bool:
-    """Whether the table holds the fire path's outcome (``initsel dataset --fire-path``)."""
-    methods = np.asarray(table['fire_method'], dtype=object)
-    return bool(np.isin(methods, ('E', 'F', 'H', 'none')).any())
-
-
-def fire_path_h(
-    table: PairTable, fired: dict[str, np.ndarray], et_max: float = 0.8
-) -> tuple[np.ndarray, np.ndarray]:
-    """(published, good), (N,) bool each: pairs on which a model's yes starts the fire path
-    (F, E or H at their thresholds; R's yes silences ``PolicyConfig.r_veto``, F and E, so H's
-    yes alone still starts it) and the fire path publishes H; and of those, the ones whose
-    pose (the best of the decompositions it keeps for the verification frames) is within
-    ``et_max`` of the true direction, the E_t bound of the labels."""
-    veto = PolicyConfig().r_veto
-    started = np.zeros(len(table), dtype=bool)
-    for m in ('F', 'E', 'H'):
-        started |= fired[m] & ~(fired['R'] & (m in veto))
-    published = started & (np.asarray(table['fire_method'], dtype=object) == 'H')
-    et = np.asarray(table['fire_et'], dtype=float)
-    return published, published & (et < et_max)
 
 
 def _family_score(
@@ -358,9 +336,7 @@ __all__ = [
     'FamilyScore',
     'cap_families',
     'final_test',
-    'fire_path_h',
     'generalization_markdown',
-    'has_fire_path',
     'leave_family_out',
     'score_family',
 ]
