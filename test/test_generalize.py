@@ -216,6 +216,7 @@ def test_h_by_the_fire_path_counts_the_pairs_a_models_yes_hands_it_and_it_publis
         {
             'fire_method': np.array(['H', 'H', 'H', 'E', 'H', 'none', 'H', 'H'], dtype=object),
             'fire_et': np.array([0.05, 1.2, 0.05, 0.02, 0.05, np.nan, 0.3, 0.05]),
+            'n_tracks': np.array([300, 300, 300, 300, 300, 300, 300, 300]),
         }
     )
     no = np.zeros(n, dtype=bool)
@@ -231,6 +232,9 @@ def test_h_by_the_fire_path_counts_the_pairs_a_models_yes_hands_it_and_it_publis
     assert list(np.flatnonzero(published)) == [0, 1, 4, 6]
     assert list(np.flatnonzero(good)) == [0, 4, 6]
     assert list(np.flatnonzero(fire_path_h(table, fired, et_max=0.1)[1])) == [0, 4]
+    # fewer tracks than the policy's min_tracks: the node decides nothing on such a frame
+    few = PairTable({**table.columns, 'n_tracks': np.array([40, 300, 300, 300, 49, 300, 50, 300])})
+    assert list(np.flatnonzero(fire_path_h(few, fired)[0])) == [1, 6]
 
 
 def test_the_fire_path_row_is_scored_and_shown_when_the_tables_hold_it():
@@ -242,6 +246,7 @@ def test_the_fire_path_row_is_scored_and_shown_when_the_tables_hold_it():
     rng = np.random.default_rng(1)
     cols['fire_method'] = rng.choice(np.array(['E', 'H', 'none'], dtype=object), len(table))
     cols['fire_et'] = rng.uniform(0.0, 1.0, len(table))
+    cols['n_tracks'] = np.full(len(table), 300)  # (the synthetic table's are too few to decide)
     held = PairTable(cols)
     scores = {s.model: s for s in score_family(models, held, 'desk', et_max=0.5)}
     X = held.matrix(input_columns(models.input_names, models.scaling))

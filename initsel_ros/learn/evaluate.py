@@ -94,14 +94,16 @@ def fire_path_h(
     table: PairTable, fired: dict[str, np.ndarray], et_max: float = 0.8
 ) -> tuple[np.ndarray, np.ndarray]:
     """(published, good), (N,) bool each: pairs on which a model's yes starts the fire path
-    (F, E or H at their thresholds; R's yes silences ``PolicyConfig.r_veto``, F and E, so H's
-    yes alone still starts it) and the fire path publishes H; and of those, the ones whose
-    pose (the best of the decompositions it keeps for the verification frames) is within
-    ``et_max`` of the true direction, the E_t bound of the labels."""
-    veto = PolicyConfig().r_veto
+    (F, E or H at their thresholds on at least ``PolicyConfig.min_tracks`` tracks; R's yes
+    silences ``PolicyConfig.r_veto``, F and E, so H's yes alone still starts it) and the fire
+    path publishes H; and of those, the ones whose pose (the best of the decompositions it
+    keeps for the verification frames) is within ``et_max`` of the true direction, the E_t
+    bound of the labels."""
+    policy = PolicyConfig()
     started = np.zeros(len(table), dtype=bool)
     for m in ('F', 'E', 'H'):
-        started |= fired[m] & ~(fired['R'] & (m in veto))
+        started |= fired[m] & ~(fired['R'] & (m in policy.r_veto))
+    started &= np.asarray(table['n_tracks']) >= policy.min_tracks
     published = started & (np.asarray(table['fire_method'], dtype=object) == 'H')
     et = np.asarray(table['fire_et'], dtype=float)
     return published, published & (et < et_max)
