@@ -79,17 +79,18 @@ def test_two_sources_of_one_sequence_name_are_refused(static_sequence, tmp_path)
 
 def test_the_fire_path_outcome_is_the_method_the_node_publishes_and_its_best_direction():
     """A wall seen from two views is H's (E_t of the best decomposition kept); a desk with
-    depth is E's or F's; a pan publishes nothing, and its E_t is NaN."""
+    depth is E's or F's; a pan publishes nothing, its E_t is NaN and its rotation test's
+    statistic is at the noise."""
     from geometry_fixtures import K, pan, two_view
 
     from initsel_ros.learn.pairs import fire_path_outcome
 
     p0, p1, _, t, _ = two_view(planar=True, baseline=0.3)
-    method, et = fire_path_outcome(p0, p1, K, t)
-    assert method == 'H' and et < 0.1
+    wall = fire_path_outcome(p0, p1, K, t)
+    assert wall.method == 'H' and wall.et < 0.1 and wall.rotation_statistic > 3.0
     p0, p1, _, t, _ = two_view(planar=False, baseline=0.3)
-    method, et = fire_path_outcome(p0, p1, K, t)
-    assert method in ('E', 'F') and et < 0.1
-    assert fire_path_outcome(p0, p1, K, -t)[1] > 1.9  # judged against the direction given
-    method, et = fire_path_outcome(*pan(), K, np.array([1.0, 0.0, 0.0]))
-    assert method == 'none' and np.isnan(et)
+    desk = fire_path_outcome(p0, p1, K, t)
+    assert desk.method in ('E', 'F') and desk.et < 0.1
+    assert fire_path_outcome(p0, p1, K, -t).et > 1.9  # judged against the direction given
+    turn = fire_path_outcome(*pan(), K, np.array([1.0, 0.0, 0.0]))
+    assert turn.method == 'none' and np.isnan(turn.et) and turn.rotation_statistic < 2.0

@@ -99,8 +99,7 @@ class DatasetConfig:
             ``jobs`` single-threaded worker processes on this machine.
         fire_path: (bool)
             Also run the node's whole fire path on each pair (:func:`fire_path_outcome`: the
-            ``fire_method`` and ``fire_et`` columns; about 20 ms a pair more). Off: they read
-            '' and NaN.
+            ``fire_*`` columns; about 20 ms a pair more). Off: they read '' and NaN.
     """
 
     batch: int = 90
@@ -231,10 +230,10 @@ def pair_row(
     else:
         row.update(vins_parallax_px=baselines.vins_parallax(p0, p1, K), vins_inliers=-1)
         row['vins_et'] = math.nan
-    fire_method, fire_et = '', math.nan
-    if config.fire_path:
-        fire_method, fire_et = fire_path_outcome(p0, p1, K, labels.t_gt)
-    row.update(fire_method=fire_method, fire_et=fire_et)
+    fire = fire_path_outcome(p0, p1, K, labels.t_gt) if config.fire_path else FireOutcome()
+    row.update(
+        fire_method=fire.method, fire_et=fire.et, fire_rotation_statistic=fire.rotation_statistic
+    )
     for m in POSE_METHODS:
         o = labels.outcomes[m]
         row.update(
@@ -255,20 +254,38 @@ def pair_row(
     return row
 
 
+@dataclass(frozen=True)
+class FireOutcome:
+    """What the node's fire path makes of one pair (:func:`fire_path_outcome`).
+
+    Attributes:
+        method: the method it publishes, or ``'none'``.
+        et: the lowest E_t against the ground truth of its seed map and the rival
+            decompositions it keeps for the verification frames (NaN when it publishes
+            nothing).
+        rotation_statistic: its rotation test's statistic, the flow a rotation leaves over
+            the tracking noise (NaN when the test had too few tracks).
+    """
+
+    method: str = ''
+    et: float = math.nan
+    rotation_statistic: float = math.nan
+
+
 def fire_path_outcome(
     p0: np.ndarray, p1: np.ndarray, K: np.ndarray, t_gt: np.ndarray
-) -> tuple[str, float]:
-    """What the node's fire path publishes on one pair given E, F and H to try (its default
-    settings, as for a camera that states no distortion: the rotation test, GRIC's selection,
-    the checks and the refinement; no verification frames): the method, or ``'none'``, and
-    the lowest E_t against ``t_gt`` of its seed map and the rival decompositions it keeps for
-    the verification frames to choose from (NaN when it publishes nothing)."""
+) -> FireOutcome:
+    """The node's fire path on one pair given E, F and H to try, with its default settings as
+    for a camera that states no distortion (the rotation test, GRIC's selection, the checks
+    and the refinement; no verification frames)."""
     fire = initialize_pair(p0, p1, K, POSE_METHODS, FireConfig())
+    statistic = fire.rotation.statistic if fire.rotation is not None else math.nan
     if fire.reason is not Reason.INITIALIZED or fire.seed is None:
-        return 'none', math.nan
+        return FireOutcome('none', math.nan, statistic)
     seeds = (fire.seed, *fire.alternatives)
     errors = [translation_chordal_error(t_gt, seed.t) for seed in seeds]
-    return fire.seed.method.value, min((e for e in errors if e == e), default=math.nan)
+    et = min((e for e in errors if e == e), default=math.nan)
+    return FireOutcome(fire.seed.method.value, et, statistic)
 
 
 # ----------------------------------------------------------------------------- batch workers

@@ -84,6 +84,7 @@ ADDED_COLUMNS: tuple[str, ...] = (
     'x_rotation_departure_focal',
     'fire_method',
     'fire_et',
+    'fire_rotation_statistic',
 )
 
 BASELINE_COLUMNS: tuple[tuple[str, type], ...] = (
@@ -155,7 +156,7 @@ def schema() -> tuple[tuple[str, type], ...]:
     for m in METHODS_FEH:
         cols += list(method_columns(m))
     cols.append(('scale_rule', str))
-    cols += [('fire_method', str), ('fire_et', float)]
+    cols += [('fire_method', str), ('fire_et', float), ('fire_rotation_statistic', float)]
     return tuple(cols)
 
 
