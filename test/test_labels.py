@@ -419,6 +419,26 @@ def test_the_determined_and_flow_labels_on_an_older_table_say_they_fall_back(cap
     assert '2 of the 2 rows with depth have no gt_rotation_share' in caplog.text
 
 
+def test_the_test_label_is_the_rotation_tests_verdict_and_falls_back_to_5_cm(caplog):
+    """``--rotation-label test``: R is 1 where the fire path's rotation test left under its bar
+    times the noise on the pair's tracks (with or without depth); a pair without the
+    statistic (a table made without --fire-path) keeps the 5 cm rule, and the log says so."""
+    columns = {
+        'gt_baseline_m': np.array([0.5, 0.01, 0.5, 0.01]),
+        'fire_rotation_statistic': np.array([1.2, 7.0, 2.99, np.nan]),
+        'scale_rule': np.array(['median', 'median', 'no_depth', 'median'], dtype=object),
+    }
+    for m in ('F', 'E', 'H'):
+        for column in ('ok', 'et', 'er_median', 'er_first_two', 'label'):
+            columns[f'{m}_{column}'] = np.ones(4)
+    test = LabelConfig(rotation_label='test')
+    assert relabel(columns, test)['R_label'].tolist() == [1, 0, 1, 1]
+    assert '1 of the 4 rows have no fire_rotation_statistic' in caplog.text
+    strict = LabelConfig(rotation_label='test', rotation_test_bar=2.0)
+    assert relabel(columns, strict)['R_label'].tolist() == [1, 0, 0, 1]
+    assert relabel(columns, LabelConfig())['R_label'].tolist() == [0, 1, 0, 1]
+
+
 def test_the_determined_label_keeps_e_and_f_off_planes_and_h_on_them():
     # row 0, a plane (share 1): every pose good; row 1, a desk (share 0.4): every pose good;
     # row 2, share 0.8 exactly (the plane holds the fire path's share); row 3, no depth

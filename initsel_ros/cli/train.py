@@ -18,7 +18,7 @@ PAPER = (  # features.FEATURE_NAMES
     *(f'direction_{45 * k}' for k in range(8)),
 )
 #: learn.labels.ROTATION_LABELS and METHOD_LABELS (not imported: --help loads no OpenCV)
-ROTATION_LABELS = ('baseline', 'parallax', 'flow')
+ROTATION_LABELS = ('baseline', 'parallax', 'flow', 'test')
 METHOD_LABELS = ('good', 'best', 'determined')
 EXTRA = (  # features.EXTRA_FEATURE_NAMES (not imported: --help loads no OpenCV)
     'x_disp_p10',
@@ -209,8 +209,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="R label rule: the paper's baseline (default), the pair's median ground-truth "
         "parallax angle under --rotation-parallax, or 'flow' (the rotation alone explains "
-        "at least 80%% of the tracks' true flow within 2.5 px: the gt_rotation_share column); "
-        'rows without depth keep the baseline rule',
+        "at least 80%% of the tracks' true flow within 2.5 px: the gt_rotation_share column), "
+        "or 'test' (the node's rotation test leaves under 3 times the noise on the pair's "
+        'tracks: fire_rotation_statistic, from initsel dataset --fire-path; not ground truth); '
+        'rows without them keep the baseline rule',
     )
     labels.add_argument(
         '--rotation-parallax',

@@ -86,6 +86,11 @@ class LabelConfig:
             tracks is the rotation's (``gt_rotation_share``: within the plane tolerance of
             where the rotation alone puts them), so that no usable depth shows in the image,
             whatever the scene's distance; rows without depth keep the baseline rule.
+            ``test``: R label = 1 where the node's own rotation test, run on the pair's
+            tracks by ``initsel dataset --fire-path``, leaves under ``rotation_test_bar``
+            times the noise (``fire_rotation_statistic``): R then stands in for the test
+            the fire path runs; not ground truth (the test's errors become R's targets), and
+            rows without the column keep the baseline rule.
         rotation_parallax_deg: (float)
             The parallax threshold of ``rotation_label='parallax'``, degrees.
         scale_rule: (ScaleRule)
@@ -131,6 +136,7 @@ class LabelConfig:
     method_label: str = 'good'
     best_margin: float = 0.05
     dominant_share: float = PolicyConfig().min_homography_plane_share
+    rotation_test_bar: float = PolicyConfig().min_rotation_residual_sigma
 
     def __post_init__(self) -> None:
         if self.rotation_label not in ROTATION_LABELS:
@@ -181,13 +187,20 @@ class LabelConfig:
         baseline_m: np.ndarray,
         parallax_deg: np.ndarray,
         rotation_share: np.ndarray | float = math.nan,
+        test_statistic: np.ndarray | float = math.nan,
     ) -> np.ndarray:
         """(N,) int64 R labels from the ground-truth baselines, median parallax angles and
-        rotation shares (:func:`ground_truth_rotation_share`)."""
+        rotation shares (:func:`ground_truth_rotation_share`), or the rotation test's
+        statistics (``rotation_label='test'``)."""
         baseline_m = np.asarray(baseline_m, dtype=float)
         by_baseline = baseline_m <= self.rotation_baseline_m
         if self.rotation_label == 'baseline':
             return by_baseline.astype(np.int64)
+        if self.rotation_label == 'test':
+            statistic = np.asarray(test_statistic, dtype=float)
+            with np.errstate(invalid='ignore'):
+                by_test = statistic < self.rotation_test_bar
+            return np.where(np.isfinite(statistic), by_test, by_baseline).astype(np.int64)
         if self.rotation_label == 'flow':
             share = np.asarray(rotation_share, dtype=float)
             with np.errstate(invalid='ignore'):
@@ -200,7 +213,7 @@ class LabelConfig:
 
 
 #: The R label rules of :class:`LabelConfig` (``rotation_label``).
-ROTATION_LABELS = ('baseline', 'parallax', 'flow')
+ROTATION_LABELS = ('baseline', 'parallax', 'flow', 'test')
 #: The F, E, H label rules of :class:`LabelConfig` (``method_label``).
 METHOD_LABELS = ('good', 'best', 'determined')
 
@@ -744,6 +757,7 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
         good[m], et_of[m] = label, et
     plane_share = _column_or_nan(columns, 'gt_plane_share', len(baseline))
     rotation_share = _column_or_nan(columns, 'gt_rotation_share', len(baseline))
+    statistic = _column_or_nan(columns, 'fire_rotation_statistic', len(baseline))
     for rule_in_use, column, share, older_rule in (
         (config.method_label == 'determined', 'gt_plane_share', plane_share, "the paper's"),
         (config.rotation_label == 'flow', 'gt_rotation_share', rotation_share, 'the 5 cm'),
@@ -758,10 +772,18 @@ def relabel(columns: dict[str, np.ndarray], config: LabelConfig) -> dict[str, np
                 column,
                 older_rule,
             )
+    unknown = int(np.sum(np.isnan(statistic)))
+    if config.rotation_label == 'test' and unknown:
+        LOG.warning(
+            'relabel: %d of the %d rows have no fire_rotation_statistic (a table made without '
+            'initsel dataset --fire-path, or under 8 tracks): they keep the 5 cm R label',
+            unknown,
+            len(statistic),
+        )
     for m, label in config.method_labels(good, et_of, plane_share).items():
         out[f'{m}_label'] = label
     parallax = _column_or_nan(columns, 'gt_parallax_deg', len(baseline))
-    out['R_label'] = config.rotation_labels(baseline, parallax, rotation_share)
+    out['R_label'] = config.rotation_labels(baseline, parallax, rotation_share, statistic)
     out['scale_rule'] = np.where(no_depth, NO_DEPTH, rule.value).astype(object)
     return out
 

@@ -665,6 +665,11 @@ def train_models(
                 if labels.rotation_label == 'parallax'
                 else {}
             ),
+            **(
+                {'rotation_test_bar': labels.rotation_test_bar}
+                if labels.rotation_label == 'test'
+                else {}
+            ),
             **({'method_label': labels.method_label} if labels.method_label != 'good' else {}),
             **({'best_margin': labels.best_margin} if labels.method_label == 'best' else {}),
             **(
