@@ -113,6 +113,13 @@ class FireConfig:
     radial_terms: tuple[float, ...] = ROTATION_RADIAL_TERMS
 
 
+def radial_terms_for(states_distortion: bool) -> tuple[float, ...]:
+    """The rotation test's radial terms (``FireConfig.radial_terms``) for a camera: none where
+    it states its distortion (its pixels arrive undistorted), :data:`ROTATION_RADIAL_TERMS`
+    where it states none (a lens whose distortion was left out bends a pan)."""
+    return () if states_distortion else ROTATION_RADIAL_TERMS
+
+
 #: The fire path's estimators alone: no rotation test, selection or refinement (what the
 #: offline tools judge each method by).
 ESTIMATES_ONLY = FireConfig(rotation_test=False, select=False, refine=False)
@@ -952,6 +959,7 @@ __all__ = [
     'initialize_pair',
     'motion_support',
     'plane_is_the_scene',
+    'radial_terms_for',
     'seed_map',
     'usable_seed',
 ]

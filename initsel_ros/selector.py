@@ -17,12 +17,7 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import Camera
-from initsel_ros.geometry import (
-    ROTATION_RADIAL_TERMS,
-    Method,
-    RotationTest,
-    rotation_angle_deg,
-)
+from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
 from initsel_ros.image import BitDepth, to_gray  # to_gray re-exported: selector.to_gray
 from initsel_ros.initialize import (
     FireConfig,
@@ -30,6 +25,7 @@ from initsel_ros.initialize import (
     SeedMap,
     fire_methods,
     initialize_pair,
+    radial_terms_for,
     usable_seed,
 )
 from initsel_ros.model_selection import Selection
@@ -1014,9 +1010,7 @@ class Selector:
             policy=self.config.policy,
             ransac_threshold_px=self.config.ransac_threshold_px,
             refine=self.config.refine,
-            # a camera that states its distortion is undistorted; one that states none may
-            # be a lens whose distortion was left out (rotation_test)
-            radial_terms=() if self.intrinsics.has_distortion else ROTATION_RADIAL_TERMS,
+            radial_terms=radial_terms_for(self.intrinsics.has_distortion),
         )
 
     def _verify(

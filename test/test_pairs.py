@@ -94,3 +94,34 @@ def test_the_fire_path_outcome_is_the_method_the_node_publishes_and_its_best_dir
     assert fire_path_outcome(p0, p1, K, -t).et > 1.9  # judged against the direction given
     turn = fire_path_outcome(*pan(), K, np.array([1.0, 0.0, 0.0]))
     assert turn.method == 'none' and np.isnan(turn.et) and turn.rotation_statistic < 2.0
+
+
+def test_the_datasets_fire_path_tries_radial_terms_only_for_a_camera_stating_none(
+    static_sequence, monkeypatch
+):
+    """As the node does (``initialize.radial_terms_for``): a camera that states its
+    distortion has its tracks undistorted, and the rotation test tries no radial terms."""
+    from dataclasses import replace
+
+    from initsel_ros.camera import Intrinsics
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.geometry import ROTATION_RADIAL_TERMS
+    from initsel_ros.learn import pairs
+
+    tried = []
+
+    def recorded(p0, p1, K, t_gt, radial_terms):
+        tried.append(radial_terms)
+        return pairs.FireOutcome('none')
+
+    monkeypatch.setattr(pairs, 'fire_path_outcome', recorded)
+    for distortion, want in (((), ROTATION_RADIAL_TERMS), ((0.05, -0.02, 0.0, 0.0), ())):
+        camera = replace(Intrinsics.tum_fr3(), distortion=distortion)
+        config = DatasetConfig(batch=6, jobs=1, fire_path=True, intrinsics=camera,
+                               orbslam_iterations=0, vins_ransac=False)  # fmt: skip
+        tried.clear()
+        rows = pairs.label_sequence_batch(
+            open_sequence(static_sequence, intrinsics=camera), 0, range(6), config
+        )
+        assert rows and len(tried) == len(rows)
+        assert all(terms == want for terms in tried)

@@ -26,7 +26,8 @@ import numpy as np
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import DatasetError
 from initsel_ros.features import Scaling, extra_features, pair_features
-from initsel_ros.initialize import FireConfig, initialize_pair
+from initsel_ros.geometry import ROTATION_RADIAL_TERMS
+from initsel_ros.initialize import FireConfig, initialize_pair, radial_terms_for
 from initsel_ros.learn import baselines
 from initsel_ros.learn.correspondences import Pair, Source, klt_pairs, orb_pairs
 from initsel_ros.learn.labels import (
@@ -175,8 +176,12 @@ def pair_row(
     labels: PairLabels,
     source: Source,
     config: DatasetConfig,
+    *,
+    states_distortion: bool = False,
 ) -> dict[str, Any]:
-    """One table row (every schema column) for a labelled pair."""
+    """One table row (every schema column) for a labelled pair; ``states_distortion``: the
+    camera states its lens distortion (the pair is undistorted; see
+    :func:`fire_path_outcome`)."""
     width, height = size
     p0, p1 = pair.p0, pair.p1
     row: dict[str, Any] = {
@@ -230,7 +235,9 @@ def pair_row(
     else:
         row.update(vins_parallax_px=baselines.vins_parallax(p0, p1, K), vins_inliers=-1)
         row['vins_et'] = math.nan
-    fire = fire_path_outcome(p0, p1, K, labels.t_gt) if config.fire_path else FireOutcome()
+    fire = FireOutcome()
+    if config.fire_path:
+        fire = fire_path_outcome(p0, p1, K, labels.t_gt, radial_terms_for(states_distortion))
     row.update(
         fire_method=fire.method, fire_et=fire.et, fire_rotation_statistic=fire.rotation_statistic
     )
@@ -273,12 +280,18 @@ class FireOutcome:
 
 
 def fire_path_outcome(
-    p0: np.ndarray, p1: np.ndarray, K: np.ndarray, t_gt: np.ndarray
+    p0: np.ndarray,
+    p1: np.ndarray,
+    K: np.ndarray,
+    t_gt: np.ndarray,
+    radial_terms: tuple[float, ...] = ROTATION_RADIAL_TERMS,
 ) -> FireOutcome:
-    """The node's fire path on one pair given E, F and H to try, with its default settings as
-    for a camera that states no distortion (the rotation test, GRIC's selection, the checks
-    and the refinement; no verification frames)."""
-    fire = initialize_pair(p0, p1, K, POSE_METHODS, FireConfig())
+    """The node's fire path on one pair given E, F and H to try, with its default settings
+    (the rotation test, GRIC's selection, the checks and the refinement; no verification
+    frames) and the rotation test's ``radial_terms`` as the node picks them for the camera
+    (:func:`~initsel_ros.initialize.radial_terms_for`)."""
+    config = FireConfig(radial_terms=radial_terms)
+    fire = initialize_pair(p0, p1, K, POSE_METHODS, config)
     statistic = fire.rotation.statistic if fire.rotation is not None else math.nan
     if fire.reason is not Reason.INITIALIZED or fire.seed is None:
         return FireOutcome('none', math.nan, statistic)
@@ -356,6 +369,7 @@ class TrackedBatch:
     has_depth: bool
     inputs: tuple[PairInput, ...]
     config: DatasetConfig
+    states_distortion: bool = False  # (the camera's: the fire path's radial terms follow it)
 
 
 def track_sequence_batch(
@@ -396,7 +410,16 @@ def track_sequence_batch(
         gt_points, gt_valid = ground_truth_points(pair.p0, K, depth, depth_pixels)
         stamps = (ref_stamp, float(sequence.frames[pair.cur_index].stamp))
         inputs.append(PairInput(pair, gt_points, gt_valid, T_ref, T_cur, stamps))
-    return TrackedBatch(sequence.name, batch, size, K, depth is not None, tuple(inputs), config)
+    return TrackedBatch(
+        sequence.name,
+        batch,
+        size,
+        K,
+        depth is not None,
+        tuple(inputs),
+        config,
+        intr.has_distortion,
+    )
 
 
 def label_inputs(
@@ -429,6 +452,7 @@ def label_inputs(
                 labels,
                 config.source,
                 config,
+                states_distortion=tracked.states_distortion,
             )
         )
     return rows
@@ -459,10 +483,12 @@ def track_task(task: BatchTask) -> TrackedBatch:
 __all__ = [
     'BatchTask',
     'DatasetConfig',
+    'FireOutcome',
     'PairInput',
     'TrackedBatch',
     'batch_ranges',
     'chunk_bounds',
+    'fire_path_outcome',
     'label_inputs',
     'label_sequence_batch',
     'labelled_batches',
