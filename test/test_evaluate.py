@@ -106,8 +106,7 @@ def test_h_by_the_fire_path_is_a_row_where_the_table_holds_the_fire_paths_outcom
     probs = models.predict_proba_batch(
         held.matrix(input_columns(models.input_names, models.scaling))
     )
-    fired = {m: probs[m] >= models.thresholds[m] for m in METHODS}
-    published, good = fire_path_h(held, fired, et_max=0.2)
+    published, good = fire_path_h(held, probs, models.thresholds, et_max=0.2)
     y = np.asarray(held['H_label']).astype(bool)
     scores = rows['H by the fire path'].scores
     assert scores == fire_path_h_scores(y, published, good)

@@ -219,22 +219,22 @@ def test_h_by_the_fire_path_counts_the_pairs_a_models_yes_hands_it_and_it_publis
             'n_tracks': np.array([300, 300, 300, 300, 300, 300, 300, 300]),
         }
     )
-    no = np.zeros(n, dtype=bool)
-    fired = {
-        'E': np.array([1, 1, 1, 1, 0, 0, 0, 0], bool),
-        'F': no,
-        'H': np.array([0, 0, 0, 0, 1, 1, 1, 0], bool),
-        'R': np.array([0, 0, 1, 0, 1, 0, 0, 0], bool),
+    probabilities = {  # over (1) or under (0) thresholds of 0.5
+        'E': np.array([1, 1, 1, 1, 0, 0, 0, 0], float),
+        'F': np.zeros(n),
+        'H': np.array([0, 0, 0, 0, 1, 1, 1, 0], float),
+        'R': np.array([0, 0, 1, 0, 1, 0, 0, 0], float),
     }
-    published, good = fire_path_h(table, fired, et_max=0.8)
+    half = dict.fromkeys('FEHR', 0.5)
+    published, good = fire_path_h(table, probabilities, half, et_max=0.8)
     # pair 2: only E fired, and R vetoed it; pair 4: H fired with R, and H is not vetoed;
     # pair 7: no model fired, so the fire path's H there is never run
     assert list(np.flatnonzero(published)) == [0, 1, 4, 6]
     assert list(np.flatnonzero(good)) == [0, 4, 6]
-    assert list(np.flatnonzero(fire_path_h(table, fired, et_max=0.1)[1])) == [0, 4]
+    assert list(np.flatnonzero(fire_path_h(table, probabilities, half, et_max=0.1)[1])) == [0, 4]
     # fewer tracks than the policy's min_tracks: the node decides nothing on such a frame
     few = PairTable({**table.columns, 'n_tracks': np.array([40, 300, 300, 300, 49, 300, 50, 300])})
-    assert list(np.flatnonzero(fire_path_h(few, fired)[0])) == [1, 6]
+    assert list(np.flatnonzero(fire_path_h(few, probabilities, half)[0])) == [1, 6]
 
 
 def test_the_fire_path_row_is_scored_and_shown_when_the_tables_hold_it():
@@ -251,8 +251,7 @@ def test_the_fire_path_row_is_scored_and_shown_when_the_tables_hold_it():
     scores = {s.model: s for s in score_family(models, held, 'desk', et_max=0.5)}
     X = held.matrix(input_columns(models.input_names, models.scaling))
     probs = models.predict_proba_batch(X)
-    fired = {m: probs[m] >= models.thresholds[m] for m in probs}
-    published, good = fire_path_h(held, fired, et_max=0.5)
+    published, good = fire_path_h(held, probs, models.thresholds, et_max=0.5)
     y = np.asarray(held['H_label']).astype(bool)
     assert published.any()
     assert scores[FIRE_H].precision == pytest.approx(good.sum() / published.sum())

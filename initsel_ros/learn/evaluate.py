@@ -91,19 +91,21 @@ def has_fire_path(table: PairTable) -> bool:
 
 
 def fire_path_h(
-    table: PairTable, fired: dict[str, np.ndarray], et_max: float = 0.8
+    table: PairTable,
+    probabilities: Mapping[str, np.ndarray],
+    thresholds: Mapping[str, float],
+    et_max: float = 0.8,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(published, good), (N,) bool each: pairs on which a model's yes starts the fire path
-    (F, E or H at their thresholds on at least ``PolicyConfig.min_tracks`` tracks; R's yes
-    silences ``PolicyConfig.r_veto``, F and E, so H's yes alone still starts it) and the fire
-    path publishes H; and of those, the ones whose pose (the best of the decompositions it
-    keeps for the verification frames) is within ``et_max`` of the true direction, the E_t
-    bound of the labels."""
-    policy = PolicyConfig()
-    started = np.zeros(len(table), dtype=bool)
-    for m in ('F', 'E', 'H'):
-        started |= fired[m] & ~(fired['R'] & (m in policy.r_veto))
-    started &= np.asarray(table['n_tracks']) >= policy.min_tracks
+    """(published, good), (N,) bool each: pairs on which the per-frame decision starts the
+    fire path (:func:`decision_rule` with the node's default ``PolicyConfig.r_veto``, F and
+    E, so H's yes alone still starts it, and its ``min_tracks``) and the fire path publishes
+    H; and of those, the ones whose pose (the best of the decompositions it keeps for the
+    verification frames) is within ``et_max`` of the true direction, the E_t bound of the
+    labels."""
+    veto = tuple(sorted(PolicyConfig().r_veto))
+    started = decision_rule(
+        'the fire path', probabilities, thresholds, veto, np.asarray(table['n_tracks'])
+    ).yes
     published = started & (np.asarray(table['fire_method'], dtype=object) == 'H')
     et = np.asarray(table['fire_et'], dtype=float)
     return published, published & (et < et_max)
@@ -441,7 +443,7 @@ def evaluate(
                 'H by the fire path',
                 'veto',
                 'H',
-                fire_path_h_scores(y['H'], *fire_path_h(test, fired, et_max)),
+                fire_path_h_scores(y['H'], *fire_path_h(test, probs, thr, et_max)),
                 note="a model's yes starts the fire path, which publishes H; precision: the "
                 'share of its H whose pose is good',
             )

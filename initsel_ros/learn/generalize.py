@@ -155,7 +155,7 @@ def score_family(
                                  min_positives))  # fmt: skip
     if has_fire_path(test):
         y = np.asarray(test[label_column('H')]).astype(bool)
-        s = fire_path_h_scores(y, *fire_path_h(test, fired, et_max))
+        s = fire_path_h_scores(y, *fire_path_h(test, probs, models.thresholds, et_max))
         out.append(_family_score(family, FIRE_H, len(test), y, s.precision, s.recall,
                                  s.predicted, min_positives))  # fmt: skip
     return out
