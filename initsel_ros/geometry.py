@@ -318,10 +318,10 @@ def estimate_pose(
     """Recover the relative pose with one method and triangulate the map points.
 
     E is robustly estimated with OpenCV's USAC (``cv2.USAC_ACCURATE``, local optimization)
-    over Nister's 5-point solver; F with RANSAC over the 8-point fit (USAC's plane-and-parallax
-    fit took tracking errors along the epipolar lines of a noisy wall for depth and scored a
-    lower GRIC than H there); H with RANSAC (4-point DLT, Faugeras-Lustman decomposition). All
-    three are deterministic: the same tracks give the same estimate. F and E poses are the
+    over Nister's 5-point solver; F by :func:`find_fundamental` (USAC's where its points show
+    the depth off a dominant plane, RANSAC's 8-point fit otherwise); H with RANSAC (4-point
+    DLT, Faugeras-Lustman decomposition). All three are deterministic: the same tracks give the
+    same estimate. F and E poses are the
     ``recoverPose`` candidate with the most points in front of both cameras; H's is chosen by
     :func:`choose_homography_decomposition` (and refused when ambiguous).
     Kept points are inliers in front of both cameras, reprojecting within
@@ -409,8 +409,8 @@ def estimate_pose(
     else:
         if method is Method.F:
             try:
-                F, mask = cv2.findFundamentalMat(
-                    f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
+                F, mask = find_fundamental(
+                    a, b, K, ransac_threshold_px, confidence, max_iterations
                 )
             except cv2.error as exc:
                 return _failure(method, n, _opencv_failure('findFundamentalMat', exc))
@@ -452,6 +452,72 @@ def estimate_pose(
         max_reprojection_px=max_reprojection_px,
         min_point_parallax_deg=min_point_parallax_deg,
         min_points=min_points,
+    )
+
+
+#: A track lies off a plane when it is farther than this from where the plane's homography
+#: puts it, pixels ...
+OFF_PLANE_MIN_PX = 2.5
+#: ... and than this many times the tracking noise per coordinate: the distance from where
+#: H puts a track, with noise in both images, stays under about 5 sigma (the Rayleigh 99.9 %
+#: point of sqrt(2) sigma per coordinate); with 1-2 px of noise, 2.5 px counted a fifth of a
+#: plane's own points as off it.
+OFF_PLANE_NOISE_FACTOR = 5.0
+#: USAC's F is kept when the points it puts in front of both cameras include at least this
+#: share of the tracks off the dominant plane (the share off H's plane that makes E or F
+#: well-posed for the fire path: 1 - ``PolicyConfig.min_homography_plane_share``).
+USAC_F_MIN_OFF_PLANE_SHARE = 0.2
+
+
+def find_fundamental(
+    a: np.ndarray,
+    b: np.ndarray,
+    K: np.ndarray,
+    ransac_threshold_px: float = 1.0,
+    confidence: float = 0.999,
+    max_iterations: int = 2000,
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """F and its inlier mask from (N, 2) pixel tracks, ``cv2.findFundamentalMat``'s way.
+
+    Where a plane holds most of the tracks, RANSAC's 8-point fit is degenerate: any sample
+    of seven plane points and one off it gives an F that fits the plane (a far-style desk:
+    pose good on two pairs of three). USAC's DEGENSAC test recovers F as the plane plus the
+    parallax of the rest, but on a plane alone (noise, blur, rolling shutter) it takes tracking
+    errors along the epipolar lines for depth. So USAC's F is kept only where the points it
+    puts in front of both cameras show that depth: at least
+    :data:`USAC_F_MIN_OFF_PLANE_SHARE` of the tracks lie off the plane of a RANSAC homography,
+    farther than :data:`OFF_PLANE_MIN_PX` and :data:`OFF_PLANE_NOISE_FACTOR` times the noise
+    (the smaller of what the two fits leave on all tracks, as :func:`tracking_noise_px`).
+    Elsewhere RANSAC's F is returned, as before.
+
+    Raises:
+        cv2.error: from OpenCV on degenerate input.
+    """
+    f0 = np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 1, 2)
+    f1 = np.ascontiguousarray(b, dtype=np.float64).reshape(-1, 1, 2)
+    F, mask = cv2.findFundamentalMat(
+        f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
+    )
+    if F is not None and F.shape == (3, 3) and mask is not None:
+        H, _ = cv2.findHomography(
+            f0,
+            f1,
+            cv2.RANSAC,
+            ransac_threshold_px,
+            maxIters=max_iterations,
+            confidence=confidence,
+        )
+        if H is not None:
+            E = K.T @ np.asarray(F, dtype=np.float64) @ K
+            _, _, _, front = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
+            kept = front.ravel() > 0
+            noise = min(fundamental_noise_px(F, a, b), homography_noise_px(H, a, b))
+            bound = max(OFF_PLANE_MIN_PX, OFF_PLANE_NOISE_FACTOR * noise)
+            off = transfer_px(H, a[kept], b[kept]) > bound  # (NaN: not counted)
+            if np.count_nonzero(off) >= USAC_F_MIN_OFF_PLANE_SHARE * len(a):
+                return F, mask
+    return cv2.findFundamentalMat(
+        f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
     )
 
 
@@ -839,6 +905,12 @@ def _fundamental_noise_px(a: np.ndarray, b: np.ndarray) -> float:
     )
     if F is None or F.shape != (3, 3):
         return math.inf
+    return fundamental_noise_px(F, a, b)
+
+
+def fundamental_noise_px(F: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Noise per coordinate that the fundamental matrix ``F`` leaves on all tracks: the
+    median Sampson error is about ``0.455 sigma^2``."""
     errors = sampson_fundamental(np.asarray(F, dtype=np.float64), a, b)
     return float(np.sqrt(np.median(errors) / CHI2_1_MEDIAN))
 
@@ -857,6 +929,13 @@ def _homography_noise_px(a: np.ndarray, b: np.ndarray) -> float:
     )
     if H is None or H.shape != (3, 3):
         return math.inf
+    return homography_noise_px(H, a, b)
+
+
+def homography_noise_px(H: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Noise per coordinate that the homography ``H`` leaves on all tracks (their median
+    transfer distance is ``sqrt(4 ln 2) sigma``: both views' noise); inf with fewer than 8
+    finite distances."""
     transfer = transfer_px(np.asarray(H, dtype=np.float64), a, b)
     transfer = transfer[np.isfinite(transfer)]
     if transfer.shape[0] < 8:

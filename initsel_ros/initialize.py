@@ -41,6 +41,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from initsel_ros.geometry import (
+    OFF_PLANE_MIN_PX,
+    OFF_PLANE_NOISE_FACTOR,
     ROTATION_RADIAL_TERMS,
     Method,
     PoseEstimate,
@@ -599,22 +601,16 @@ def _estimate_and_choose(
 #: (squared Sampson error within the estimators' RANSAC threshold squared; a mistrack or an
 #: object moving on its own fits neither) ...
 OFF_PLANE_MIN_TRACKS = 5
-#: ... "clearly off the plane" meaning more than this from where H puts them, pixels: the
-#: distance within which the decomposition test counts a point as on its plane
-#: (``geometry.estimate_pose``'s ``max_reprojection_px``); nearer, a tracking error decides
-#: which motion's lines a track lies on ...
-OFF_PLANE_MIN_PX = 2.5
+#: ... "clearly off the plane" meaning more than ``geometry.OFF_PLANE_MIN_PX`` from where H
+#: puts them (the distance within which the decomposition test counts a point as on its
+#: plane, ``geometry.estimate_pose``'s ``max_reprojection_px``); nearer, a tracking error
+#: decides which motion's lines a track lies on ...
 #: ... when one motion's median Sampson error on them is this many times smaller than the
 #: other's ...
 OFF_PLANE_MIN_RATIO = 3.0
 #: ... and the other misses them clearly: its median at least (this x the RANSAC threshold)
 #: squared, not by a tracking error.
 OFF_PLANE_MIN_MISS = 2.0
-#: A point lies off a plane for :func:`off_plane_support` beyond this many times the tracking
-#: noise as well: the distance from where H puts a track, with noise in both images, stays
-#: under about 5 sigma (the Rayleigh 99.9 % point of sqrt(2) sigma per coordinate); with 1-2 px
-#: of noise, 2.5 px counted a fifth of a plane's own points as off it.
-OFF_PLANE_NOISE_FACTOR = 5.0
 
 
 def _rest_moves_with_winner(
@@ -666,7 +662,7 @@ def _decomposition_by_the_rest(
 
     Both motions explain the plane's points alike (that is the ambiguity); a static point off
     the plane lies on the epipolar lines of the true motion only. The evidence is the tracks
-    H left out that lie more than :data:`OFF_PLANE_MIN_PX` from where H puts them and that
+    H left out that lie more than ``geometry.OFF_PLANE_MIN_PX`` from where H puts them and that
     one of the two motions explains (squared Sampson error within ``inlier_px`` squared, the
     estimators' RANSAC threshold). On a plane alone the tracks H leaves out are mistracks,
     which fit neither motion, and tracks a pixel or two off the plane, whose error decides
@@ -769,8 +765,8 @@ def off_plane_support(
 ) -> int:
     """How many of the points the E or F ``winner`` triangulated (in front of both cameras,
     with parallax: its ``indices`` into ``ref`` and ``cur``) lie clearly off the plane of the
-    homography ``plane``: farther from where it puts them than :data:`OFF_PLANE_MIN_PX` and
-    :data:`OFF_PLANE_NOISE_FACTOR` times the tracking noise ``noise_px`` (per coordinate);
+    homography ``plane``: farther from where it puts them than ``geometry.OFF_PLANE_MIN_PX`` and
+    ``geometry.OFF_PLANE_NOISE_FACTOR`` times the tracking noise ``noise_px`` (per coordinate);
     0 when H has no matrix.
 
     Only triangulated points count: a track that a rotation moves (a background at infinity,

@@ -39,7 +39,8 @@ import numpy as np
 from initsel_ros import geometry
 from initsel_ros.camera import Intrinsics
 from initsel_ros.errors import ConfigError, GeometryError, InitselError
-from initsel_ros.initialize import ESTIMATES_ONLY, OFF_PLANE_MIN_PX, initialize_pair
+from initsel_ros.geometry import OFF_PLANE_MIN_PX
+from initsel_ros.initialize import ESTIMATES_ONLY, initialize_pair
 from initsel_ros.metrics import (
     reconstruction_error,
     relative_pose,
@@ -590,7 +591,7 @@ def _share_within(
 
 #: A track lies on the scene's plane when the homography of the ground-truth flow puts it
 #: within this many pixels of where the ground truth does: the fire path's bound for a track
-#: off H's plane (:data:`initsel_ros.initialize.OFF_PLANE_MIN_PX`).
+#: off H's plane (:data:`initsel_ros.geometry.OFF_PLANE_MIN_PX`).
 FLOW_TOLERANCE_PX = OFF_PLANE_MIN_PX
 
 
