@@ -495,27 +495,25 @@ def find_fundamental(
     """
     f0 = np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 1, 2)
     f1 = np.ascontiguousarray(b, dtype=np.float64).reshape(-1, 1, 2)
-    F, mask = cv2.findFundamentalMat(
-        f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
+    H, _ = cv2.findHomography(
+        f0, f1, cv2.RANSAC, ransac_threshold_px, maxIters=max_iterations, confidence=confidence
     )
-    if F is not None and F.shape == (3, 3) and mask is not None:
-        H, _ = cv2.findHomography(
-            f0,
-            f1,
-            cv2.RANSAC,
-            ransac_threshold_px,
-            maxIters=max_iterations,
-            confidence=confidence,
-        )
-        if H is not None:
-            E = K.T @ np.asarray(F, dtype=np.float64) @ K
-            _, _, _, front = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
-            kept = front.ravel() > 0
-            noise = min(fundamental_noise_px(F, a, b), homography_noise_px(H, a, b))
-            bound = max(OFF_PLANE_MIN_PX, OFF_PLANE_NOISE_FACTOR * noise)
-            off = transfer_px(H, a[kept], b[kept]) > bound  # (NaN: not counted)
-            if np.count_nonzero(off) >= USAC_F_MIN_OFF_PLANE_SHARE * len(a):
-                return F, mask
+    if H is not None:
+        transfer = transfer_px(H, a, b)  # (NaN: never counted off the plane)
+        needed = USAC_F_MIN_OFF_PLANE_SHARE * len(a)
+        # the bound below is never under OFF_PLANE_MIN_PX: too few tracks beyond it, and no F
+        # can put enough off the plane (a pan, a plane alone: USAC is not run)
+        if np.count_nonzero(transfer > OFF_PLANE_MIN_PX) >= needed:
+            F, mask = cv2.findFundamentalMat(
+                f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
+            )
+            if F is not None and F.shape == (3, 3) and mask is not None:
+                E = K.T @ np.asarray(F, dtype=np.float64) @ K
+                _, _, _, front = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
+                noise = min(fundamental_noise_px(F, a, b), homography_noise_px(H, a, b))
+                bound = max(OFF_PLANE_MIN_PX, OFF_PLANE_NOISE_FACTOR * noise)
+                if np.count_nonzero(transfer[front.ravel() > 0] > bound) >= needed:
+                    return F, mask
     return cv2.findFundamentalMat(
         f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
     )
