@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import cv2
 import numpy as np
@@ -318,11 +319,11 @@ def estimate_pose(
     """Recover the relative pose with one method and triangulate the map points.
 
     E is robustly estimated with OpenCV's USAC (``cv2.USAC_ACCURATE``, local optimization)
-    over Nister's 5-point solver; F by :func:`find_fundamental` (USAC's where its points show
-    the depth off a dominant plane, RANSAC's 8-point fit otherwise); H with RANSAC (4-point
-    DLT, Faugeras-Lustman decomposition). All three are deterministic: the same tracks give the
-    same estimate. F and E poses are the
-    ``recoverPose`` candidate with the most points in front of both cameras; H's is chosen by
+    over Nister's 5-point solver; F with USAC where the points of its pose show the depth off a
+    dominant plane, with RANSAC's 8-point fit otherwise (:func:`plane_and_parallax_fundamental`);
+    H with RANSAC (4-point DLT, Faugeras-Lustman decomposition). All three are deterministic:
+    the same tracks give the same estimate. F and E poses are the ``recoverPose`` candidate
+    with the most points in front of both cameras; H's is chosen by
     :func:`choose_homography_decomposition` (and refused when ambiguous).
     Kept points are inliers in front of both cameras, reprojecting within
     ``max_reprojection_px`` and seen with at least ``min_point_parallax_deg`` of parallax.
@@ -365,94 +366,124 @@ def estimate_pose(
         return _failure(method, n, f'{n} correspondences, {method.value} needs {needed}')
     f0 = a.reshape(-1, 1, 2)
     f1 = b.reshape(-1, 1, 2)
-
-    if method is Method.H:
-        try:
-            H, mask = cv2.findHomography(
-                f0,
-                f1,
-                cv2.RANSAC,
-                ransac_threshold_px,
-                maxIters=max_iterations,
-                confidence=confidence,
-            )
-        except cv2.error as exc:
-            return _failure(method, n, _opencv_failure('findHomography', exc))
-        if H is None or mask is None:
-            return _failure(method, n, 'no homography found')
-        inliers = mask.ravel().astype(bool)
-        matrix = np.asarray(H, dtype=np.float64)
-        choice = choose_homography_decomposition(
-            matrix,
-            K,
-            a,
-            b,
-            inliers,
-            max_reprojection_px,
-            min_homography_baseline_ratio,
-            plane_visibility_share,
-        )
-        if choice.reason and not (keep_ambiguous and choice.runner_up is not None):
-            return _failure(method, n, choice.reason, inliers, matrix)
-        if choice.runner_up is not None:
-            kept = dict(
-                max_reprojection_px=max_reprojection_px,
-                min_point_parallax_deg=min_point_parallax_deg,
-                min_points=min_points,
-            )
-            first = _triangulated(method, choice.R, choice.t, K, a, b, inliers, matrix, **kept)
-            second = _triangulated(method, *choice.runner_up, K, a, b, inliers, matrix, **kept)
-            if not first.ok and second.ok:
-                return replace(second, alternative=first)
-            return replace(first, alternative=second)
-        R, t = choice.R, choice.t
-    else:
-        if method is Method.F:
-            try:
-                F, mask = find_fundamental(
-                    a, b, K, ransac_threshold_px, confidence, max_iterations
-                )
-            except cv2.error as exc:
-                return _failure(method, n, _opencv_failure('findFundamentalMat', exc))
-            if F is None or F.shape != (3, 3) or mask is None:
-                return _failure(method, n, 'no fundamental matrix found')
-            matrix = np.asarray(F, dtype=np.float64)
-            E = K.T @ F @ K
-        else:
-            try:
-                E, mask = cv2.findEssentialMat(
-                    f0, f1, K, cv2.USAC_ACCURATE, confidence, ransac_threshold_px
-                )
-            except cv2.error as exc:  # e.g. OpenCV 5.1's solvePoly assertion on a degenerate
-                return _failure(method, n, _opencv_failure('findEssentialMat', exc))  # sample
-            if E is None or E.shape[0] < 3 or mask is None:
-                return _failure(method, n, 'no essential matrix found')
-            E = E[:3]
-            matrix = np.asarray(E, dtype=np.float64)
-        inliers = mask.ravel().astype(bool)
-        if inliers.sum() < needed:
-            return _failure(
-                method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers, matrix
-            )
-        _, R, t, _ = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
-        t = t.reshape(3)
-        t = t / max(np.linalg.norm(t), _EPS)
-
-    if np.linalg.norm(t) < 0.5:
-        return _failure(method, n, 'no translation recovered (pure rotation?)', inliers, matrix)
-    return _triangulated(
-        method,
-        R,
-        t,
-        K,
-        a,
-        b,
-        inliers,
-        matrix,
+    kept = dict(
         max_reprojection_px=max_reprojection_px,
         min_point_parallax_deg=min_point_parallax_deg,
         min_points=min_points,
     )
+    if method is Method.F:
+        return _fundamental_estimate(
+            a, b, K, ransac_threshold_px, confidence, max_iterations, **kept
+        )
+    if method is Method.E:
+        try:
+            E, mask = cv2.findEssentialMat(
+                f0, f1, K, cv2.USAC_ACCURATE, confidence, ransac_threshold_px
+            )
+        except cv2.error as exc:  # e.g. OpenCV 5.1's solvePoly assertion on a degenerate
+            return _failure(method, n, _opencv_failure('findEssentialMat', exc))  # sample
+        if E is None or E.shape[0] < 3 or mask is None:
+            return _failure(method, n, 'no essential matrix found')
+        return _epipolar_estimate(method, E[:3], mask, a, b, K, **kept)
+    try:
+        H, mask = cv2.findHomography(
+            f0,
+            f1,
+            cv2.RANSAC,
+            ransac_threshold_px,
+            maxIters=max_iterations,
+            confidence=confidence,
+        )
+    except cv2.error as exc:
+        return _failure(method, n, _opencv_failure('findHomography', exc))
+    if H is None or mask is None:
+        return _failure(method, n, 'no homography found')
+    inliers = mask.ravel().astype(bool)
+    matrix = np.asarray(H, dtype=np.float64)
+    choice = choose_homography_decomposition(
+        matrix,
+        K,
+        a,
+        b,
+        inliers,
+        max_reprojection_px,
+        min_homography_baseline_ratio,
+        plane_visibility_share,
+    )
+    if choice.reason and not (keep_ambiguous and choice.runner_up is not None):
+        return _failure(method, n, choice.reason, inliers, matrix)
+    if choice.runner_up is not None:
+        first = _triangulated(method, choice.R, choice.t, K, a, b, inliers, matrix, **kept)
+        second = _triangulated(method, *choice.runner_up, K, a, b, inliers, matrix, **kept)
+        if not first.ok and second.ok:
+            return replace(second, alternative=first)
+        return replace(first, alternative=second)
+    if np.linalg.norm(choice.t) < 0.5:
+        return _failure(method, n, 'no translation recovered (pure rotation?)', inliers, matrix)
+    return _triangulated(method, choice.R, choice.t, K, a, b, inliers, matrix, **kept)
+
+
+def _fundamental_estimate(
+    a: np.ndarray,
+    b: np.ndarray,
+    K: np.ndarray,
+    ransac_threshold_px: float,
+    confidence: float,
+    max_iterations: int,
+    **kept: Any,
+) -> PoseEstimate:
+    """F's pose: USAC's where its triangulated points show the depth off a dominant plane
+    (:func:`plane_and_parallax_fundamental`), RANSAC's 8-point fit otherwise."""
+    n = a.shape[0]
+    try:
+        candidate = plane_and_parallax_fundamental(
+            a, b, K, ransac_threshold_px, confidence, max_iterations
+        )
+        if candidate is not None:
+            F, mask, off_plane = candidate
+            estimate = _epipolar_estimate(Method.F, F, mask, a, b, K, **kept)
+            if np.count_nonzero(off_plane[estimate.indices]) >= USAC_F_MIN_OFF_PLANE_SHARE * n:
+                return estimate
+        F, mask = cv2.findFundamentalMat(
+            a.reshape(-1, 1, 2),
+            b.reshape(-1, 1, 2),
+            cv2.FM_RANSAC,
+            ransac_threshold_px,
+            confidence,
+            max_iterations,
+        )
+    except cv2.error as exc:
+        return _failure(Method.F, n, _opencv_failure('findFundamentalMat', exc))
+    if F is None or F.shape != (3, 3) or mask is None:
+        return _failure(Method.F, n, 'no fundamental matrix found')
+    return _epipolar_estimate(Method.F, F, mask, a, b, K, **kept)
+
+
+def _epipolar_estimate(
+    method: Method,
+    matrix: np.ndarray,
+    mask: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    K: np.ndarray,
+    **kept: Any,
+) -> PoseEstimate:
+    """The pose and points of an F or E ``matrix`` (pixel F, or E) with its inlier ``mask``:
+    ``recoverPose``'s candidate, then :func:`_triangulated` (``kept``: its point checks)."""
+    n = a.shape[0]
+    matrix = np.asarray(matrix, dtype=np.float64)
+    E = K.T @ matrix @ K if method is Method.F else matrix
+    inliers = mask.ravel().astype(bool)
+    needed = MIN_CORRESPONDENCES[method.value]
+    if inliers.sum() < needed:
+        return _failure(method, n, f'only {int(inliers.sum())} RANSAC inliers', inliers, matrix)
+    f0, f1 = a.reshape(-1, 1, 2), b.reshape(-1, 1, 2)
+    _, R, t, _ = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
+    t = t.reshape(3)
+    t = t / max(np.linalg.norm(t), _EPS)
+    if np.linalg.norm(t) < 0.5:
+        return _failure(method, n, 'no translation recovered (pure rotation?)', inliers, matrix)
+    return _triangulated(method, R, t, K, a, b, inliers, matrix, **kept)
 
 
 #: A track lies off a plane when it is farther than this from where the plane's homography
@@ -463,32 +494,39 @@ OFF_PLANE_MIN_PX = 2.5
 #: point of sqrt(2) sigma per coordinate); with 1-2 px of noise, 2.5 px counted a fifth of a
 #: plane's own points as off it.
 OFF_PLANE_NOISE_FACTOR = 5.0
-#: USAC's F is kept when the points it puts in front of both cameras include at least this
-#: share of the tracks off the dominant plane (the share off H's plane that makes E or F
+#: USAC's F is kept when the points it triangulates include at least this share of the
+#: tracks off the dominant plane (the share off H's plane that makes E or F
 #: well-posed for the fire path: 1 - ``PolicyConfig.min_homography_plane_share``).
 USAC_F_MIN_OFF_PLANE_SHARE = 0.2
 
 
-def find_fundamental(
+def plane_and_parallax_fundamental(
     a: np.ndarray,
     b: np.ndarray,
     K: np.ndarray,
     ransac_threshold_px: float = 1.0,
     confidence: float = 0.999,
     max_iterations: int = 2000,
-) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """F and its inlier mask from (N, 2) pixel tracks, ``cv2.findFundamentalMat``'s way.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """USAC's F of (N, 2) pixel tracks where a plane may dominate them, with its inlier mask
+    and which tracks lie off the plane; None where too few do for any F to show depth.
 
-    Where a plane holds most of the tracks, RANSAC's 8-point fit is degenerate: any sample
-    of seven plane points and one off it gives an F that fits the plane (a far-style desk:
-    pose good on two pairs of three). USAC's DEGENSAC test recovers F as the plane plus the
-    parallax of the rest, but on a plane alone (noise, blur, rolling shutter) it takes tracking
-    errors along the epipolar lines for depth. So USAC's F is kept only where the points it
-    puts in front of both cameras show that depth: at least
-    :data:`USAC_F_MIN_OFF_PLANE_SHARE` of the tracks lie off the plane of a RANSAC homography,
-    farther than :data:`OFF_PLANE_MIN_PX` and :data:`OFF_PLANE_NOISE_FACTOR` times the noise
-    (the smaller of what the two fits leave on all tracks, as :func:`tracking_noise_px`).
-    Elsewhere RANSAC's F is returned, as before.
+    Where a plane holds most of the tracks, RANSAC's 8-point fit is degenerate: a sample of
+    seven plane points and one off it gives an F that fits the plane and misses the rest (a
+    far-style desk: pose good on half the pairs). USAC's DEGENSAC test fits the plane plus the
+    parallax of the rest, but on a plane alone (noise, blur, rolling shutter) it takes
+    tracking errors along the epipolar lines for relief. So :func:`estimate_pose` keeps this F
+    only where at least :data:`USAC_F_MIN_OFF_PLANE_SHARE` of the tracks are points its pose
+    triangulates that lie off the plane of a RANSAC homography: farther from where it puts
+    them than :data:`OFF_PLANE_MIN_PX` and :data:`OFF_PLANE_NOISE_FACTOR` times the noise (the
+    smaller of what the two fits leave on all tracks, as :func:`tracking_noise_px`), the
+    fire path's rule for E's depth off a plane. That bound is never under
+    :data:`OFF_PLANE_MIN_PX`, so where fewer tracks than the share lie that far from the
+    homography (a pan, a plane alone) USAC is not run.
+
+    Returns:
+        ``(F, mask, off_plane)``: F (3, 3), its (N, 1) uint8 inlier mask and (N,) bool, or
+        None (no homography, too few tracks off it, or no F found).
 
     Raises:
         cv2.error: from OpenCV on degenerate input.
@@ -498,25 +536,19 @@ def find_fundamental(
     H, _ = cv2.findHomography(
         f0, f1, cv2.RANSAC, ransac_threshold_px, maxIters=max_iterations, confidence=confidence
     )
-    if H is not None:
-        transfer = transfer_px(H, a, b)  # (NaN: never counted off the plane)
-        needed = USAC_F_MIN_OFF_PLANE_SHARE * len(a)
-        # the bound below is never under OFF_PLANE_MIN_PX: too few tracks beyond it, and no F
-        # can put enough off the plane (a pan, a plane alone: USAC is not run)
-        if np.count_nonzero(transfer > OFF_PLANE_MIN_PX) >= needed:
-            F, mask = cv2.findFundamentalMat(
-                f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
-            )
-            if F is not None and F.shape == (3, 3) and mask is not None:
-                E = K.T @ np.asarray(F, dtype=np.float64) @ K
-                _, _, _, front = cv2.recoverPose(E, f0, f1, K, mask=mask.copy())
-                noise = min(fundamental_noise_px(F, a, b), homography_noise_px(H, a, b))
-                bound = max(OFF_PLANE_MIN_PX, OFF_PLANE_NOISE_FACTOR * noise)
-                if np.count_nonzero(transfer[front.ravel() > 0] > bound) >= needed:
-                    return F, mask
-    return cv2.findFundamentalMat(
-        f0, f1, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
+    if H is None:
+        return None
+    transfer = transfer_px(H, a, b)  # (NaN: never off the plane)
+    if np.count_nonzero(transfer > OFF_PLANE_MIN_PX) < USAC_F_MIN_OFF_PLANE_SHARE * len(a):
+        return None
+    F, mask = cv2.findFundamentalMat(
+        f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
     )
+    if F is None or F.shape != (3, 3) or mask is None:
+        return None
+    noise = min(fundamental_noise_px(F, a, b), homography_noise_px(H, a, b))
+    bound = max(OFF_PLANE_MIN_PX, OFF_PLANE_NOISE_FACTOR * noise)
+    return np.asarray(F, dtype=np.float64), mask, transfer > bound
 
 
 def _triangulated(
