@@ -517,7 +517,7 @@ def plane_and_parallax_fundamental(
     parallax of the rest, but on a plane alone (noise, blur, rolling shutter) it takes
     tracking errors along the epipolar lines for relief. So :func:`estimate_pose` keeps this F
     only where at least :data:`USAC_F_MIN_OFF_PLANE_SHARE` of the tracks are points its pose
-    triangulates that lie off the plane of a RANSAC homography: farther from where it puts
+    triangulates that lie off the plane of :func:`dominant_homography`: farther from where it puts
     them than :data:`OFF_PLANE_MIN_PX` and :data:`OFF_PLANE_NOISE_FACTOR` times the noise (the
     smaller of what the two fits leave on all tracks, as :func:`tracking_noise_px`), the
     fire path's rule for E's depth off a plane. That bound is never under
@@ -531,18 +531,21 @@ def plane_and_parallax_fundamental(
     Raises:
         cv2.error: from OpenCV on degenerate input.
     """
-    f0 = np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 1, 2)
-    f1 = np.ascontiguousarray(b, dtype=np.float64).reshape(-1, 1, 2)
-    H, _ = cv2.findHomography(
-        f0, f1, cv2.RANSAC, ransac_threshold_px, maxIters=max_iterations, confidence=confidence
-    )
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    H = dominant_homography(a, b)
     if H is None:
         return None
     transfer = transfer_px(H, a, b)  # (NaN: never off the plane)
     if np.count_nonzero(transfer > OFF_PLANE_MIN_PX) < USAC_F_MIN_OFF_PLANE_SHARE * len(a):
         return None
     F, mask = cv2.findFundamentalMat(
-        f0, f1, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
+        a.reshape(-1, 1, 2),
+        b.reshape(-1, 1, 2),
+        cv2.USAC_ACCURATE,
+        ransac_threshold_px,
+        confidence,
+        max_iterations,
     )
     if F is None or F.shape != (3, 3) or mask is None:
         return None
@@ -949,6 +952,16 @@ def _homography_noise_px(a: np.ndarray, b: np.ndarray) -> float:
     """Noise per coordinate from a RANSAC homography's transfer residuals on all tracks
     (their median length is ``sqrt(4 ln 2) sigma``: both views' noise); inf when none is
     found."""
+    H = dominant_homography(a, b)
+    if H is None:
+        return math.inf
+    return homography_noise_px(H, a, b)
+
+
+def dominant_homography(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """The homography of the plane (or pan) that holds most of the (N, 2) tracks, by
+    :data:`NOISE_HOMOGRAPHY_MAX_ITERS` draws of OpenCV's USAC_FAST at 1 px, or None: cheap
+    where one holds most of them, and bounded where none does."""
     H, _ = cv2.findHomography(
         a.reshape(-1, 1, 2),
         b.reshape(-1, 1, 2),
@@ -958,8 +971,8 @@ def _homography_noise_px(a: np.ndarray, b: np.ndarray) -> float:
         confidence=0.995,
     )
     if H is None or H.shape != (3, 3):
-        return math.inf
-    return homography_noise_px(H, a, b)
+        return None
+    return np.asarray(H, dtype=np.float64)
 
 
 def homography_noise_px(H: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
