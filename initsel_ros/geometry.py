@@ -444,19 +444,42 @@ def _fundamental_estimate(
             estimate = _epipolar_estimate(Method.F, F, mask, a, b, K, **kept)
             if np.count_nonzero(off_plane[estimate.indices]) >= USAC_F_MIN_OFF_PLANE_SHARE * n:
                 return estimate
-        F, mask = cv2.findFundamentalMat(
-            a.reshape(-1, 1, 2),
-            b.reshape(-1, 1, 2),
-            cv2.FM_RANSAC,
-            ransac_threshold_px,
-            confidence,
-            max_iterations,
+        found = fundamental_matrix(
+            a, b, cv2.FM_RANSAC, ransac_threshold_px, confidence, max_iterations
         )
     except cv2.error as exc:
         return _failure(Method.F, n, _opencv_failure('findFundamentalMat', exc))
-    if F is None or F.shape != (3, 3) or mask is None:
+    if found is None:
         return _failure(Method.F, n, 'no fundamental matrix found')
-    return _epipolar_estimate(Method.F, F, mask, a, b, K, **kept)
+    return _epipolar_estimate(Method.F, *found, a, b, K, **kept)
+
+
+def fundamental_matrix(
+    a: np.ndarray,
+    b: np.ndarray,
+    method: int,
+    threshold_px: float,
+    confidence: float,
+    max_iterations: int,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """``cv2.findFundamentalMat`` on (N, 2) pixel tracks with a robust ``method``
+    (``cv2.FM_RANSAC``, ``cv2.USAC_ACCURATE``, ...): F (3, 3) float64 and its (N, 1) inlier
+    mask, or None when OpenCV finds none (no F, several, or no mask).
+
+    Raises:
+        cv2.error: from OpenCV on degenerate input.
+    """
+    F, mask = cv2.findFundamentalMat(
+        a.reshape(-1, 1, 2),
+        b.reshape(-1, 1, 2),
+        method,
+        threshold_px,
+        confidence,
+        max_iterations,
+    )
+    if F is None or F.shape != (3, 3) or mask is None:
+        return None
+    return np.asarray(F, dtype=np.float64), mask
 
 
 def _epipolar_estimate(
@@ -539,19 +562,15 @@ def plane_and_parallax_fundamental(
     transfer = transfer_px(H, a, b)  # (NaN: never off the plane)
     if np.count_nonzero(transfer > OFF_PLANE_MIN_PX) < USAC_F_MIN_OFF_PLANE_SHARE * len(a):
         return None
-    F, mask = cv2.findFundamentalMat(
-        a.reshape(-1, 1, 2),
-        b.reshape(-1, 1, 2),
-        cv2.USAC_ACCURATE,
-        ransac_threshold_px,
-        confidence,
-        max_iterations,
+    found = fundamental_matrix(
+        a, b, cv2.USAC_ACCURATE, ransac_threshold_px, confidence, max_iterations
     )
-    if F is None or F.shape != (3, 3) or mask is None:
+    if found is None:
         return None
+    F, mask = found
     noise = min(fundamental_noise_px(F, a, b), homography_noise_px(H, a, b))
     bound = max(OFF_PLANE_MIN_PX, OFF_PLANE_NOISE_FACTOR * noise)
-    return np.asarray(F, dtype=np.float64), mask, transfer > bound
+    return F, mask, transfer > bound
 
 
 def _triangulated(
@@ -933,12 +952,10 @@ NOISE_HOMOGRAPHY_MAX_ITERS = 30
 def _fundamental_noise_px(a: np.ndarray, b: np.ndarray) -> float:
     """Noise per coordinate from a RANSAC fundamental matrix's Sampson errors on all tracks
     (their median is about ``0.455 sigma^2``); inf when none is found."""
-    F, _ = cv2.findFundamentalMat(
-        a.reshape(-1, 1, 2), b.reshape(-1, 1, 2), cv2.FM_RANSAC, 1.0, 0.999, 500
-    )
-    if F is None or F.shape != (3, 3):
+    found = fundamental_matrix(a, b, cv2.FM_RANSAC, 1.0, 0.999, 500)
+    if found is None:
         return math.inf
-    return fundamental_noise_px(F, a, b)
+    return fundamental_noise_px(found[0], a, b)
 
 
 def fundamental_noise_px(F: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
