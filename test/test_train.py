@@ -68,6 +68,79 @@ def test_a_threshold_prior_makes_the_threshold_independent_of_the_mix():
         TrainConfig(threshold_prior=1.0)
 
 
+def test_family_folds_hold_the_target_on_the_worst_family_too():
+    # two families of 400 pairs: on 'easy' the scores separate the classes, on 'hard' the
+    # negatives reach as high as the positives. Pooled, a low threshold reaches 0.8; with
+    # the families as groups the threshold must also give 'hard' 0.8, so it rises
+    rng = np.random.default_rng(5)
+    y = rng.random(800) < 0.4
+    hard = np.arange(800) >= 400
+    scores = np.where(y, rng.uniform(0.5, 1.0, 800), rng.uniform(0.0, 0.5, 800))
+    scores[hard & ~y] = rng.uniform(0.0, 0.9, int((hard & ~y).sum()))
+    groups = hard.astype(int)
+    pooled = choose_threshold(y, scores, 0.8)
+    by_family = choose_threshold(y, scores, 0.8, groups=groups, min_group_positives=30)
+    assert by_family.reached and 'worst family' in by_family.rule
+    assert by_family.threshold > pooled.threshold
+    for choice, worst_ok in ((pooled, False), (by_family, True)):
+        pred = scores >= choice.threshold
+        on_hard = (pred & y & hard).sum() / (pred & hard).sum()
+        assert bool(on_hard >= 0.8) is worst_ok
+    # the lowest such threshold: one step lower breaks 'hard'
+    below = np.max(scores[scores < by_family.threshold])
+    pred = scores >= below
+    assert (pred & y & hard).sum() / (pred & hard).sum() < 0.8
+    # a family with fewer positives than the bar does not count
+    few = choose_threshold(y, scores, 0.8, groups=groups, min_group_positives=10_000)
+    assert few.threshold == pytest.approx(pooled.threshold)
+
+
+def test_family_folds_fall_back_to_the_worst_familys_best_precision_at_half_recall():
+    # 'hard' cannot reach 0.8 at any threshold: the threshold keeps half of the positives
+    # and, among those that do, gives 'hard' its highest precision
+    rng = np.random.default_rng(6)
+    y = rng.random(800) < 0.4
+    hard = np.arange(800) >= 400
+    scores = np.where(y, rng.uniform(0.3, 1.0, 800), rng.uniform(0.0, 0.3, 800))
+    scores[hard] = rng.uniform(0.0, 1.0, int(hard.sum()))  # uninformative on 'hard'
+    choice = choose_threshold(y, scores, 0.8, groups=hard.astype(int), min_group_positives=30)
+    assert not choice.reached and 'recall >= 0.5' in choice.rule
+    assert choice.recall >= 0.5
+
+    def hard_precision(t):
+        pred = (scores >= t) & hard
+        return (pred & y).sum() / max(pred.sum(), 1)
+
+    candidates = [t for t in np.unique(scores) if (y & (scores >= t)).sum() >= 0.5 * y.sum()]
+    assert hard_precision(choice.threshold) == pytest.approx(max(map(hard_precision, candidates)))
+
+
+def test_training_with_family_folds_needs_the_families_and_fits_one_fold_each(monkeypatch):
+    from initsel_ros.learn import train as train_module
+    from initsel_ros.learn.generalize import Families
+
+    with pytest.raises(ConfigError, match='scene families'):
+        TrainConfig(group_by='family')
+    table = synthetic_table(n=240, seed=4)
+    cols = dict(table.columns)
+    names = ['far_a', 'far_b', 'wall_a', 'floor_a']
+    cols['sequence'] = np.array([names[i % 4] for i in range(240)], dtype=object)
+    families = Families({'desk': ('far_*',), 'walls': ('wall_*',), 'floor': ('floor_*',)})
+    folds_seen = []
+    real = train_module.out_of_fold_scores
+
+    def spy(X, y, groups, fit, folds, seed, unit='batch'):
+        folds_seen.append((folds, unit, len(np.unique(groups))))
+        return real(X, y, groups, fit, folds, seed, unit)
+
+    monkeypatch.setattr(train_module, 'out_of_fold_scores', spy)
+    config = TrainConfig(group_by='family', scene_families=families, min_family_positives=5)
+    report = train_models(PairTable(cols), config)
+    assert folds_seen and all(f == (3, 'family', 3) for f in folds_seen)
+    assert all('worst family' in c.rule for c in report.choices.values())
+    assert 'one fold per scene family (3)' in report.models.metadata['training']['validation']
+
+
 def test_unreachable_precision_is_reported_not_hidden():
     rng = np.random.default_rng(2)
     y = rng.random(500) < 0.5

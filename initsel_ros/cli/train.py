@@ -97,10 +97,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--validation-groups',
-        choices=('batch', 'sequence'),
+        choices=('batch', 'sequence', 'family'),
         default='batch',
         help='unit of the cross-validation folds that choose the thresholds (default batch; '
-        'sequence: thresholds for sequences the models were not fitted on)',
+        'sequence: thresholds for sequences the models were not fitted on; family: one fold '
+        'per scene family of --scene-families, and the target precision must hold on the '
+        'worst family with at least 30 positives too: thresholds for scenes never seen)',
+    )
+    parser.add_argument(
+        '--scene-families',
+        type=Path,
+        default=None,
+        metavar='FAMILIES',
+        help='the scene families of --validation-groups family (default: the file of '
+        '--leave-family-out, else the packaged config/families.yaml)',
+    )
+    parser.add_argument(
+        '--family-precision',
+        type=float,
+        default=None,
+        metavar='P',
+        help='with --validation-groups family: the precision the worst family must reach '
+        '(default: --target-precision)',
     )
     parser.add_argument(
         '--leave-family-out',
@@ -297,6 +315,18 @@ def run(args: argparse.Namespace) -> int:
             priors[model] = value
         else:
             prior = value
+    scene_families = None
+    if args.validation_groups == 'family':
+        from initsel_ros.config_files import find_config_file
+        from initsel_ros.learn.generalize import Families
+
+        scene_families = Families.load(
+            args.scene_families or args.leave_family_out or find_config_file('families.yaml')
+        )
+    elif args.scene_families is not None or args.family_precision is not None:
+        raise ConfigError(
+            '--scene-families and --family-precision are read with --validation-groups family only'
+        )
     config = TrainConfig(
         scaling=Scaling(args.scaling),
         C=args.C,
@@ -313,6 +343,8 @@ def run(args: argparse.Namespace) -> int:
         families=families,
         trees=TreeConfig(args.trees, args.tree_depth, args.learning_rate),
         rotation_min_static_share=args.rotation_min_static_share,
+        scene_families=scene_families,
+        family_precision=args.family_precision,
         **({'extra': tuple(args.extra_features)} if args.extra_features else {}),
         **({'paper': tuple(args.paper_features)} if args.paper_features else {}),
     )

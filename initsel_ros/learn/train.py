@@ -21,7 +21,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,12 +38,18 @@ from initsel_ros.learn.table import (
 from initsel_ros.models import METHODS, LogisticModel, Model, ModelSet
 from initsel_ros.trees import Tree, TreeEnsembleModel
 
+if TYPE_CHECKING:
+    from initsel_ros.learn.generalize import Families
+
 LOG = logging.getLogger(__name__)
 
 #: Bias of a model whose training data held a single class (it always or never fires).
 CONSTANT_LOGIT = 12.0
 #: Thresholds stay within [margin, 1 - margin].
 THRESHOLD_MARGIN = 1e-4
+#: With family folds, where no threshold holds the target on the worst family, the threshold
+#: keeps at least this share of the positives (issue 21's bar: precision at recall 0.5).
+FALLBACK_MIN_RECALL = 0.5
 
 
 class ClassWeight(str, Enum):
@@ -123,10 +129,19 @@ class TrainConfig:
             measured as if positives were p of the pairs (from the true and false positive
             rates alone), a threshold that does not move with the mix's base rate.
         threshold_priors: per-model shares overriding ``threshold_prior``, e.g. ``{'R': 0.15}``.
-        group_by: the unit of the validation folds: ``batch`` (a pair's batch) or
+        group_by: the unit of the validation folds: ``batch`` (a pair's batch),
             ``sequence`` (its whole sequence: a fold then holds scenes and motions the models
-            were not fitted on, so thresholds are chosen for sequences never seen).
-        folds: grouped cross-validation folds (groups = batches).
+            were not fitted on, so thresholds are chosen for sequences never seen) or
+            ``family`` (its scene family of ``scene_families``: one fold per family, each
+            scored by models fitted without it, and the threshold must also hold the target
+            on the worst family: :func:`choose_threshold`).
+        scene_families: the scene families of ``group_by='family'``.
+        min_family_positives: with ``group_by='family'``, a family's precision counts for the
+            threshold only where it holds at least this many positives of the model.
+        family_precision: with ``group_by='family'``, the precision the worst family must
+            reach (None: ``target_precision``).
+        folds: grouped cross-validation folds (groups = batches or sequences; with
+            ``group_by='family'`` there is one fold per family and this is not read).
         min_predicted: a threshold must predict 'yes' on at least this many validation pairs.
         seed: seed of the fold assignment and of the estimators.
         labels: relabel the table with these thresholds first (None = use its label columns).
@@ -165,6 +180,9 @@ class TrainConfig:
     paper: tuple[str, ...] = FEATURE_NAMES
     trees: TreeConfig = field(default_factory=TreeConfig)
     rotation_min_static_share: float | None = None
+    scene_families: Families | None = None
+    min_family_positives: int = 30
+    family_precision: float | None = None
 
     def __post_init__(self) -> None:
         unknown = [n for n in self.extra if n not in EXTRA_FEATURE_NAMES]
@@ -184,6 +202,10 @@ class TrainConfig:
                 raise ConfigError(f'threshold_prior must be in (0, 1), got {share}')
         if self.group_by not in GROUP_BY:
             raise ConfigError(f'group_by must be one of {", ".join(GROUP_BY)}')
+        if self.group_by == 'family' and self.scene_families is None:
+            raise ConfigError("group_by 'family' needs the scene families (scene_families)")
+        if self.family_precision is not None and not 0.0 < self.family_precision <= 1.0:
+            raise ConfigError(f'family_precision must be in (0, 1], got {self.family_precision}')
         bad = [m for m in self.families if m not in METHODS]
         if bad:
             raise ConfigError(f'unknown models {bad} (models: {", ".join(METHODS)})')
@@ -254,7 +276,16 @@ def prepare(table: PairTable, config: TrainConfig) -> PairTable:
 
 # ----------------------------------------------------------------------------- folds
 #: The units a validation fold can be made of (TrainConfig.group_by).
-GROUP_BY = ('batch', 'sequence')
+GROUP_BY = ('batch', 'sequence', 'family')
+
+
+def validation_groups(table: PairTable, config: TrainConfig) -> np.ndarray:
+    """(N,) int group of each pair for the validation folds (``config.group_by``)."""
+    if config.group_by != 'family':
+        return table.groups(by=config.group_by)
+    assert config.scene_families is not None  # (checked by TrainConfig)
+    _, ids = np.unique(config.scene_families.assign(table['sequence']), return_inverse=True)
+    return ids
 
 
 def grouped_folds(
@@ -266,7 +297,7 @@ def grouped_folds(
     if folds < 2:
         raise DatasetError(f'grouped validation needs at least 2 folds, got {folds}')
     if len(unique) < 2:
-        plural = 'batches' if unit == 'batch' else f'{unit}s'
+        plural = {'batch': 'batches', 'family': 'families'}.get(unit, f'{unit}s')
         raise DatasetError(f'grouped validation needs at least 2 {plural}, got {len(unique)}')
     k = int(min(folds, len(unique)))
     order = np.random.default_rng(seed).permutation(unique)
@@ -344,6 +375,9 @@ def choose_threshold(
     target_precision: float,
     min_predicted: int = 5,
     prior: float | None = None,
+    groups: np.ndarray | None = None,
+    min_group_positives: int = 30,
+    group_target: float | None = None,
 ) -> ThresholdChoice:
     """Lowest threshold whose precision reaches ``target_precision`` (highest recall).
 
@@ -351,6 +385,12 @@ def choose_threshold(
     threshold maximizing F0.5 (precision-weighted) is taken and ``reached`` is False. With a
     ``prior`` the precision is that of a mix whose share of positives is ``prior``:
     ``prior TPR / (prior TPR + (1 - prior) FPR)`` (the reported figures stay those of ``y``).
+    With ``groups`` (each pair's scene family, whose scores came from models fitted without
+    it), the precision of every group holding at least ``min_group_positives`` positives
+    must reach ``group_target`` (default ``target_precision``) as well (a group the
+    threshold predicts nothing on passes): a threshold for families never seen; where none
+    does, the threshold with the worst such group's highest precision among those keeping
+    ``FALLBACK_MIN_RECALL`` of the positives.
     """
     y = np.asarray(y).astype(bool)
     scores = np.asarray(scores, dtype=float)
@@ -370,10 +410,31 @@ def choose_threshold(
             precision = np.where(predicted > 0, weighted_tp / (weighted_tp + weighted_fp), 0.0)
         at = f' at a {prior:g} share of positives'
     ok = (precision >= target_precision) & (predicted >= min_predicted)
+    worst = ''
+    if groups is not None:
+        group_target = target_precision if group_target is None else group_target
+        group_precision = _worst_group_precision(
+            y, scores, np.asarray(groups), thr, min_group_positives
+        )
+        ok &= group_precision >= group_target
+        worst = f' and >= {group_target:g} on the worst family'
     if ok.any():
         i = int(np.flatnonzero(ok)[np.argmax(recall[ok])])
-        rule = f'lowest threshold with precision >= {target_precision:g}{at}'
+        rule = f'lowest threshold with precision >= {target_precision:g}{at}{worst}'
         reached = True
+    elif groups is not None:
+        # the worst family's precision as high as it goes while half the positives stay
+        kept = (recall >= FALLBACK_MIN_RECALL) & (predicted >= min(min_predicted, pos))
+        i = int(
+            np.flatnonzero(kept)[
+                np.argmax(np.where(np.isfinite(group_precision), group_precision, -1.0)[kept])
+            ]
+        )
+        rule = (
+            f"precision {target_precision:g}{at}{worst} unreachable: the worst family's "
+            f'highest precision at recall >= {FALLBACK_MIN_RECALL:g}'
+        )
+        reached = False
     else:
         beta2 = 0.25
         with np.errstate(invalid='ignore', divide='ignore'):
@@ -385,6 +446,28 @@ def choose_threshold(
     # keep away from 0 and 1: out-of-fold probabilities saturate in float64
     t = float(min(max(thr[i], THRESHOLD_MARGIN), 1.0 - THRESHOLD_MARGIN))
     return _summarize(y, scores >= t, t, reached, rule)
+
+
+def _worst_group_precision(
+    y: np.ndarray,
+    scores: np.ndarray,
+    groups: np.ndarray,
+    thresholds: np.ndarray,
+    min_positives: int,
+) -> np.ndarray:
+    """At each of ``thresholds``: the least precision of 'score >= threshold' over the
+    groups with at least ``min_positives`` positives (+inf where no such group has a yes)."""
+    worst = np.full(len(thresholds), np.inf)
+    for g in np.unique(groups):
+        member = groups == g
+        if int(y[member].sum()) < min_positives:
+            continue
+        s_pos, s_neg = np.sort(scores[member & y]), np.sort(scores[member & ~y])
+        tp = len(s_pos) - np.searchsorted(s_pos, thresholds, side='left')
+        fp = len(s_neg) - np.searchsorted(s_neg, thresholds, side='left')
+        with np.errstate(invalid='ignore', divide='ignore'):
+            worst = np.minimum(worst, np.where(tp + fp > 0, tp / (tp + fp), np.inf))
+    return worst
 
 
 def _summarize(
@@ -553,7 +636,9 @@ def train_models(
     table = prepare(table, config)
     if len(table) == 0:
         raise DatasetError('no labelled pairs to train on')
-    groups = table.groups(by=config.group_by)
+    groups = validation_groups(table, config)
+    by_family = config.group_by == 'family'
+    folds = len(np.unique(groups)) if by_family else config.folds
     n_batches = len(np.unique(table.groups()))
     models: dict[str, Model] = {}
     choices: dict[str, ThresholdChoice] = {}
@@ -602,12 +687,19 @@ def train_models(
                 y,
                 model_groups,
                 _scorer(family, features, config),
-                config.folds,
+                folds,
                 config.seed,
                 config.group_by,
             )
             choice = choose_threshold(
-                y, scores, config.target_precision, config.min_predicted, config.prior_of(name)
+                y,
+                scores,
+                config.target_precision,
+                config.min_predicted,
+                config.prior_of(name),
+                model_groups if by_family else None,
+                config.min_family_positives,
+                config.family_precision,
             )
             model = fit_model(family, name, features, X, y, config)
         choices[name] = choice
@@ -687,8 +779,15 @@ def train_models(
             'threshold_prior': {m: config.prior_of(m) for m in METHODS},
             'validation_groups': config.group_by,
             'min_predicted': config.min_predicted,
-            'validation': f'grouped {config.folds}-fold cross-validation over '
-            f'{config.group_by}s, out-of-fold probabilities; final fit on all pairs',
+            'validation': (
+                f'grouped {folds}-fold cross-validation over {config.group_by}s'
+                if not by_family
+                else f'one fold per scene family ({folds}), each scored by models fitted '
+                f'without it; thresholds also held at precision '
+                f'{config.family_precision or config.target_precision:g} on the worst family '
+                f'with at least {config.min_family_positives} positives'
+            )
+            + ', out-of-fold probabilities; final fit on all pairs',
             'seed': config.seed,
             **(
                 {
