@@ -140,6 +140,42 @@ def test_scores_are_those_of_the_policy_after_the_r_veto():
     assert not any(s.scored for s in scores.values())  # 1000 positives needed
 
 
+def test_the_ceiling_is_the_best_precision_at_half_recall_of_a_threshold_on_the_family():
+    from dataclasses import replace
+
+    table = _table_of(['far_s1'])
+    models = train_models(table, TrainConfig(folds=3)).models
+    X = table.matrix(input_columns(models.input_names, models.scaling))
+    probs = models.predict_proba_batch(X)
+    # R's threshold at its median probability: it vetoes half the pairs
+    r = replace(models.models['R'], threshold=float(np.median(probs['R'])))
+    models = replace(models, models={**models.models, 'R': r})
+    scores = {s.model: s for s in score_family(models, table, 'desk', min_positives=1)}
+    vetoed = probs['R'] >= models.thresholds['R']
+    assert 0.3 < vetoed.mean() < 0.7
+    for m in 'EFHR':
+        y = np.asarray(table[f'{m}_label']).astype(bool)
+        allowed = np.ones(len(y), bool) if m == 'R' else ~vetoed
+        best = np.nan
+        for t in np.unique(probs[m]):  # every threshold, by brute force
+            pred = (probs[m] >= t) & allowed
+            if y.sum() and (pred & y).sum() >= 0.5 * y.sum():
+                best = np.nanmax([best, (pred & y).sum() / pred.sum()])
+        assert scores[m].ceiling == pytest.approx(best, nan_ok=True)
+        if np.isfinite(scores[m].precision) and scores[m].recall >= 0.5:
+            assert scores[m].ceiling >= scores[m].precision - 1e-12  # the chosen one is a t
+    text = generalization_markdown(list(scores.values()), min_positives=1)
+    assert 'The ceiling: the highest precision' in text and '| worst scored family |' in text
+    # by hand: a vetoed pair is never a yes, and its positives still count in the recall
+    from initsel_ros.learn.generalize import _ceiling
+
+    y = np.array([1, 1, 0, 1, 0, 0], bool)
+    s = np.array([0.9, 0.8, 0.7, 0.6, 0.5, 0.4])
+    assert _ceiling(y, s, np.ones(6, bool)) == 1.0  # t = 0.8: 2 of 3 positives, no negative
+    assert _ceiling(y, s, np.arange(6) != 0) == pytest.approx(2 / 3)  # t = 0.6
+    assert np.isnan(_ceiling(y, s, np.arange(6) > 1))  # 1 of 3 positives at most
+
+
 def test_the_table_names_the_worst_family_and_leaves_out_the_unscored_ones():
     from initsel_ros.learn.generalize import FamilyScore
 

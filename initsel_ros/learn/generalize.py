@@ -18,7 +18,7 @@ import fnmatch
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +43,8 @@ MIN_POSITIVES = 30
 
 #: The rows of the table: E, F and H after the R veto (as the policy uses them), and R.
 SCORED = ('E', 'F', 'H', 'R')
+#: The recall at which a model's ceiling on a held-out family is read (issue 21's bar).
+CEILING_RECALL = 0.5
 #: The row of H as the node decides it, where the tables hold the fire path's outcome
 #: (``initsel dataset --fire-path``; ``evaluate.fire_path_h``).
 FIRE_H = 'H by the fire path'
@@ -124,6 +126,10 @@ class FamilyScore:
         precision, recall: at the thresholds chosen without the family; precision is NaN
             when the model never said yes there (shown as ``-``, and counted as the worst).
         scored: whether the family has enough positives to count (``min_positives``).
+        ceiling: the highest precision any threshold of ``model`` (R's kept as chosen)
+            gives on the family at recall >= ``CEILING_RECALL``: a threshold chosen on the
+            held-out family itself, what the scores allow there (NaN when no threshold
+            reaches that recall, e.g. where R vetoes most positives; not for the fire path).
     """
 
     family: str
@@ -133,6 +139,7 @@ class FamilyScore:
     precision: float
     recall: float
     scored: bool
+    ceiling: float = math.nan
 
 
 def score_family(
@@ -149,16 +156,33 @@ def score_family(
     out = []
     for m in SCORED:
         y = np.asarray(test[label_column(m)]).astype(bool)
-        pred = fired[m] if m == 'R' else fired[m] & ~fired['R']
-        s = binary_scores(y, pred)
-        out.append(_family_score(family, m, len(test), y, s.precision, s.recall, s.predicted,
-                                 min_positives))  # fmt: skip
+        allowed = np.ones(len(y), dtype=bool) if m == 'R' else ~fired['R']
+        s = binary_scores(y, fired[m] & allowed)
+        score = _family_score(family, m, len(test), y, s.precision, s.recall, s.predicted,
+                              min_positives)  # fmt: skip
+        out.append(replace(score, ceiling=_ceiling(y, probs[m], allowed)))
     if has_fire_path(test):
         y = np.asarray(test[label_column('H')]).astype(bool)
         s = fire_path_h_scores(y, *fire_path_h(test, probs, models.thresholds, et_max))
         out.append(_family_score(family, FIRE_H, len(test), y, s.precision, s.recall,
                                  s.predicted, min_positives))  # fmt: skip
     return out
+
+
+def _ceiling(y: np.ndarray, scores: np.ndarray, allowed: np.ndarray) -> float:
+    """The highest precision of 'score >= t' over thresholds t, the pairs not ``allowed``
+    never said yes to, whose recall of all of ``y``'s positives is at least
+    ``CEILING_RECALL`` (NaN when none is, or without positives)."""
+    pos = int(y.sum())
+    if pos == 0 or not allowed.any():
+        return math.nan
+    y, scores = y[allowed], np.asarray(scores, dtype=float)[allowed]
+    order = np.argsort(-scores, kind='stable')
+    distinct = np.r_[np.flatnonzero(np.diff(scores[order])), len(order) - 1]  # ties together
+    tp = np.cumsum(y[order])[distinct]
+    precision, recall = tp / (distinct + 1), tp / pos
+    ok = recall >= CEILING_RECALL
+    return float(precision[ok].max()) if ok.any() else math.nan
 
 
 def _family_score(
@@ -314,6 +338,7 @@ def generalization_markdown(
         worst_cells.append(f'{number(worst.precision)} / {number(worst.recall)} ({worst.family})')
     rows.append(('mean of the scored families', '', *mean_cells))
     rows.append(('worst family (by precision)', '', *worst_cells))
+    ceilings = _ceiling_table(families, by, [m for m in SCORED if m in scored])
     note = (
         f'\n\n`*`: fewer than {min_positives} positives, not counted in the mean and the worst;'
         ' `-`: the model never said yes on that family (no precision; the mean leaves it out).'
@@ -325,10 +350,37 @@ def generalization_markdown(
             " for the verification frames) is within the labels' E_t bound, and the share of"
             ' the H-labelled pairs on which it publishes H.'
         )
-    return markdown_table(columns, rows) + note
+    return markdown_table(columns, rows) + note + ceilings
+
+
+def _ceiling_table(families: list[str], by: dict[tuple[str, str], FamilyScore],
+                   models: list[str]) -> str:  # fmt: skip
+    """The models' ceilings (:attr:`FamilyScore.ceiling`) per family, and the worst scored
+    one per model: '' when no score holds one."""
+    if not any(math.isfinite(by[(f, m)].ceiling) for f in families for m in models):
+        return ''
+    columns = ('held-out family', *(f'{m}{" after R veto" if m != "R" else ""}' for m in models))
+    rows = [
+        (f, *(number(by[(f, m)].ceiling) + ('' if by[(f, m)].scored else '*') for m in models))
+        for f in families
+    ]
+    worst = []
+    for m in models:
+        counted = [by[(f, m)] for f in families if by[(f, m)].scored]
+        low = min(counted, key=lambda s: s.ceiling if math.isfinite(s.ceiling) else -1.0,
+                  default=None)  # fmt: skip
+        worst.append('-' if low is None else f'{number(low.ceiling)} ({low.family})')
+    rows.append(('worst scored family', *worst))
+    return (
+        f'\n\nThe ceiling: the highest precision a threshold chosen on the held-out family'
+        f' itself gives there at recall >= {CEILING_RECALL:g} (R at its chosen threshold for'
+        ' the veto): what no choice of thresholds made without the family can beat.\n\n'
+        + markdown_table(columns, rows)
+    )
 
 
 __all__ = [
+    'CEILING_RECALL',
     'FIRE_H',
     'MIN_POSITIVES',
     'SCORED',
