@@ -9,6 +9,7 @@ from table_fixtures import synthetic_table
 from initsel_ros.cli import main
 from initsel_ros.errors import ConfigError, DatasetError
 from initsel_ros.learn.generalize import (
+    CEILING_RECALL,
     FIRE_H,
     Families,
     final_test,
@@ -159,10 +160,10 @@ def test_the_ceiling_is_the_best_precision_at_half_recall_of_a_threshold_on_the_
         best = np.nan
         for t in np.unique(probs[m]):  # every threshold, by brute force
             pred = (probs[m] >= t) & allowed
-            if y.sum() and (pred & y).sum() >= 0.5 * y.sum():
+            if y.sum() and (pred & y).sum() >= CEILING_RECALL[m] * y.sum():
                 best = np.nanmax([best, (pred & y).sum() / pred.sum()])
         assert scores[m].ceiling == pytest.approx(best, nan_ok=True)
-        if np.isfinite(scores[m].precision) and scores[m].recall >= 0.5:
+        if np.isfinite(scores[m].precision) and scores[m].recall >= CEILING_RECALL[m]:
             assert scores[m].ceiling >= scores[m].precision - 1e-12  # the chosen one is a t
     text = generalization_markdown(list(scores.values()), min_positives=1)
     assert 'The ceiling: the highest precision' in text and '| worst scored family |' in text
@@ -171,9 +172,10 @@ def test_the_ceiling_is_the_best_precision_at_half_recall_of_a_threshold_on_the_
 
     y = np.array([1, 1, 0, 1, 0, 0], bool)
     s = np.array([0.9, 0.8, 0.7, 0.6, 0.5, 0.4])
-    assert _ceiling(y, s, np.ones(6, bool)) == 1.0  # t = 0.8: 2 of 3 positives, no negative
-    assert _ceiling(y, s, np.arange(6) != 0) == pytest.approx(2 / 3)  # t = 0.6
-    assert np.isnan(_ceiling(y, s, np.arange(6) > 1))  # 1 of 3 positives at most
+    assert _ceiling(y, s, np.ones(6, bool), 0.5) == 1.0  # t = 0.8: 2 of 3 positives
+    assert _ceiling(y, s, np.ones(6, bool), 0.9) == 0.75  # t = 0.6: all 3, and 1 negative
+    assert _ceiling(y, s, np.arange(6) != 0, 0.5) == pytest.approx(2 / 3)  # t = 0.6
+    assert np.isnan(_ceiling(y, s, np.arange(6) > 1, 0.5))  # 1 of 3 positives at most
 
 
 def test_the_table_names_the_worst_family_and_leaves_out_the_unscored_ones():
