@@ -138,7 +138,13 @@ def test_training_with_family_folds_needs_the_families_and_fits_one_fold_each(mo
     report = train_models(PairTable(cols), config)
     assert folds_seen and all(f == (3, 'family', 3) for f in folds_seen)
     assert all('worst family' in c.rule for c in report.choices.values())
-    assert 'one fold per scene family (3)' in report.models.metadata['training']['validation']
+    training = report.models.metadata['training']
+    assert 'one fold per scene family (3)' in training['validation']
+    assert training['scene_families'] == {
+        'desk': ['far_*'],
+        'walls': ['wall_*'],
+        'floor': ['floor_*'],
+    }
 
 
 def test_unreachable_precision_is_reported_not_hidden():

@@ -778,6 +778,11 @@ def train_models(
             'target_precision': config.target_precision,
             'threshold_prior': {m: config.prior_of(m) for m in METHODS},
             'validation_groups': config.group_by,
+            **(
+                {'scene_families': {k: list(v) for k, v in config.scene_families.patterns.items()}}
+                if by_family and config.scene_families is not None
+                else {}
+            ),
             'min_predicted': config.min_predicted,
             'validation': (
                 f'grouped {folds}-fold cross-validation over {config.group_by}s'
