@@ -216,6 +216,30 @@ def test_cli_writes_the_generalization_table(tmp_path, capsys):
     assert 'not with --distill' in capsys.readouterr().err
 
 
+def test_cli_trains_on_family_folds_and_refuses_their_options_without_them(tmp_path, capsys):
+    import json
+
+    path = tmp_path / 'pairs.csv'
+    write_table(_table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x']), path)
+    families = tmp_path / 'families.yaml'
+    families.write_text(FAMILIES_YAML)
+    out = tmp_path / 'models.json'
+    base = ['train', str(path), '--out', str(out), '--validation-groups', 'family']
+    assert main([*base, '--scene-families', str(families), '--family-precision', '0.7']) == 0
+    training = json.loads(out.read_text())['metadata']['training']
+    assert training['validation_groups'] == 'family' and set(training['scene_families']) == {
+        'fx', 'desk', 'floor', 'walls'}  # fmt: skip
+    assert 'at precision 0.7 on the worst family' in training['validation']
+    # a sequence in no family, and the family options without family folds: clear errors
+    assert main([*base, '--scene-families', str(tmp_path / 'missing.yaml')]) == 1
+    assert 'cannot read the families file' in capsys.readouterr().err
+    assert main(['train', str(path), '--out', str(out), '--family-precision', '0.7']) == 1
+    assert 'with --validation-groups family only' in capsys.readouterr().err
+    families.write_text('families:\n  desk: [far_*]\n')
+    assert main([*base, '--scene-families', str(families)]) == 1
+    assert 'sequences in no family' in capsys.readouterr().err
+
+
 def test_a_family_cap_thins_large_families_for_training_and_scores_all_held_out_pairs(
     monkeypatch,
 ):
