@@ -196,11 +196,17 @@ def test_the_table_names_the_worst_family_and_leaves_out_the_unscored_ones():
     assert 'fewer than 12 positives' in text
 
 
-def test_cli_writes_the_generalization_table(tmp_path, capsys):
+def _cli_files(tmp_path):
+    """A pair table of four sequences and the families file of FAMILIES_YAML, in tmp_path."""
     path = tmp_path / 'pairs.csv'
     write_table(_table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x']), path)
     families = tmp_path / 'families.yaml'
     families.write_text(FAMILIES_YAML)
+    return path, families
+
+
+def test_cli_writes_the_generalization_table(tmp_path, capsys):
+    path, families = _cli_files(tmp_path)
     out = tmp_path / 'gen.md'
     args = ['train', str(path), '--out', str(out), '--leave-family-out', str(families)]
     assert main([*args, '--folds', '3']) == 0
@@ -219,10 +225,7 @@ def test_cli_writes_the_generalization_table(tmp_path, capsys):
 def test_cli_trains_on_family_folds_and_refuses_their_options_without_them(tmp_path, capsys):
     import json
 
-    path = tmp_path / 'pairs.csv'
-    write_table(_table_of(['fx_a', 'far_s1', 'floor_far', 'wall_x']), path)
-    families = tmp_path / 'families.yaml'
-    families.write_text(FAMILIES_YAML)
+    path, families = _cli_files(tmp_path)
     out = tmp_path / 'models.json'
     base = ['train', str(path), '--out', str(out), '--validation-groups', 'family']
     assert main([*base, '--scene-families', str(families), '--family-precision', '0.7']) == 0
