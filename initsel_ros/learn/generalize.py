@@ -32,7 +32,13 @@ from initsel_ros.learn.evaluate import (
 )
 from initsel_ros.learn.labels import LabelConfig
 from initsel_ros.learn.table import PairTable, table_probabilities
-from initsel_ros.learn.train import TrainConfig, label_column, prepare, train_models
+from initsel_ros.learn.train import (
+    TrainConfig,
+    label_column,
+    prepare,
+    threshold_curve,
+    train_models,
+)
 from initsel_ros.markdown import markdown_table, number
 from initsel_ros.models import METHODS, ModelSet
 
@@ -177,11 +183,8 @@ def _ceiling(y: np.ndarray, scores: np.ndarray, allowed: np.ndarray, at_recall: 
     pos = int(y.sum())
     if pos == 0 or not allowed.any():
         return math.nan
-    y, scores = y[allowed], np.asarray(scores, dtype=float)[allowed]
-    order = np.argsort(-scores, kind='stable')
-    distinct = np.r_[np.flatnonzero(np.diff(scores[order])), len(order) - 1]  # ties together
-    tp = np.cumsum(y[order])[distinct]
-    precision, recall = tp / (distinct + 1), tp / pos
+    _, tp, fp = threshold_curve(y[allowed], np.asarray(scores, dtype=float)[allowed])
+    precision, recall = tp / (tp + fp), tp / pos
     ok = recall >= at_recall
     return float(precision[ok].max()) if ok.any() else math.nan
 

@@ -359,7 +359,7 @@ class ThresholdChoice:
         }
 
 
-def _curve(y: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, ...]:
+def threshold_curve(y: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, ...]:
     """Candidate thresholds (descending unique scores) with tp, fp at 'score >= t'."""
     order = np.argsort(-scores, kind='stable')
     s, t = scores[order], y[order].astype(bool)
@@ -399,7 +399,7 @@ def choose_threshold(
         thr = 1.0 if pos == 0 else 0.0
         pred = scores >= thr
         return _summarize(y, pred, thr, pos == n and n > 0, 'single class')
-    thr, tp, fp = _curve(y, scores)
+    thr, tp, fp = threshold_curve(y, scores)
     predicted = tp + fp
     precision = tp / predicted
     recall = tp / pos
@@ -850,5 +850,6 @@ __all__ = [
     'out_of_fold_scores',
     'prepare',
     'rotation_training_rows',
+    'threshold_curve',
     'train_models',
 ]
