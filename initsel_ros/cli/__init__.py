@@ -39,6 +39,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'bench': ('initsel_ros.cli.bench', 'measure decision, per-frame and baseline costs'),
     'demo': ('initsel_ros.cli.demo', 'render a sequence and initialize on it, end to end'),
     'pictures': ('initsel_ros.cli.pictures', 'overlay videos, probability plots, README pictures'),
+    'trace': (
+        'initsel_ros.cli.trace',
+        "what the selector did on a recorded sequence, frame by frame (~/status's records)",
+    ),
     'robustness': (
         'initsel_ros.cli.robustness',
         'the tracker under brightness changes; model files under camera effects',

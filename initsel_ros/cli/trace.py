@@ -1,0 +1,98 @@
+"""``initsel trace``: what the selector did on a recorded sequence, frame by frame.
+
+The offline twin of recording the node's ``~/status``: the same records
+(:mod:`initsel_ros.trace`), without ROS, to see why a sequence initialized where it did, or
+why it did not.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from dataclasses import replace
+from pathlib import Path
+
+from initsel_ros.cli import options
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``initsel trace``."""
+    parser.add_argument(
+        'source',
+        type=Path,
+        help='TUM folder (rgb.txt), EuRoC folder, KITTI odometry sequence folder, ROS 1 .bag '
+        'file or ROS 2 bag folder',
+    )
+    options.add_models_option(parser)
+    options.add_params_file_option(parser)
+    parser.add_argument(
+        '--mode',
+        choices=('once', 'continuous'),
+        default=None,
+        help="what the selector does after an initialization (default: the parameter file's "
+        'mode, else once)',
+    )
+    parser.add_argument('--start', type=int, default=0, help='first frame (default 0)')
+    parser.add_argument(
+        '--frames', type=int, default=None, help='frames to process (default: all)'
+    )
+    parser.add_argument(
+        '--jsonl',
+        type=Path,
+        default=None,
+        metavar='PATH',
+        help="write every frame's ~/status record (the node's JSON, one line a frame) here",
+    )
+    parser.add_argument(
+        '--all',
+        action='store_true',
+        help='print every frame, not only those where something happened (a new reference, '
+        "a model's yes, a fire-path run, a verification step, an initialization, a warning)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the selector over the source, print the eventful frames and a summary."""
+    from initsel_ros.datasets import open_sequence
+    from initsel_ros.models import ModelSet
+    from initsel_ros.output import check_file_target
+    from initsel_ros.trace import eventful, summary_line, trace_sequence
+
+    if args.start < 0 or (args.frames is not None and args.frames < 1):
+        print('initsel trace: error: --start must be >= 0 and --frames >= 1', file=sys.stderr)
+        return 2
+    config = options.selector_config(args, 'trace')
+    if config is None:
+        return 2
+    if args.mode is not None:
+        config = replace(config, mode=args.mode)
+    if args.jsonl is not None:
+        check_file_target(args.jsonl).parent.mkdir(parents=True, exist_ok=True)
+    models = ModelSet.load(options.model_path(args.models))
+    sequence = open_sequence(args.source)
+    stop = None if args.frames is None else args.start + args.frames
+    reasons: Counter[str] = Counter()
+    published: list[str] = []
+    sink = args.jsonl.open('w', encoding='utf-8') if args.jsonl is not None else None
+    try:
+        for index, status in enumerate(
+            trace_sequence(sequence, models, config, args.start, stop), start=args.start
+        ):
+            reasons[status.reason.value] += 1
+            if sink is not None:
+                sink.write(status.to_json() + '\n')
+            if status.method is not None:
+                published.append(f'{status.method} at frame {index}')
+            if args.all or eventful(status):
+                print(summary_line(status, index), flush=True)
+    finally:
+        if sink is not None:
+            sink.close()
+    total = sum(reasons.values())
+    counts = ', '.join(f'{reason} {n}' for reason, n in reasons.most_common())
+    print(f'{sequence.name}: {total} frames ({counts})')
+    print(f'initialized: {"; ".join(published) if published else "never"}')
+    if args.jsonl is not None:
+        print(f'wrote {args.jsonl} ({total} records)')
+    return 0
