@@ -69,6 +69,7 @@ def trace_sequence(
             received_frames=received,
             processed_frames=processed,
             skipped_frames=skipped,
+            intrinsics_source='camera_info',  # the source's calibration, as `initsel replay`
             intrinsics=intrinsics,
             bit_depth=selector.bit_depth.bits or None,
         )
@@ -111,7 +112,7 @@ def summary_line(status: FrameStatus, index: int | None = None) -> str:
     parts.append(probabilities)
     rotation = status.rotation_test
     if rotation is not None and rotation.get('statistic') is not None:
-        parts.append(f"rotation {rotation['statistic']:.1f}x noise {rotation['noise_px']:.2f}px")
+        parts.append(f'rotation {rotation["statistic"]:.1f}x noise {rotation["noise_px"]:.2f}px')
     if status.method is not None:
         parts.append(f'-> {status.method}')
     if status.detail:

@@ -37,6 +37,9 @@ def test_records_are_what_the_selector_decided_frame_by_frame(rotation_sequence,
     assert [r.detail for r in records] == [d.detail for d in expected]
     assert [r.frame_index for r in records] == list(range(30))
     assert records[-1].received_frames == records[-1].processed_frames == 30
+    # the source's own calibration, as the node gets it from `initsel replay`'s camera_info
+    assert records[0].intrinsics_source == 'camera_info'
+    assert records[0].intrinsics == seq.intrinsics.to_dict()
     # a pan: the fire path ran and measured a rotation, and nothing was published
     assert any(r.rotation_test is not None for r in records)
     assert all(r.method is None for r in records)
