@@ -15,7 +15,8 @@ from collections.abc import Iterator
 from typing import Any
 
 from initsel_ros import timestamps
-from initsel_ros.errors import InitselError
+from initsel_ros.errors import ImageConversionError, InitselError
+from initsel_ros.image import downscaled, tracking_factor
 from initsel_ros.models import ModelSet
 from initsel_ros.names import MODEL_NAMES
 from initsel_ros.policy import Reason
@@ -29,6 +30,7 @@ def trace_sequence(
     config: SelectorConfig | None = None,
     start: int = 0,
     stop: int | None = None,
+    max_tracking_width: int = 0,
 ) -> Iterator[FrameStatus]:
     """The ``~/status`` record of each frame ``start..stop - 1`` of ``sequence`` run through a
     selector with ``config`` (default :class:`SelectorConfig`), as the node would publish it
@@ -41,26 +43,39 @@ def trace_sequence(
         config: the selector's settings.
         start: first frame index.
         stop: one past the last frame index (default: the end).
+        max_tracking_width: the node's parameter of that name: wider frames are shrunk by
+            the smallest whole factor that brings them within it, and the calibration
+            with them (0: full size).
 
     Yields:
-        One :class:`FrameStatus` per frame; a frame the reader cannot load (a corrupt or
-        missing file, another size) has reason ``skipped image`` and the reader's message.
+        One :class:`FrameStatus` per frame. A frame the reader cannot load (a corrupt or
+        missing file, another size) or the selector cannot use has reason ``image
+        skipped`` and the error; an error inside the selector, ``internal error``: the trace
+        goes on, as the node does.
     """
-    selector = Selector(models, sequence.intrinsics, config)
+    factor = tracking_factor(sequence.intrinsics.width, max_tracking_width)
+    camera = sequence.intrinsics.binned(factor)
+    selector = Selector(models, camera, config)
     stamps = sequence.stamps_ns
     stop = len(sequence) if stop is None else min(stop, len(sequence))
-    intrinsics = sequence.intrinsics.to_dict()
     initializations = processed = skipped = 0
     for received, i in enumerate(range(start, stop), start=1):
         stamp_ns = int(stamps[i])
         result, reason, detail = None, None, None
         try:
-            image = sequence.native_image(i)
-        except InitselError as exc:  # the reader's own errors: corrupt, missing, resized
-            skipped += 1
+            image = downscaled(sequence.native_image(i), factor)
+        except InitselError as exc:  # the reader's: corrupt, missing, another size
             reason, detail = Reason.SKIPPED_IMAGE, f'frame {i}: {exc}'
         else:
-            result = selector.process(image, stamp_ns)
+            try:
+                result = selector.process(image, stamp_ns)
+            except ImageConversionError as exc:  # the selector's, as the node's
+                reason, detail = Reason.SKIPPED_IMAGE, f'frame {i}: {exc}'
+            except Exception as exc:  # as the node: said in the record, on to the next frame
+                reason, detail = Reason.INTERNAL_ERROR, f'frame {i}: {exc!r}'
+        if result is None:
+            skipped += 1
+        else:
             processed += 1
             initializations += result.initialization is not None
         counters = NodeCounters(
@@ -70,7 +85,7 @@ def trace_sequence(
             processed_frames=processed,
             skipped_frames=skipped,
             intrinsics_source='camera_info',  # the source's calibration, as `initsel replay`
-            intrinsics=intrinsics,
+            intrinsics=camera.to_dict(),
             bit_depth=selector.bit_depth.bits or None,
         )
         sec, nanosec = timestamps.split_ns(stamp_ns)

@@ -65,6 +65,36 @@ def test_an_unreadable_frame_is_a_skipped_record_and_the_trace_goes_on(
     assert all(r.reason is not Reason.SKIPPED_IMAGE for r in records[5:])
 
 
+def test_an_error_inside_the_selector_is_an_internal_error_record(
+    rotation_sequence, models, monkeypatch
+):
+    process = Selector.process
+    calls = {'n': 0}
+
+    def counted(self, image, stamp_ns):
+        calls['n'] += 1
+        if calls['n'] == 4:
+            raise ValueError('a bug')
+        return process(self, image, stamp_ns)
+
+    monkeypatch.setattr(Selector, 'process', counted)
+    records = list(trace_sequence(open_sequence(rotation_sequence), models, stop=8))
+    assert (
+        records[3].reason is Reason.INTERNAL_ERROR and "ValueError('a bug')" in records[3].detail
+    )
+    assert records[3].level == 'WARN' and records[-1].skipped_frames == 1
+    assert [r.reason for r in records[4:]].count(Reason.INTERNAL_ERROR) == 0
+
+
+def test_wide_frames_are_shrunk_as_the_node_shrinks_them(rotation_sequence, models):
+    seq = open_sequence(rotation_sequence)
+    full = list(trace_sequence(seq, models, stop=3))
+    half = list(trace_sequence(seq, models, stop=3, max_tracking_width=320))
+    assert full[0].intrinsics == seq.intrinsics.to_dict()
+    assert half[0].intrinsics == seq.intrinsics.binned(2).to_dict()
+    assert half[0].intrinsics['width'] == seq.intrinsics.width // 2
+
+
 def test_summary_line_names_the_reason_probabilities_and_rotation_test(rotation_sequence, models):
     records = list(trace_sequence(open_sequence(rotation_sequence), models, stop=12))
     tested = next(r for r in records if r.rotation_test is not None)

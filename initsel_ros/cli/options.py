@@ -14,6 +14,7 @@ from initsel_ros.output import OutputError, check_file_target
 
 if TYPE_CHECKING:
     from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
+    from initsel_ros.ros.params import NodeSettings
     from initsel_ros.selector import SelectorConfig
 
 Options = TypeVar('Options')
@@ -44,25 +45,33 @@ def add_params_file_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def selector_config(args: argparse.Namespace, command: str) -> SelectorConfig | None:
-    """The settings ``--params-file`` names, validated as the node validates them (the
-    selector's: ``model_file`` and ``camera.*`` are the command's own business), or None
-    after printing why to stderr (an unreadable file, or a value the node would refuse).
-    """
+def node_settings(args: argparse.Namespace, command: str) -> NodeSettings | None:
+    """The node's settings ``--params-file`` names (its defaults without one), validated as
+    the node validates them, or None after printing why to stderr (an unreadable file, or a
+    value the node would refuse)."""
     import sys
 
     from initsel_ros.errors import ConfigError
-    from initsel_ros.selector import SelectorConfig
-
-    if getattr(args, 'params_file', None) is None:
-        return SelectorConfig()
     from initsel_ros.ros.params import NodeSettings, load_params_file
 
     try:
-        return NodeSettings.from_values(load_params_file(args.params_file)).selector_config()
+        if getattr(args, 'params_file', None) is None:
+            return NodeSettings.from_values({})
+        return NodeSettings.from_values(load_params_file(args.params_file))
     except ConfigError as exc:
         print(f'initsel {command}: error: {exc}', file=sys.stderr)
         return None
+
+
+def selector_config(args: argparse.Namespace, command: str) -> SelectorConfig | None:
+    """The selector's settings of :func:`node_settings` (``model_file`` and ``camera.*`` are
+    the command's own business), or None after printing why to stderr."""
+    if getattr(args, 'params_file', None) is None:
+        from initsel_ros.selector import SelectorConfig
+
+        return SelectorConfig()
+    settings = node_settings(args, command)
+    return None if settings is None else settings.selector_config()
 
 
 def add_inputs_argument(

@@ -62,9 +62,10 @@ def run(args: argparse.Namespace) -> int:
     if args.start < 0 or (args.frames is not None and args.frames < 1):
         print('initsel trace: error: --start must be >= 0 and --frames >= 1', file=sys.stderr)
         return 2
-    config = options.selector_config(args, 'trace')
-    if config is None:
+    settings = options.node_settings(args, 'trace')
+    if settings is None:
         return 2
+    config = settings.selector_config()
     if args.mode is not None:
         config = replace(config, mode=args.mode)
     if args.jsonl is not None:
@@ -77,7 +78,10 @@ def run(args: argparse.Namespace) -> int:
     sink = args.jsonl.open('w', encoding='utf-8') if args.jsonl is not None else None
     try:
         for index, status in enumerate(
-            trace_sequence(sequence, models, config, args.start, stop), start=args.start
+            trace_sequence(
+                sequence, models, config, args.start, stop, settings.max_tracking_width
+            ),
+            start=args.start,
         ):
             reasons[status.reason.value] += 1
             if sink is not None:
