@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -13,6 +14,9 @@ from initsel_ros.policy import Reason
 from initsel_ros.selector import Selector, SelectorConfig
 from initsel_ros.status import FrameStatus
 from initsel_ros.trace import eventful, summary_line, trace_sequence
+
+#: The real fr3/structure_texture_near frames beside the project (../shared/data).
+REAL_NEAR = Path(__file__).resolve().parents[2] / 'shared/data/tum_fr3_structure_texture_near'
 
 
 def initsel(argv: list[str]) -> int:
@@ -151,3 +155,29 @@ def test_command_errors_are_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith('initsel trace: error:') and '\n' not in err
     assert initsel([str(tmp_path), '--frames', '0']) == 2
+
+
+def test_command_reads_the_source_with_the_replay_options(rotation_sequence, tmp_path, capsys):
+    from initsel_ros.camera import Intrinsics
+
+    camera = Intrinsics(500.0, 500.0, 320.0, 240.0, 640, 480)
+    camera.save_yaml(tmp_path / 'camera.yaml')
+    out = tmp_path / 'status.jsonl'
+    argv = [str(rotation_sequence), '--frames', '3', '--jsonl', str(out)]
+    assert initsel([*argv, '--intrinsics', str(tmp_path / 'camera.yaml')]) == 0
+    record = json.loads(out.read_text().splitlines()[0])
+    assert record['intrinsics'] == camera.to_dict()
+    capsys.readouterr()
+    assert initsel([*argv, '--bag-image-topic', '/camera/image_raw']) == 1
+    assert 'applies to bags only' in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not REAL_NEAR.is_dir(), reason='real TUM sample not available')
+def test_command_traces_the_real_tum_frames(tmp_path, capsys):
+    out = tmp_path / 'status.jsonl'
+    assert initsel([str(REAL_NEAR), '--all', '--jsonl', str(out)]) == 0
+    records = [FrameStatus.from_json(line) for line in out.read_text().splitlines()]
+    assert len(records) == len(open_sequence(REAL_NEAR))
+    assert records[0].reason is Reason.NEW_REFERENCE and records[0].tracks > 0
+    assert records[0].intrinsics == open_sequence(REAL_NEAR).intrinsics.to_dict()
+    assert f'{len(records)} frames' in capsys.readouterr().out

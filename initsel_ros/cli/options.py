@@ -165,6 +165,17 @@ def add_kitti_sequence_option(parser: argparse.ArgumentParser, help_text: str) -
     parser.add_argument('--sequence', default=None, metavar='NN', help=help_text)
 
 
+def add_bag_image_topic_option(parser: argparse.ArgumentParser) -> None:
+    """``--bag-image-topic TOPIC``: which image topic of a bag is read."""
+    parser.add_argument(
+        '--bag-image-topic',
+        default=None,
+        metavar='TOPIC',
+        help='bags: the image topic to read (Image or CompressedImage; default '
+        '/camera/rgb/image_color, or <it>/compressed when absent)',
+    )
+
+
 def add_camera_option(parser: argparse.ArgumentParser) -> None:
     """``--camera NAME``: which camera of a EuRoC or KITTI folder is read."""
     parser.add_argument(

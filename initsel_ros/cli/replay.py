@@ -23,13 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     options.add_kitti_sequence_option(
         parser, 'KITTI: the sequence, when SOURCE is the odometry root'
     )
-    parser.add_argument(
-        '--bag-image-topic',
-        default=None,
-        metavar='TOPIC',
-        help='bags: the image topic to read (Image or CompressedImage; default '
-        '/camera/rgb/image_color, or <it>/compressed when absent)',
-    )
+    options.add_bag_image_topic_option(parser)
     options.add_camera_option(parser)
     options.add_intrinsics_option(parser)
     options.add_rate_option(parser, 'playback speed factor of the recorded timing (default 1)')

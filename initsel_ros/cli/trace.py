@@ -21,9 +21,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         'source',
         type=Path,
-        help='TUM folder (rgb.txt), EuRoC folder, KITTI odometry sequence folder, ROS 1 .bag '
-        'file or ROS 2 bag folder',
+        help='TUM folder (rgb.txt), EuRoC folder, KITTI odometry sequence folder (or root '
+        'with --sequence), ROS 1 .bag file or ROS 2 bag folder',
     )
+    options.add_kitti_sequence_option(
+        parser, 'KITTI: the sequence, when SOURCE is the odometry root'
+    )
+    options.add_bag_image_topic_option(parser)
+    options.add_camera_option(parser)
+    options.add_intrinsics_option(parser)
     options.add_models_option(parser)
     options.add_params_file_option(parser)
     parser.add_argument(
@@ -54,7 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the selector over the source, print the eventful frames and a summary."""
-    from initsel_ros.datasets import open_sequence
+    from initsel_ros.datasets import open_source
     from initsel_ros.models import ModelSet
     from initsel_ros.output import check_file_target
     from initsel_ros.trace import eventful, summary_line, trace_sequence
@@ -71,7 +77,14 @@ def run(args: argparse.Namespace) -> int:
     if args.jsonl is not None:
         check_file_target(args.jsonl).parent.mkdir(parents=True, exist_ok=True)
     models = ModelSet.load(options.model_path(args.models))
-    sequence = open_sequence(args.source)
+    sequence = open_source(
+        args.source,
+        sequence=args.sequence,
+        camera=args.camera,
+        bag_image_topic=args.bag_image_topic,
+        intrinsics=args.intrinsics,
+        ground_truth=False,
+    )
     stop = None if args.frames is None else args.start + args.frames
     reasons: Counter[str] = Counter()
     published: list[str] = []

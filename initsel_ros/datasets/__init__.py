@@ -24,7 +24,7 @@ from initsel_ros.datasets.kitti import (
 from initsel_ros.datasets.poses import interpolate_poses, pose_matrices
 from initsel_ros.datasets.sequence import Frame, Sequence
 from initsel_ros.datasets.tum import TumSequence, is_tum_folder, read_trajectory
-from initsel_ros.errors import DatasetError
+from initsel_ros.errors import ConfigError, DatasetError
 
 #: The layouts :func:`open_sequence` reads, as named in its error messages and ``--help``.
 LAYOUTS = ('TUM folder', 'EuRoC ASL folder', 'KITTI odometry sequence', 'ROS 1 bag', 'ROS 2 bag')
@@ -138,6 +138,36 @@ def open_sequence(
     )
 
 
+def open_source(
+    source: Path | str,
+    *,
+    sequence: str | None = None,
+    camera: str | None = None,
+    bag_image_topic: str | None = None,
+    intrinsics: Path | str | None = None,
+    ground_truth: bool = True,
+) -> Sequence:
+    """A tool's source by its command-line options (``initsel replay``, ``initsel trace``):
+    :func:`open_sequence` with the KITTI ``sequence``, the EuRoC or KITTI ``camera``, a bag's
+    ``bag_image_topic`` and an ``intrinsics`` YAML file (as ``intrinsics.yaml``) replacing a
+    TUM folder's or a bag's calibration; ``ground_truth`` False leaves the ground truth unread
+    (a malformed one then does not keep the frames from being read).
+
+    Raises:
+        ConfigError: ``bag_image_topic`` for a source that is not a bag, an unreadable
+            ``intrinsics`` file.
+        DatasetError: as :func:`open_sequence`.
+    """
+    reader: dict[str, Any] = {'ground_truth': ground_truth}
+    if bag_image_topic is not None:
+        if sequence_kind(Path(source)) != 'bag':
+            raise ConfigError('--bag-image-topic applies to bags only')
+        reader['image_topic'] = bag_image_topic
+    if intrinsics is not None:
+        reader['intrinsics'] = Intrinsics.load_yaml(intrinsics)
+    return open_sequence(source, sequence=sequence, camera=camera, **reader)
+
+
 def _camera_option(path: Path, kind: str | None, camera: str) -> str | int:
     """The reader's ``camera`` argument for ``--camera``: EuRoC ``camN``, KITTI ``N``."""
     if kind == 'euroc':
@@ -204,6 +234,7 @@ __all__ = [
     'is_tum_folder',
     'layout_hint',
     'open_sequence',
+    'open_source',
     'pose_matrices',
     'read_trajectory',
     'reader_options',

@@ -154,20 +154,18 @@ def frame_pixels(sequence: object, index: int, encoding: str) -> tuple[np.ndarra
 
 
 def open_source(options: ReplayOptions) -> object:
-    """The sequence of ``options.source`` (with its ``sequence``, ``bag_image_topic`` and
-    ``intrinsics``); its ground truth is read only when it is to be published."""
-    from initsel_ros.camera import Intrinsics
-    from initsel_ros.datasets import open_sequence, sequence_kind
+    """The sequence of ``options.source`` (with its ``sequence``, ``camera``,
+    ``bag_image_topic`` and ``intrinsics``: :func:`initsel_ros.datasets.open_source`); its
+    ground truth is read only when it is to be published."""
+    from initsel_ros.datasets import open_source as open_dataset
 
-    reader: dict[str, object] = {'ground_truth': options.publish_groundtruth}
-    if options.bag_image_topic is not None:
-        if sequence_kind(options.source) != 'bag':
-            raise ConfigError('--bag-image-topic applies to bags only')
-        reader['image_topic'] = options.bag_image_topic
-    if options.intrinsics is not None:
-        reader['intrinsics'] = Intrinsics.load_yaml(options.intrinsics)
-    return open_sequence(
-        options.source, sequence=options.sequence, camera=options.camera, **reader
+    return open_dataset(
+        options.source,
+        sequence=options.sequence,
+        camera=options.camera,
+        bag_image_topic=options.bag_image_topic,
+        intrinsics=options.intrinsics,
+        ground_truth=options.publish_groundtruth,
     )
 
 
