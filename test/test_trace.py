@@ -181,3 +181,12 @@ def test_command_traces_the_real_tum_frames(tmp_path, capsys):
     assert records[0].reason is Reason.NEW_REFERENCE and records[0].tracks > 0
     assert records[0].intrinsics == open_sequence(REAL_NEAR).intrinsics.to_dict()
     assert f'{len(records)} frames' in capsys.readouterr().out
+
+
+def test_a_bag_traces_as_its_folder(near_sequence, near_bag_ros2, models):
+    """The same frames from a ROS 2 bag: the same records (the reader's stamps are exact)."""
+    from_folder = list(trace_sequence(open_sequence(near_sequence), models, stop=20))
+    from_bag = list(trace_sequence(open_sequence(near_bag_ros2), models, stop=20))
+    assert [r.reason for r in from_bag] == [r.reason for r in from_folder]
+    assert [r.detail for r in from_bag] == [r.detail for r in from_folder]
+    assert [r.stamp_nanosec for r in from_bag] == [r.stamp_nanosec for r in from_folder]
