@@ -14,7 +14,6 @@ from initsel_ros.output import OutputError, check_file_target
 
 if TYPE_CHECKING:
     from initsel_ros.learn.real_baselines.orbslam3_runner import Orbslam3Setup
-    from initsel_ros.ros.params import NodeSettings
     from initsel_ros.selector import SelectorConfig
 
 Options = TypeVar('Options')
@@ -45,10 +44,11 @@ def add_params_file_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def node_settings(args: argparse.Namespace, command: str) -> NodeSettings | None:
-    """The node's settings ``--params-file`` names (its defaults without one), validated as
-    the node validates them, or None after printing why to stderr (an unreadable file, or a
-    value the node would refuse)."""
+def node_settings(args: argparse.Namespace, command: str) -> Any:
+    """The node's settings ``--params-file`` names (its defaults without one), validated
+    as the node validates them: a ``ros.params.NodeSettings`` (imported here only, not at
+    module level: the ROS boundary), or None after printing why to stderr (an unreadable
+    file, or a value the node would refuse)."""
     import sys
 
     from initsel_ros.errors import ConfigError
