@@ -136,7 +136,8 @@ def test_command_prints_the_frames_where_something_happened_or_all(
 ):
     out = tmp_path / 'status.jsonl'
     assert initsel([str(rotation_sequence), '--frames', '30', '--jsonl', str(out)]) == 0
-    body = [line for line in capsys.readouterr().out.splitlines() if line[:5].strip().isdigit()]
+    printed = capsys.readouterr().out
+    body = [line for line in printed.splitlines() if line[:5].strip().isdigit()]
     records = [json.loads(line) for line in out.read_text().splitlines()]
     quiet = [
         i
@@ -144,6 +145,11 @@ def test_command_prints_the_frames_where_something_happened_or_all(
         if not (r['new_reference'] or r['fired'] or r['rotation_test'] or r['verification'])
     ]
     assert quiet, "on a pan, model R's yes holds most frames without a fire-path run"
+    ran = [i for i, r in enumerate(records) if r['rotation_test'] or r['selection']]
+    last = records[ran[-1]]
+    assert (
+        f'the last fire-path run, frame {ran[-1]}: {last["reason"]}: {last["detail"]}' in printed
+    )
     assert [int(line.split()[0]) for line in body] == sorted(set(range(30)) - set(quiet))
     assert initsel([str(rotation_sequence), '--frames', '6', '--start', '2', '--all']) == 0
     body = [line for line in capsys.readouterr().out.splitlines() if line[:5].strip().isdigit()]

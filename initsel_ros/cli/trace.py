@@ -88,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
     stop = None if args.frames is None else args.start + args.frames
     reasons: Counter[str] = Counter()
     published: list[str] = []
+    last_run = None  # (frame, record) of the last fire-path run: why a trace never published
     sink = args.jsonl.open('w', encoding='utf-8') if args.jsonl is not None else None
     try:
         for index, status in enumerate(
@@ -101,6 +102,8 @@ def run(args: argparse.Namespace) -> int:
                 sink.write(status.to_json() + '\n')
             if status.method is not None:
                 published.append(f'{status.method} at frame {index}')
+            if status.rotation_test is not None or status.selection is not None:
+                last_run = (index, status)
             if args.all or eventful(status):
                 print(summary_line(status, index), flush=True)
     finally:
@@ -110,6 +113,9 @@ def run(args: argparse.Namespace) -> int:
     counts = ', '.join(f'{reason} {n}' for reason, n in reasons.most_common())
     print(f'{sequence.name}: {total} frames ({counts})')
     print(f'initialized: {"; ".join(published) if published else "never"}')
+    if not published and last_run is not None:
+        frame, record = last_run
+        print(f'the last fire-path run, frame {frame}: {record.reason.value}: {record.detail}')
     if args.jsonl is not None:
         print(f'wrote {args.jsonl} ({total} records)')
     return 0
