@@ -55,6 +55,7 @@ def trace_sequence(
     """
     factor = tracking_factor(sequence.intrinsics.width, max_tracking_width)
     camera = sequence.intrinsics.binned(factor)
+    intrinsics = camera.to_dict()  # (the camera stays: the records share one calibration)
     selector = Selector(models, camera, config)
     stamps = sequence.stamps_ns
     stop = len(sequence) if stop is None else min(stop, len(sequence))
@@ -85,7 +86,7 @@ def trace_sequence(
             processed_frames=processed,
             skipped_frames=skipped,
             intrinsics_source='camera_info',  # the source's calibration, as `initsel replay`
-            intrinsics=camera.to_dict(),
+            intrinsics=intrinsics,
             bit_depth=selector.bit_depth.bits or None,
         )
         sec, nanosec = timestamps.split_ns(stamp_ns)

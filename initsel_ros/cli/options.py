@@ -148,10 +148,14 @@ def add_source_option(parser: argparse.ArgumentParser, help_text: str) -> None:
     parser.add_argument('--source', type=Path, default=None, help=help_text)
 
 
-def add_mode_option(parser: argparse.ArgumentParser, default: Mode, help_text: str) -> None:
-    """``--mode``: what the selector does after an initialization (:class:`Mode`)."""
+def add_mode_option(parser: argparse.ArgumentParser, default: Mode | None, help_text: str) -> None:
+    """``--mode``: what the selector does after an initialization (:class:`Mode`); None: no
+    default (the command takes it from elsewhere)."""
     parser.add_argument(
-        '--mode', choices=tuple(m.value for m in Mode), default=default.value, help=help_text
+        '--mode',
+        choices=tuple(m.value for m in Mode),
+        default=None if default is None else default.value,
+        help=help_text,
     )
 
 

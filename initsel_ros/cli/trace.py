@@ -32,12 +32,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     options.add_intrinsics_option(parser)
     options.add_models_option(parser)
     options.add_params_file_option(parser)
-    parser.add_argument(
-        '--mode',
-        choices=('once', 'continuous'),
-        default=None,
-        help="what the selector does after an initialization (default: the parameter file's "
-        'mode, else once)',
+    options.add_mode_option(
+        parser,
+        None,
+        "what the selector does after an initialization (default: the parameter file's mode, "
+        'else once)',
     )
     parser.add_argument('--start', type=int, default=0, help='first frame (default 0)')
     parser.add_argument(
