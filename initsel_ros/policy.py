@@ -72,6 +72,10 @@ class PolicyConfig:
             of its translation is known to within this standard deviation, degrees (first
             order, from the bundle adjustment: ``refine.translation_sigma_deg``); a larger one
             waits for more baseline. 0 or less turns the check off.
+        max_edge_point_share: a seed map is refused when more than this share of its
+            points lie on straight edges of the reference frame, where a track is free to
+            slide along the edge (``corners.EDGE_ISOTROPY``): on nearly untextured surfaces
+            the map would rest on them. 1 turns the check off.
     """
 
     thresholds: Mapping[str, float] = field(default_factory=dict)
@@ -84,6 +88,7 @@ class PolicyConfig:
     min_rotation_residual_sigma: float = 3.0
     min_plane_residual_sigma: float = 2.0
     max_translation_sigma_deg: float = 2.0
+    max_edge_point_share: float = 0.33
 
 
 @dataclass(slots=True)

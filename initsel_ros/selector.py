@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from initsel_ros.camera import Intrinsics
+from initsel_ros.corners import EDGE_ISOTROPY, structure_isotropy
 from initsel_ros.errors import ConfigError, ImageConversionError
 from initsel_ros.features import Camera
 from initsel_ros.geometry import Method, RotationTest, rotation_angle_deg
@@ -904,6 +905,12 @@ class Selector:
                     decision, reason=fire.reason, detail=context + fire.detail + schedule
                 ),
             )
+        on_edges = self._on_edges(fire.seed)
+        if on_edges:
+            return replace(
+                result,
+                decision=replace(decision, reason=Reason.POSE_FAILED, detail=context + on_edges),
+            )
         init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
         detail = f'{context}{init.method.value}: {fire.detail}'
         if self.config.verify.frames > 0:
@@ -939,6 +946,27 @@ class Selector:
             result,
             initialization=self._published(init),
             decision=replace(decision, reason=Reason.INITIALIZED, detail=detail),
+        )
+
+    def _on_edges(self, seed: SeedMap) -> str:
+        """Why ``seed`` is refused for resting on points along straight edges of the
+        reference frame (``PolicyConfig.max_edge_point_share``; module ``corners``), or ''."""
+        limit = self.config.policy.max_edge_point_share
+        image = self.tracker.reference_image
+        tracks = self._frame_tracks
+        if limit >= 1.0 or image is None or tracks is None or not len(seed.indices):
+            return ''
+        isotropy = structure_isotropy(
+            image, tracks.ref[seed.indices], self.config.tracker.block_size
+        )
+        on_edges = int(np.count_nonzero(isotropy < EDGE_ISOTROPY))
+        if on_edges <= limit * len(isotropy):
+            return ''
+        return (
+            f'{seed.method.value} failed ({on_edges} of its {len(isotropy)} points lie on '
+            f'straight edges of the reference frame, more than {limit:.0%} '
+            '(max_edge_point_share): a track there slides along its edge, and the map would '
+            'rest on such tracks; too little texture)'
         )
 
     def _held_candidate(

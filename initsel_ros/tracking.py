@@ -216,6 +216,12 @@ class KltTracker:
         return int(self._ids.shape[0])
 
     @property
+    def reference_image(self) -> np.ndarray | None:
+        """The reference frame as it is tracked on (``zncc``: normalized), or None before
+        :meth:`reset`."""
+        return self._reference
+
+    @property
     def image_shape(self) -> tuple[int, ...] | None:
         """Shape of the frames being tracked, or None before a reference."""
         return None if self._prev is None else self._prev.shape

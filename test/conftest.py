@@ -43,6 +43,20 @@ def desk_mirror_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope='session')
+def low_texture_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Nearly untextured surfaces under a hand-held random motion (seed 912), 24 frames:
+    most Shi-Tomasi detections lie on the straight edges between the surfaces."""
+    return _render(
+        tmp_path_factory,
+        'low_texture',
+        scene='low_texture',
+        trajectory='random',
+        frames=24,
+        seed=912,
+    )
+
+
+@pytest.fixture(scope='session')
 def far_sequence(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Default scene, the near motion (frames 80-139) at twice the distance."""
     return _render(tmp_path_factory, 'far', trajectory='far', frames=60, start=80)

@@ -356,6 +356,14 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         Number(0.0, 90.0),
     ),
     ParameterSpec(
+        'max_edge_point_share',
+        _POLICY.max_edge_point_share,
+        'a seed map is refused when more than this share of its points lie on straight edges '
+        'of the reference frame, where tracks slide along the edge (too little texture); '
+        '1 = off',
+        Number(0.0, 1.0),
+    ),
+    ParameterSpec(
         'max_frames_since_reference',
         _SELECTOR.max_frames_since_reference,
         "frames after which a new reference frame is taken (the paper's batch length), "
@@ -550,6 +558,7 @@ class NodeSettings:
     min_rotation_residual_sigma: float
     min_plane_residual_sigma: float
     max_translation_sigma_deg: float
+    max_edge_point_share: float
     max_frames_since_reference: int
     min_seconds_since_reference: float
     rotation_recheck_frames: int
@@ -658,6 +667,7 @@ class NodeSettings:
                 min_rotation_residual_sigma=self.min_rotation_residual_sigma,
                 min_plane_residual_sigma=self.min_plane_residual_sigma,
                 max_translation_sigma_deg=self.max_translation_sigma_deg,
+                max_edge_point_share=self.max_edge_point_share,
             ),
             mode=self.mode,
             max_frames_since_reference=self.max_frames_since_reference,
