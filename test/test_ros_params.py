@@ -24,6 +24,28 @@ from initsel_ros.verify import VerifyConfig
 CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'selector.yaml'
 
 
+@pytest.mark.parametrize('doc', ['README.md', 'docs/node.md'])
+def test_the_parameter_tables_of_the_docs_list_every_parameter_with_its_default(doc):
+    """Each parameter has a row; a number's row states its declared default (rows may
+    group ``camera.*`` and ``thresholds.*`` names)."""
+    import re
+
+    text = (CONFIG.parent.parent / doc).read_text()
+    rows = {}
+    for line in text.splitlines():
+        match = re.match(r'\| `([\w.]+)`[^|]* \| `([^`]*)`', line)
+        if match:
+            rows.setdefault(match.group(1), match.group(2))
+    for spec in PARAMETERS:
+        group = spec.name.split('.')[0]
+        if group in ('camera', 'thresholds'):
+            assert any(name.startswith(group + '.') for name in rows), (doc, spec.name)
+            continue
+        assert spec.name in rows, (doc, spec.name)
+        if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool):
+            assert float(rows[spec.name]) == pytest.approx(spec.default), (doc, spec.name)
+
+
 def test_selector_yaml_lists_every_parameter_with_its_declared_default():
     values = load_params_file(CONFIG)
     defaults = {spec.name: spec.default for spec in PARAMETERS}
