@@ -69,12 +69,4 @@ def structure_isotropy(
         return np.where(larger > 0.0, smaller / larger, 0.0)
 
 
-def edge_share(gray: np.ndarray, points: np.ndarray, block_px: int = DEFAULT_BLOCK_PX) -> float:
-    """The share of ``points`` (N, 2) that lie on straight edges of ``gray`` (isotropy under
-    :data:`EDGE_ISOTROPY`); 0 for no points."""
-    if len(points) == 0:
-        return 0.0
-    return float(np.mean(structure_isotropy(gray, points, block_px) < EDGE_ISOTROPY))
-
-
-__all__ = ['DEFAULT_BLOCK_PX', 'EDGE_ISOTROPY', 'edge_share', 'structure_isotropy']
+__all__ = ['DEFAULT_BLOCK_PX', 'EDGE_ISOTROPY', 'structure_isotropy']

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from initsel_ros.corners import EDGE_ISOTROPY, edge_share, structure_isotropy
+from initsel_ros.corners import EDGE_ISOTROPY, structure_isotropy
 
 
 def _square(noise: float = 0.0) -> np.ndarray:
@@ -38,10 +38,3 @@ def test_points_at_the_border_and_no_points_are_measured_without_error():
     ratios = structure_isotropy(image, np.array([[0.0, 0.0], [319.4, 239.6], [-5.0, 300.0]]))
     assert ratios.shape == (3,) and np.all((ratios >= 0.0) & (ratios <= 1.0))
     assert structure_isotropy(image, np.zeros((0, 2))).shape == (0,)
-    assert edge_share(image, np.zeros((0, 2))) == 0.0
-
-
-def test_the_edge_share_counts_the_points_on_straight_edges():
-    image = _square(noise=1.0)
-    points = np.array([[100, 80], [220, 200], [160, 80], [160, 200], [100, 140]], dtype=float)
-    assert edge_share(image, points) == pytest.approx(3 / 5)
