@@ -66,10 +66,6 @@ def node_settings(args: argparse.Namespace, command: str) -> Any:
 def selector_config(args: argparse.Namespace, command: str) -> SelectorConfig | None:
     """The selector's settings of :func:`node_settings` (``model_file`` and ``camera.*`` are
     the command's own business), or None after printing why to stderr."""
-    if getattr(args, 'params_file', None) is None:
-        from initsel_ros.selector import SelectorConfig
-
-        return SelectorConfig()
     settings = node_settings(args, command)
     return None if settings is None else settings.selector_config()
 
