@@ -914,6 +914,7 @@ class Selector:
         init = self._initialization(fire.seed, ref, cur, decision, stamp_ns, since, fire.selection)
         detail = f'{context}{init.method.value}: {fire.detail}'
         if self.config.verify.frames > 0:
+            noise = fire.rotation.noise_px if fire.rotation is not None else math.nan
             rivals = tuple(
                 self._held_candidate(
                     self._initialization(
@@ -922,6 +923,7 @@ class Selector:
                     np.asarray(ids)[seed.indices],
                     methods,
                     rivalled=True,
+                    tracking_noise_px=noise,
                 )
                 for seed in fire.alternatives
             )
@@ -931,6 +933,7 @@ class Selector:
                     np.asarray(ids)[fire.seed.indices],
                     methods,
                     rivalled=bool(fire.alternatives),
+                    tracking_noise_px=noise,
                 ),
                 rivals=rivals,
             )
@@ -976,13 +979,18 @@ class Selector:
         methods: tuple[Method, ...],
         *,
         rivalled: bool,
+        tracking_noise_px: float = math.nan,
     ) -> _Candidate:
         """A candidate for verification; where rival decompositions come with it
         (``rivalled``), with its map's plane, to follow against the later frames'
-        homographies."""
+        homographies. The plane's uncertainty follows ``tracking_noise_px`` (the rotation
+        test's measure of the same tracks), else the noise GRIC used, which is ORB-SLAM's
+        1 px when only H was estimated."""
         if not rivalled:
             return _Candidate(init, track_ids, methods=methods)
-        noise = init.selection.sigma_px if init.selection is not None else math.nan
+        noise = tracking_noise_px
+        if not (math.isfinite(noise) and noise > 0.0) and init.selection is not None:
+            noise = init.selection.sigma_px
         plane = plane_normal(init.points, init.R, init.t, noise, self.intrinsics.fx)
         return _Candidate(init, track_ids, methods=methods, plane=plane, noise_px=noise)
 
