@@ -21,6 +21,10 @@ from initsel_ros.errors import InitselError
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     'synth': ('initsel_ros.cli.synth', 'render a TUM-format sequence with exact ground truth'),
     'dataset': ('initsel_ros.cli.dataset', 'label pairs of TUM, EuRoC, KITTI, bag sources'),
+    'twoview': (
+        'initsel_ros.cli.twoview',
+        'random two-view pairs without images or labels, to distill on',
+    ),
     'train': ('initsel_ros.cli.train', 'train the F/E/H/R models into a model file'),
     'eval': ('initsel_ros.cli.eval', "print the paper's tables against the baselines"),
     'seedmap': (

@@ -46,14 +46,18 @@ def run(args: argparse.Namespace) -> int:
     from initsel_ros.learn.evaluate import evaluate, report_markdown, results_csv_rows
     from initsel_ros.learn.table import read_tables
     from initsel_ros.learn.train import prepare
+    from initsel_ros.learn.twoview import check_labelled
     from initsel_ros.models import ModelSet
 
     models = ModelSet.load(options.model_path(args.models))
     test = read_tables(args.tables)
+    check_labelled(test, 'evaluation')
     train = None
     config = config_like(models.metadata, models.scaling)
     if args.train:
-        train = prepare(read_tables(args.train), config)
+        train_table = read_tables(args.train)
+        check_labelled(train_table, "evaluation's training pairs")
+        train = prepare(train_table, config)
     kwargs = {}
     if args.candidates:
         known = [c.value for c in Candidate]

@@ -355,6 +355,10 @@ def run(args: argparse.Namespace) -> int:
     if args.leave_family_out is not None and args.distill is not None:
         raise ConfigError('--leave-family-out retrains from the labels: not with --distill')
     table = read_tables(args.tables)
+    if args.distill is None:
+        from initsel_ros.learn.twoview import check_labelled
+
+        check_labelled(table, 'training from labels')
     if args.leave_family_out is not None:
         return _leave_family_out(args, table, config)
     if args.distill is not None:
