@@ -23,11 +23,19 @@ mkdir -p "$D"
 # and they only learn that from such pairs. make_training_tables labels them.
 source "$root/scripts/training_sequences.sh"
 make_training_tables
+# Random two-view geometries (no images, no labels; learn/twoview.py): 18,000 pairs over the
+# motions, scenes, cameras and noise a tracker can meet, so that the students imitate the
+# teacher beyond the rendered trajectories too. Of 6,000-36,000 pairs (seeds 11-16), 18,000
+# is where the students' agreement with the teacher stops rising, on held-out rendered
+# sequences and on held-out two-view pairs together (docs/learning.md, section 5).
+[ -f "$D/distill_twoview.csv" ] || initsel twoview --pairs 6000 --seed 11 12 13 \
+    --out "$D/distill_twoview.csv"
 # The students read the 15 extent and disparity features and the 9 moments; 40 trees of depth 3
 # a model, learning rate 0.25: of 30, 40, 60 and 100 trees, the one whose students fitted on
 # one half of the pairs (clean or camera effects) agree best with the teacher on the other
 # (docs/learning.md, section 4).
 initsel train "$D/train.csv" "$D/distill_twins.csv" "$D/distill_arcs.csv" \
+    "$D/distill_twoview.csv" \
     --distill "$root/config/models_full.json" --trees 40 --learning-rate 0.25 \
     --paper-features count disparity_mean disparity_std x0_min x0_max y0_min y0_max x1_min \
     x1_max y1_min y1_max x0_range y0_range x1_range y1_range \
