@@ -25,8 +25,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=[0],
         help='random seeds, one sequence of --pairs pairs each (default 0)',
     )
-    parser.add_argument('--width', type=options.whole_number(16), default=640)
-    parser.add_argument('--height', type=options.whole_number(16), default=480)
+    parser.add_argument(
+        '--width', type=options.whole_number(16), default=640, help='image width (default 640)'
+    )
+    parser.add_argument(
+        '--height', type=options.whole_number(16), default=480, help='image height (default 480)'
+    )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,7 +6,8 @@ their trajectories, and where a test sequence moves otherwise, trees fitted to o
 extrapolate otherwise than the teacher (docs/learning.md, section 5). These pairs spread the
 geometry a tracker can meet over the whole space instead, each drawn independently:
 
-* a pinhole camera, focal length 0.6-1.25 image widths, principal point near the centre;
+* a pinhole camera, focal length 0.6-1.25 image widths (a horizontal field of view of 44-80
+  degrees), principal point near the centre;
 * 60-360 reference points over the whole image, in a window of 25-100 % of each side, or in
   1-6 blobs (texture rarely covers a frame evenly);
 * depths from a cloud (log-depth spread 0.02-1.2), one plane tilted up to 70 degrees, or two;
