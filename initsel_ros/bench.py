@@ -139,6 +139,11 @@ def _ms(seconds: float) -> str:
     return f'{seconds * 1e3:.2f} ms'
 
 
+def _times(ratio: float, target: float = BASELINE_RATIO_TARGET) -> str:
+    """A ratio as 'NNx', with a decimal within 1 of ``target`` (99.6x is not 100x: missed)."""
+    return f'{ratio:.1f}x' if abs(ratio - target) < 1.0 else f'{ratio:.0f}x'
+
+
 def _verdict(ok: bool) -> str:
     return 'met' if ok else '**missed**'
 
@@ -205,7 +210,7 @@ def _bench(options: BenchOptions, work: Path) -> dict[str, Any]:
             _ms(orb.median),
             _ms(orb.percentile(99)),
             f'decision ≥ {BASELINE_RATIO_TARGET:.0f}x cheaper',
-            f'{ratio:.0f}x: {_verdict(ratio >= BASELINE_RATIO_TARGET)} (median of '
+            f'{_times(ratio)}: {_verdict(ratio >= BASELINE_RATIO_TARGET)} (median of '
             f'{len(paired.ratios)} alternating rounds, {paired.ratios.min():.0f}x to '
             f'{paired.ratios.max():.0f}x; ratio of the means {mean_ratio:.0f}x)',
         )

@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from initsel_ros.bench import Table
+from initsel_ros.bench import Table, _times
 from initsel_ros.cli import main
 
 
@@ -16,6 +16,12 @@ def test_markdown_table_pads_missing_cells():
     table = Table('a', 'b', 'c')
     table.add('x', 1)
     assert table.render().splitlines() == ['| a | b | c |', '|---|---|---|', '| x | 1 |  |']
+
+
+def test_a_ratio_next_to_the_target_keeps_its_decimal():
+    # the verdict reads missed at 99.6x: the ratio must not print as 100x beside it
+    assert _times(99.6) == '99.6x' and _times(100.4) == '100.4x'
+    assert _times(88.4) == '88x' and _times(105.0) == '105x'
 
 
 def test_bench_runs_every_section_and_saves_the_figures(near_sequence, tmp_path, capsys):
