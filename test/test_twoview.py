@@ -18,18 +18,10 @@ from initsel_ros.learn.table import (
 )
 from initsel_ros.learn.twoview import (
     TWOVIEW_SOURCE,
-    _rotation,
     check_labelled,
     random_two_view,
     twoview_table,
 )
-
-
-def test_the_rotation_is_rodrigues():
-    axis = np.array([0.2, -0.5, 0.8])
-    axis /= np.linalg.norm(axis)
-    expected = cv2.Rodrigues((axis * 0.3).reshape(3, 1))[0]
-    assert np.allclose(_rotation(axis, 0.3), expected, atol=1e-12)
 
 
 def test_pairs_are_two_views_of_one_rigid_scene_within_the_drawn_noise():

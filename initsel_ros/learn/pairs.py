@@ -166,6 +166,21 @@ def labelled_batches(
     return out
 
 
+def feature_columns(
+    p0: np.ndarray, p1: np.ndarray, width: int, height: int, K: np.ndarray
+) -> dict[str, float]:
+    """The table's feature columns of one correspondence set: the 23 features in both
+    scalings and every extra feature (those that need the camera from ``K``)."""
+    paper = pair_features(p0, p1, width, height, scaling=Scaling.PAPER)
+    free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
+    camera = (K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    extra = extra_features(p0, p1, width, height, EXTRA_NAMES, camera=camera)
+    columns = dict(zip(paper_feature_columns(), map(float, paper), strict=True))
+    columns.update(zip(free_feature_columns(), map(float, free), strict=True))
+    columns.update(zip(EXTRA_NAMES, map(float, extra), strict=True))
+    return columns
+
+
 def pair_row(
     sequence_name: str,
     batch: int,
@@ -204,14 +219,7 @@ def pair_row(
         'R_label': labels.r_label,
         'scale_rule': labels.scale_rule,
     }
-    paper = pair_features(p0, p1, width, height, scaling=Scaling.PAPER)
-    free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
-    row.update(zip(paper_feature_columns(), map(float, paper), strict=True))
-    row.update(zip(free_feature_columns(), map(float, free), strict=True))
-    extra = extra_features(
-        p0, p1, width, height, EXTRA_NAMES, camera=(K[0, 0], K[1, 1], K[0, 2], K[1, 2])
-    )
-    row.update(zip(EXTRA_NAMES, map(float, extra), strict=True))
+    row.update(feature_columns(p0, p1, width, height, K))
     disp = np.hypot(*(np.asarray(p1, float) - np.asarray(p0, float)).T)
     row['disp_mean_px'] = float(disp.mean())
     row['disp_median_px'] = float(np.median(disp))

@@ -17,9 +17,9 @@ geometry a tracker can meet over the whole space instead, each drawn independent
 * tracking noise of 0.05-1 px (log-uniform), up to 6 % outliers of 15 px, points leaving the
   image or passing behind the camera dropped (pairs left with under 30 are drawn again).
 
-Rows hold the features of :func:`learn.pairs.pair_row` and no labels: their label columns are
-0, their ``source`` is :data:`TWOVIEW_SOURCE`, and training from labels or evaluating refuses
-them (:func:`check_labelled`).
+Rows hold the features of :func:`learn.pairs.feature_columns` and no labels: their label
+columns are 0, their ``source`` is :data:`TWOVIEW_SOURCE`, and training from labels or
+evaluating refuses them (:func:`check_labelled`).
 """
 
 from __future__ import annotations
@@ -28,18 +28,12 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import cv2
 import numpy as np
 
 from initsel_ros.errors import DatasetError
-from initsel_ros.features import Scaling, extra_features, pair_features
-from initsel_ros.learn.table import (
-    BINARY_SUFFIXES,
-    EXTRA_NAMES,
-    PairTable,
-    free_feature_columns,
-    paper_feature_columns,
-    schema,
-)
+from initsel_ros.learn.pairs import feature_columns
+from initsel_ros.learn.table import BINARY_SUFFIXES, PairTable, schema
 
 #: The ``source`` of a random two-view pair (a rendered pair's is ``klt`` or ``orb``).
 TWOVIEW_SOURCE = 'twoview'
@@ -59,10 +53,8 @@ class TwoView:
 
 
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix about the unit ``axis`` by ``angle`` radians (Rodrigues)."""
-    k = np.asarray(axis, float)
-    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * (cross @ cross)
+    """Rotation matrix about the unit ``axis`` by ``angle`` radians."""
+    return cv2.Rodrigues((np.asarray(axis, np.float64) * angle).reshape(3, 1))[0]
 
 
 def _direction(rng: np.random.Generator) -> np.ndarray:
@@ -191,13 +183,7 @@ def twoview_table(n_pairs: int, seed: int, width: int = 640, height: int = 480) 
             height=height,
             n_tracks=len(p0),
         )
-        paper = pair_features(p0, p1, width, height, scaling=Scaling.PAPER)
-        free = pair_features(p0, p1, width, height, scaling=Scaling.RESOLUTION_FREE)
-        row.update(zip(paper_feature_columns(), map(float, paper), strict=True))
-        row.update(zip(free_feature_columns(), map(float, free), strict=True))
-        camera = (K[0, 0], K[1, 1], K[0, 2], K[1, 2])
-        extra = extra_features(p0, p1, width, height, EXTRA_NAMES, camera=camera)
-        row.update(zip(EXTRA_NAMES, map(float, extra), strict=True))
+        row.update(feature_columns(p0, p1, width, height, K))
         rows.append(row)
     return PairTable.from_rows(rows)
 
