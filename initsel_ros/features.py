@@ -241,47 +241,52 @@ _FOCAL_SCALES = np.array(ROTATION_FOCAL_SCALES)
 _ONE = np.ones(1)
 _EYE3 = np.eye(3).ravel()
 
-# Rows of the Gram matrix (the fit rows, see _fit_buffer): X, Y, 1 (reference), u, v
-# (current), |d| (the disparity), uX, uY, vX, vY; the DLT reads a = (X, Y, 1),
-# u a = (uX, uY, u) and v a = (vX, vY, v).
+# The fit rows (see _fit_buffer): X, Y, 1 (reference), u, v (current), |d| (the disparity),
+# -uX, -uY, -vX, -vY; the DLT reads a = (X, Y, 1), u a = (uX, uY, u) and v a = (vX, vY, v).
+# Their Gram matrix comes with a row of zeros first (see MeasuredPair: the fit rows shift by one).
 _FIT_ROWS = 10
 _A, _UA, _VA, _U, _V = (0, 1, 2), (6, 7, 3), (8, 9, 4), 3, 4
 
 
-def _dlt_map() -> np.ndarray:
-    """(81, 100) map from the Gram matrix of the fit rows to the homography DLT's normal
-    equations ``A h = b``, bordered: the 9x9 matrix [[A, b], [b^T, y^T y]].
+def _dlt_terms() -> tuple[np.ndarray, np.ndarray]:
+    """Where the homography DLT's bordered normal equations lie in the Gram matrix of the
+    fit rows: (81,) and (81,) indices into its flattened (11, 10) form with the zero row
+    first (:class:`MeasuredPair`), whose two entries add up to each entry of the 9x9 matrix
+    [[A, b], [b^T, y^T y]] (index 0, a zero, where an entry has fewer than two terms).
 
     With h33 = 1 each point gives ``[X, Y, 1, 0, 0, 0, -uX, -uY] h = u`` and
     ``[0, 0, 0, X, Y, 1, -vX, -vY] h = v`` (y stacks the u and v); the normal equations are
-    sums of products of fit rows, i.e. entries of their Gram matrix.
+    sums of products of fit rows, i.e. entries of their Gram matrix, each one or a sum of two.
+    The fit rows hold -uX ... -vY, so no term needs a sign. Two look-ups and an addition
+    assemble it, from a table of 1.3 KB where a (81, 100) map took 65 KB of the cache.
     """
-    out = np.zeros((81, _FIT_ROWS * _FIT_ROWS))
+    terms: list[list[int]] = [[] for _ in range(81)]
 
-    def put(r: int, c: int, i: int, j: int, sign: float) -> None:
-        out[r * 9 + c, i * _FIT_ROWS + j] += sign
+    def put(r: int, c: int, i: int, j: int) -> None:
+        terms[r * 9 + c].append((i + 1) * _FIT_ROWS + j)
 
     for i in range(3):
         for j in range(3):
-            put(i, j, _A[i], _A[j], 1.0)  # sum a a^T, in the u and the v equations
-            put(3 + i, 3 + j, _A[i], _A[j], 1.0)
+            put(i, j, _A[i], _A[j])  # sum a a^T, in the u and the v equations
+            put(3 + i, 3 + j, _A[i], _A[j])
         for k in range(2):  # -sum a (uX, uY), -sum a (vX, vY), both sides of the diagonal
             for r, w in ((i, _UA[k]), (3 + i, _VA[k])):
-                put(r, 6 + k, _A[i], w, -1.0)
-                put(6 + k, r, _A[i], w, -1.0)
+                put(r, 6 + k, _A[i], w)
+                put(6 + k, r, _A[i], w)
         for r, w in ((i, _U), (3 + i, _V)):  # b: sum a u, sum a v
-            put(r, 8, _A[i], w, 1.0)
-            put(8, r, _A[i], w, 1.0)
+            put(r, 8, _A[i], w)
+            put(8, r, _A[i], w)
     for k in range(2):
         for m in range(2):  # sum (uX, uY)(uX, uY)^T + (vX, vY)(vX, vY)^T
-            put(6 + k, 6 + m, _UA[k], _UA[m], 1.0)
-            put(6 + k, 6 + m, _VA[k], _VA[m], 1.0)
+            put(6 + k, 6 + m, _UA[k], _UA[m])
+            put(6 + k, 6 + m, _VA[k], _VA[m])
         for w, z in ((_UA[k], _U), (_VA[k], _V)):  # b: -sum u (uX, uY) - sum v (vX, vY)
-            put(6 + k, 8, w, z, -1.0)
-            put(8, 6 + k, w, z, -1.0)
-    put(8, 8, _U, _U, 1.0)  # y^T y
-    put(8, 8, _V, _V, 1.0)
-    return out
+            put(6 + k, 8, w, z)
+            put(8, 6 + k, w, z)
+    put(8, 8, _U, _U)  # y^T y
+    put(8, 8, _V, _V)
+    padded = [[*t, 0, 0][:2] for t in terms]
+    return np.array([t[0] for t in padded]), np.array([t[1] for t in padded])
 
 
 def _gauss_newton_map() -> np.ndarray:
@@ -318,7 +323,7 @@ def _gauss_newton_map() -> np.ndarray:
     return out
 
 
-_DLT_MAP = _dlt_map()
+_DLT_FIRST, _DLT_SECOND = _dlt_terms()
 _LAST_UNIT = np.eye(9)[:, 8:9].copy()  # (9, 1) e_9
 _GAUSS_NEWTON_MAP = _gauss_newton_map()
 
@@ -427,15 +432,16 @@ def _taker(index: list[int]) -> Callable[[list[float]], list[float]]:
 
 
 def _to_fit_matrix(cx: float, cy: float, s: float) -> np.ndarray:
-    """(25, 5) map from x0, y0, 1, x1, y1 to the rows of :func:`_fit_buffer` it fills: x0, y0,
-    x1, y1 and their negatives; u, u, v, v, dX, dY and X, Y, X, Y, dX, dY (the two factors of
-    one product); X, Y, 1, u, v."""
+    """(26, 5) map from x0, y0, 1, x1, y1 to the rows of :func:`_fit_buffer` it fills: x0, y0,
+    x1, y1 and their negatives; -u, -u, -v, -v, dX, dY and X, Y, X, Y, dX, dY (the two factors
+    of one product); 0, X, Y, 1, u, v."""
     x0, y0, one, x1, y1 = np.eye(5)
     X, Y = s * x0 - s * cx * one, s * y0 - s * cy * one
     u, v = s * x1 - s * cx * one, s * y1 - s * cy * one
     dX, dY = s * x1 - s * x0, s * y1 - s * y0
     extents = (x0, y0, x1, y1, -x0, -y0, -x1, -y1)
-    return np.array((*extents, u, u, v, v, dX, dY, X, Y, X, Y, dX, dY, X, Y, one, u, v))
+    factors = (-u, -u, -v, -v, dX, dY, X, Y, X, Y, dX, dY)
+    return np.array((*extents, *factors, 0.0 * one, X, Y, one, u, v))
 
 
 def input_plan(
@@ -641,15 +647,19 @@ class MeasuredPair:
         rows[3:5] = p1.T
         fit = None
         if plan._fit_rows and n >= 3:
-            extents, d, fit = _fit_buffer(rows, plan)
+            extents, d, padded = _fit_buffer(rows, plan)
+            fit = padded[1:]
             m = extents.min(axis=1).tolist()  # x0, y0, x1, y1, then minus their maxima
             lo, hi = [m[0], m[1], 1.0, m[2], m[3]], [-m[4], -m[5], 1.0, -m[6], -m[7]]
             if not math.isfinite(sum(m)):  # a NaN taints every fit row: measure one by one
                 fit = None
         if fit is not None:
             self.finite = True
-            gram = self.gram = fit @ fit.T
-            sums = self.sums = gram[0:6, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
+            # The Gram matrix with a zero row first: two operands at different addresses make
+            # numpy call the general product, at 0.6x the cost of the symmetric one it calls
+            # for fit @ fit.T.
+            gram = self.gram = padded @ fit.T
+            sums = self.sums = gram[1:7, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
             disparity, unit = fit[5], plan._unit  # fit units: pixels / plan._unit
             mean = sums[5][2] * unit / n
             std = math.sqrt(max(sums[5][5] * unit * unit / n - mean * mean, 0.0))
@@ -771,30 +781,31 @@ def _quantile_positions(n: int, qs: tuple[float, ...]) -> tuple[list[int], list[
 def _fit_buffer(rows: np.ndarray, plan: InputPlan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The extents, the disparity and the fit rows of the points ``rows`` (x0, y0, 1, x1, y1).
 
-    One matrix product fills a (32, N) buffer: (8, N) x0, y0, x1, y1 and their negatives
-    (whose minima are the extents, exactly), the two factors (u, u, v, v, dX, dY) and (X, Y,
-    X, Y, dX, dY), and X, Y, 1, u, v. One product of the factors gives uX, uY, vX, vY (for
-    the homographies) and dX^2, dY^2, from which |d| follows, so the fit rows X, Y, 1, u, v,
-    |d| and uX, uY, vX, vY lie one after the other.
+    One matrix product fills a (33, N) buffer: (8, N) x0, y0, x1, y1 and their negatives
+    (whose minima are the extents, exactly), the two factors (-u, -u, -v, -v, dX, dY) and (X,
+    Y, X, Y, dX, dY), and a row of zeros followed by X, Y, 1, u, v. One product of the factors
+    gives -uX, -uY, -vX, -vY (for the homographies) and dX^2, dY^2, from which |d| follows, so
+    the fit rows X, Y, 1, u, v, |d| and -uX, -uY, -vX, -vY lie one after the other, after the
+    zero row (its Gram matrix entries are the zeros of the DLT's system: :func:`_dlt_terms`).
 
     X, Y (reference) and u, v (current) are pixels minus the image centre times a power of
     two near 1 / the image size, ``1 / plan._unit`` (for conditioning; the disparity
     d = (u - X, v - Y) = (dX, dY) and its norm |d| are then the pixel values times it).
 
     Returns:
-        (8, N) extent rows, (2, N) d, (plan._fit_rows, N) fit rows.
+        (8, N) extent rows, (2, N) d, (1 + plan._fit_rows, N) the zero row and the fit rows.
     """
     n = rows.shape[1]
-    buffer = np.empty((32, n))
-    np.matmul(plan._to_fit, rows, out=buffer[0:25])
-    if plan._fit_rows > 6:  # uX, uY, vX, vY and the squares of d
-        np.multiply(buffer[8:14], buffer[14:20], out=buffer[26:32])
+    buffer = np.empty((33, n))
+    np.matmul(plan._to_fit, rows, out=buffer[0:26])
+    if plan._fit_rows > 6:  # -uX, -uY, -vX, -vY and the squares of d
+        np.multiply(buffer[8:14], buffer[14:20], out=buffer[27:33])
     else:
-        np.multiply(buffer[12:14], buffer[18:20], out=buffer[30:32])
-    norm = buffer[25]
-    np.add(buffer[30], buffer[31], out=norm)
+        np.multiply(buffer[12:14], buffer[18:20], out=buffer[31:33])
+    norm = buffer[26]
+    np.add(buffer[31], buffer[32], out=norm)
     np.sqrt(norm, out=norm)
-    return buffer[0:8], buffer[12:14], buffer[20 : 20 + plan._fit_rows]
+    return buffer[0:8], buffer[12:14], buffer[20 : 21 + plan._fit_rows]
 
 
 def _fit_features(pair: MeasuredPair, plan: InputPlan, values: list[float]) -> None:
@@ -857,8 +868,9 @@ def _fit_features(pair: MeasuredPair, plan: InputPlan, values: list[float]) -> N
 
 def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | None:
     """The least-squares DLT homography (h33 = 1) of the fit rows whose Gram matrix is
-    ``gram``: (its algebraic sum of squares s, v, c) with h = c v (8, 1), or None when A is
-    singular.
+    ``gram`` ((11, 10): the zero row, then the fit rows, against the fit rows; see
+    :class:`MeasuredPair`): (its algebraic sum of squares s, v, c) with h = c v (8, 1), or
+    None when A is singular.
 
     One solve of the bordered system M = [[A, b], [b^T, y^T y]] for its last column of the
     inverse gives both: that column is [-h / s; 1 / s] with s = y^T y - b^T h, the residual
@@ -866,7 +878,8 @@ def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | No
     product is left to the caller that needs h). Where M is singular to working precision (a
     homography that fits exactly, s ~ 0), A h = b is solved on its own (v = h, c = 1).
     """
-    system = (_DLT_MAP @ gram.ravel()).reshape(9, 9)
+    flat = gram.ravel()
+    system = (flat.take(_DLT_FIRST) + flat.take(_DLT_SECOND)).reshape(9, 9)
     ok, column = cv2.solve(system, _LAST_UNIT)
     if ok and column[8, 0] > 0.0:
         ss = 1.0 / float(column[8, 0])

@@ -269,7 +269,8 @@ def test_flow_moments_tell_a_shift_a_zoom_and_a_roll_apart():
 
 @pytest.mark.parametrize('motion', ['exact shift', 'noisy perspective'])
 def test_linear_homography_from_the_gram_matrix_equals_least_squares(motion):
-    """The bordered solve (noisy tracks) and the plain one it falls back to when the
+    """The bordered normal equations the Gram matrix's entries assemble are the textbook
+    ones, and their solve (noisy tracks) and the plain one it falls back to when the
     homography fits exactly (the bordered system is then singular) give the DLT's h and its
     sum of squares as np.linalg.lstsq does."""
     import cv2
@@ -283,15 +284,16 @@ def test_linear_homography_from_the_gram_matrix_equals_least_squares(motion):
     else:
         p0, p1 = _perspective_tracks(rng, 50)
     plan = features.input_plan(640, 480, extra=('x_homography_dlt_residual',), directions=False)
-    rows = np.vstack((p0.T, np.ones(len(p0)), p1.T)).astype(np.float64)
-    _, _, fit = features._fit_buffer(rows, plan)
-    gram = fit @ fit.T
-    bordered = (features._DLT_MAP @ gram.ravel()).reshape(9, 9)
+    pair = features.MeasuredPair(p0, p1, plan)
+    X, Y, _, u, v = pair.fit[0:5]
+    A, b = _dlt_system(X, Y, u, v)
+    Ab = np.column_stack((A, b))
+    flat = pair.gram.ravel()
+    bordered = (flat.take(features._DLT_FIRST) + flat.take(features._DLT_SECOND)).reshape(9, 9)
+    np.testing.assert_allclose(bordered, Ab.T @ Ab, rtol=1e-12, atol=1e-12 * len(p0))
     bordered_ok, _ = cv2.solve(bordered, features._LAST_UNIT)
     assert bordered_ok == (motion != 'exact shift')  # both paths are taken
-    ss, vector, factor = features._linear_homography(gram)
-    X, Y, _, u, v = fit[0:5]
-    A, b = _dlt_system(X, Y, u, v)
+    ss, vector, factor = features._linear_homography(pair.gram)
     h, *_ = np.linalg.lstsq(A, b, rcond=None)
     np.testing.assert_allclose((vector * factor)[:, 0], h, rtol=1e-7, atol=1e-10)
     assert ss == pytest.approx(float(np.sum((A @ h - b) ** 2)), rel=1e-6, abs=1e-12)
