@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -222,18 +222,24 @@ class LeafTable:
     2k + 2; a leaf above depth 3 is padded with comparisons that always go left, copying its
     value to every leaf below it) with 8 comparison slots: the 7 inner nodes and one that is
     always false. All slots of all trees compare at once, ``np.packbits`` turns each tree's 8
-    results into one byte, a 128-entry map shared by every tree (:data:`_PATTERN_LEAF`) turns
-    that byte into the leaf it leads to, and each tree's 8 leaf values are looked up: 64 bytes
-    a tree, so the tables of a few hundred trees stay in the cache. Comparisons are in float32
-    against :func:`float32_splits`, so the result equals scikit-learn's (float32 input,
-    float64 split) and :class:`FlatTrees`'.
+    results into one byte, and that byte, the pattern of the tree's comparisons, looks up its
+    leaf value in the tree's 128-entry row of :attr:`by_pattern` (the pattern -> leaf map
+    :data:`_PATTERN_LEAF` applied once, when the table is made). A call touches one entry of
+    each row. Comparisons are in float32 against :func:`float32_splits`, so the result equals
+    scikit-learn's (float32 input, float64 split) and :class:`FlatTrees`'.
     """
 
     feature: np.ndarray  # (T * 8,) intp input column of each slot
     split: np.ndarray  # (T * 8,) float32, +inf in unused slots
     leaves: np.ndarray  # (T * 8,) float64 leaf values of each tree, left to right
-    base: np.ndarray  # (T,) int64, 8 * tree index
     starts: np.ndarray  # (G,) intp first tree of each group (np.add.reduceat)
+    by_pattern: np.ndarray = field(init=False)  # (T * 128,) leaf value of each tree and pattern
+    row: np.ndarray = field(init=False)  # (T,) intp, 128 * tree index
+
+    def __post_init__(self) -> None:
+        per_tree = self.leaves.reshape(-1, _LEAVES)
+        object.__setattr__(self, 'by_pattern', per_tree[:, _PATTERN_LEAF].ravel())
+        object.__setattr__(self, 'row', np.arange(per_tree.shape[0], dtype=np.intp) * _CODES)
 
     @classmethod
     def build(
@@ -265,7 +271,6 @@ class LeafTable:
             feature.ravel(),
             float32_splits(split.ravel()),
             leaves.ravel(),
-            np.arange(n, dtype=np.int64) * _LEAVES,
             np.asarray(starts, dtype=np.intp),
         )
 
@@ -274,13 +279,18 @@ class LeafTable:
         that :meth:`sums` includes it (e.g. each model's bias: no addition per call)."""
         leaves = self.leaves.reshape(-1, _LEAVES).copy()
         leaves[self.starts] += np.asarray(offsets, dtype=np.float64)[:, None]
-        return replace(self, leaves=leaves.ravel())
+        return LeafTable(self.feature, self.split, leaves.ravel(), self.starts)
 
     def sums(self, x32: np.ndarray) -> np.ndarray:
         """(G,) sum of the leaf values of each group's trees for one float32 input vector
         (finite; see :func:`prepare` for what the trees expect)."""
-        code = np.packbits(x32.take(self.feature) > self.split, bitorder='little')
-        return np.add.reduceat(self.leaves.take(_PATTERN_LEAF.take(code) + self.base), self.starts)
+        pattern = _packbits(x32.take(self.feature) > self.split, bitorder='little')
+        return np.add.reduceat(self.by_pattern.take(pattern + self.row), self.starts)
+
+
+#: np.packbits without its dispatch through ``__array_function__`` (its inputs here are
+#: always plain arrays).
+_packbits = getattr(np.packbits, '_implementation', np.packbits)
 
 
 def _pattern_leaf() -> np.ndarray:
