@@ -239,6 +239,7 @@ _FOCAL_DEPARTURE = _EXTRA_INDEX['x_rotation_departure_focal']
 _CAMERA_FEATURES = frozenset({_ROTATION_DEPARTURE, _FOCAL_DEPARTURE})
 _FOCAL_SCALES = np.array(ROTATION_FOCAL_SCALES)
 _ONE = np.ones(1)
+_row_minima = np.minimum.reduce  # (ndarray.min without its Python wrapper)
 _EYE3 = np.eye(3).ravel()
 
 # The fit rows (see _fit_buffer): X, Y, 1 (reference), u, v (current), |d| (the disparity),
@@ -649,7 +650,7 @@ class MeasuredPair:
         if plan._fit_rows and n >= 3:
             extents, d, padded = _fit_buffer(rows, plan)
             fit = padded[1:]
-            m = extents.min(axis=1).tolist()  # x0, y0, x1, y1, then minus their maxima
+            m = _row_minima(extents, 1).tolist()  # x0, y0, x1, y1, then minus their maxima
             lo, hi = [m[0], m[1], 1.0, m[2], m[3]], [-m[4], -m[5], 1.0, -m[6], -m[7]]
             if not math.isfinite(sum(m)):  # a NaN taints every fit row: measure one by one
                 fit = None
@@ -878,8 +879,7 @@ def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | No
     product is left to the caller that needs h). Where M is singular to working precision (a
     homography that fits exactly, s ~ 0), A h = b is solved on its own (v = h, c = 1).
     """
-    flat = gram.ravel()
-    system = (flat.take(_DLT_FIRST) + flat.take(_DLT_SECOND)).reshape(9, 9)
+    system = (gram.take(_DLT_FIRST) + gram.take(_DLT_SECOND)).reshape(9, 9)  # (flat indices)
     ok, column = cv2.solve(system, _LAST_UNIT)
     if ok and column[8, 0] > 0.0:
         ss = 1.0 / float(column[8, 0])
