@@ -531,6 +531,11 @@ def _fits_better_than_h(selection: Selection | None) -> str:
     return f'{best.value} better than H (GRIC {gric[best]:.0f} against {gric[Method.H]:.0f})'
 
 
+def _chordal_degrees(apart: float) -> float:
+    """The angle between two unit vectors ``apart`` (chordal distance, as E_t), degrees."""
+    return float(np.degrees(2 * np.arcsin(min(apart / 2, 1.0))))
+
+
 def _direction_sigma_deg(refinement: Refinement | None) -> float:
     """How uncertain a seed map's direction of motion is, degrees (inf when unknown)."""
     if refinement is None or not math.isfinite(refinement.translation_sigma_deg):
@@ -1198,6 +1203,12 @@ class Selector:
         strict bounds: agreeing with the verified map's PnP pose tells which decomposition it
         is. None when there is none.
 
+        An E or F candidate whose last frame's own E or F seed map is the more certain and
+        lies further than :data:`LAST_FRAME_MORE_CERTAIN_MAX_E_T` from the PnP pose is
+        refused: the two cannot both be the motion, and the map from the longer baseline is
+        the better evidence (a desk with two moving boards: F verified 16 degrees off from 3
+        frames of baseline, E from 8 frames 0.3 degrees off and 18 degrees from the PnP pose).
+
         An H candidate is checked against E and F too. At a baseline of a centimetre or
         two every track of a scene with depth fits some homography, and that H's
         decomposition says nothing about the motion; PnP against its map stays consistent
@@ -1226,13 +1237,29 @@ class Selector:
                 if apart > LAST_FRAME_MORE_CERTAIN_MAX_E_T:
                     return None, (
                         f'{on_frame}{fire.seed.method.value} moves '
-                        f'{np.degrees(2 * np.arcsin(min(apart / 2, 1.0))):.0f} degrees from '
+                        f'{_chordal_degrees(apart):.0f} degrees from '
                         'its direction: the H fitted a scene with depth'
                     )
             elif fire.seed is None and (deeper := _fits_better_than_h(fire.selection)):
                 return None, (
                     f"{on_frame}the tracks fit {deeper}: not a plane, so the H's "
                     'decomposition says nothing about the motion'
+                )
+        verified_sigma = _direction_sigma_deg(init.refinement)
+        if (
+            not h_candidate
+            and fire.reason is Reason.INITIALIZED
+            and fire.seed is not None
+            and fire.seed.method is not Method.H
+            and _direction_sigma_deg(fire.seed.refinement) < verified_sigma
+        ):
+            apart = float(np.linalg.norm(fire.seed.t - t_pnp))
+            if apart > LAST_FRAME_MORE_CERTAIN_MAX_E_T:
+                return None, (
+                    f'on frame {len(candidate.steps)} {fire.seed.method.value}, from the longer '
+                    f'baseline and the more certain, moves '
+                    f'{_chordal_degrees(apart):.0f} degrees from its '
+                    'direction: the two cannot both be the motion'
                 )
         if fire.reason is Reason.INITIALIZED and fire.seed is not None:
             seeds = [(seed, False) for seed in (fire.seed, *fire.alternatives)]
@@ -1244,7 +1271,6 @@ class Selector:
                 for seed in [usable_seed(estimate, ref, cur, self.intrinsics.K, config)]
                 if seed is not None
             ]
-        verified_sigma = _direction_sigma_deg(init.refinement)
         for seed, ambiguous in seeds:
             looser = not ambiguous and _direction_sigma_deg(seed.refinement) < verified_sigma
             agrees = (

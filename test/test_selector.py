@@ -1153,6 +1153,53 @@ def test_an_h_candidate_is_refused_or_replaced_by_e_or_f_from_the_last_frame(
         assert again.method is Method.F and again.frames_since_reference == 8
 
 
+@pytest.mark.parametrize(
+    ('candidate', 'method', 'refit_sigma', 'apart', 'outcome'),
+    [
+        # the desk with two moving boards: F verified 16 degrees off, E from 5 more frames 0.3
+        (Method.F, Method.E, 0.5, 0.32, 'refused'),
+        (Method.E, Method.E, 0.5, 0.9, 'refused'),
+        (Method.E, Method.E, 2.0, 0.9, 'kept'),  # the refit is the less certain: no evidence
+        (Method.E, Method.E, 0.5, 0.2, 'replaced'),  # within the looser bound: the same motion
+        (Method.E, Method.H, 0.5, 0.9, 'kept'),  # an H refit says nothing of E's direction
+    ],
+)
+def test_an_e_or_f_candidate_is_refused_where_the_last_frame_s_more_certain_map_moves_away(
+    monkeypatch, candidate, method, refit_sigma, apart, outcome
+):
+    """An E or F map that held on its verification frames, but whose last frame's own seed
+    map (E or F, from the longer baseline) is the more certain and lies further than the
+    looser bound from the PnP pose against it, is refused: they cannot both be the motion."""
+    import initsel_ros.selector as selector_module
+    from initsel_ros.geometry import RotationTest
+    from initsel_ros.initialize import FireResult, SeedMap
+
+    sel = Selector(constant_models(), CAMERA)
+    verified = Initialization(
+        candidate, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, 9, 3, {}, 1.2, refinement=_refined(1.0),
+    )  # fmt: skip
+    step = VerifyStep(True, 100, 100, 1.0, 0.7, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
+    held = _Candidate(verified, np.arange(3), steps=(step,) * 5, methods=(Method.E, Method.F))
+    angle = 2 * np.arcsin(apart / 2)
+    t_new = np.array([np.cos(angle), np.sin(angle), 0.0])
+    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
+    seed = SeedMap(method, np.eye(3), t_new, points, np.arange(3), 4.0, _refined(refit_sigma))
+    fire = FireResult(Reason.INITIALIZED, rotation=RotationTest(1.0, 0.1, 10.0, 1.0), seed=seed)
+    monkeypatch.setattr(selector_module, 'initialize_pair', lambda *a, **k: fire)
+    decision = sel.process(texture(1), ns(0.0)).decision
+    cur = np.zeros((3, 2))
+    again, why = sel._on_last_frame(held, cur, cur, decision, ns(0.5), 8, step)
+    assert bool(why) == (outcome == 'refused')
+    assert (again is not None) == (outcome == 'replaced')
+    if outcome == 'refused':
+        degrees = round(np.degrees(angle))
+        assert why == (
+            f'on frame 5 {method.value}, from the longer baseline and the more certain, moves '
+            f'{degrees} degrees from its direction: the two cannot both be the motion'
+        )
+
+
 def test_an_h_candidate_is_refused_where_the_last_frame_s_tracks_fit_e_or_f_better(monkeypatch):
     # random motion over the desk: H fired at 2.9 x the noise, 3.5 cm from its reference, and
     # held on 5 frames 1.8 (chordal) off; on the last frame (5.8 cm) no method had the parallax
