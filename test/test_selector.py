@@ -1104,6 +1104,28 @@ def test_an_h_refused_as_ambiguous_at_the_last_frame_is_taken_where_the_verified
         assert np.allclose(out.t / np.linalg.norm(out.t), t_refit)
 
 
+def _held_on_five_frames(candidate: Method, methods: tuple[Method, ...]):
+    """A Selector, a ``candidate`` map verified on 5 frames (direction sigma 1 degree, PnP
+    pose along x, the fire path having tried ``methods``) and its last verification step."""
+    sel = Selector(constant_models(), CAMERA)
+    verified = Initialization(
+        candidate, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
+        np.zeros((0, 2)), 0, 9, 3, {}, 1.2, refinement=_refined(1.0),
+    )  # fmt: skip
+    step = VerifyStep(True, 100, 100, 1.0, 0.7, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
+    return sel, _Candidate(verified, np.arange(3), steps=(step,) * 5, methods=methods), step
+
+
+def _seed_apart(method: Method, apart: float, sigma_deg: float):
+    """A seed map of ``method`` whose direction lies ``apart`` (chordal, as E_t) from x."""
+    from initsel_ros.initialize import SeedMap
+
+    angle = 2 * np.arcsin(apart / 2)
+    t = np.array([np.cos(angle), np.sin(angle), 0.0])
+    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
+    return SeedMap(method, np.eye(3), t, points, np.arange(3), 4.0, _refined(sigma_deg))
+
+
 @pytest.mark.parametrize(
     ('candidate', 'method', 'statistic', 'apart', 'outcome'),
     [
@@ -1120,19 +1142,10 @@ def test_an_h_candidate_is_refused_or_replaced_by_e_or_f_from_the_last_frame(
 ):
     import initsel_ros.selector as selector_module
     from initsel_ros.geometry import RotationTest
-    from initsel_ros.initialize import FireResult, SeedMap
+    from initsel_ros.initialize import FireResult
 
-    sel = Selector(constant_models(), CAMERA)
-    verified = Initialization(
-        candidate, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
-        np.zeros((0, 2)), 0, 9, 3, {}, 1.2, refinement=_refined(1.0),
-    )  # fmt: skip
-    step = VerifyStep(True, 100, 100, 1.0, 0.7, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
-    held = _Candidate(verified, np.arange(3), steps=(step,) * 5, methods=(candidate,))
-    angle = 2 * np.arcsin(apart / 2)
-    t_new = np.array([np.cos(angle), np.sin(angle), 0.0])
-    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
-    seed = SeedMap(method, np.eye(3), t_new, points, np.arange(3), 4.0, _refined(3.0))
+    sel, held, step = _held_on_five_frames(candidate, (candidate,))
+    seed = _seed_apart(method, apart, 3.0)
     rotation = RotationTest(1.0, 1.0 / statistic, statistic, 1.0)
     tried = []
 
@@ -1172,19 +1185,10 @@ def test_an_e_or_f_candidate_is_refused_where_the_last_frame_s_more_certain_map_
     looser bound from the PnP pose against it, is refused: they cannot both be the motion."""
     import initsel_ros.selector as selector_module
     from initsel_ros.geometry import RotationTest
-    from initsel_ros.initialize import FireResult, SeedMap
+    from initsel_ros.initialize import FireResult
 
-    sel = Selector(constant_models(), CAMERA)
-    verified = Initialization(
-        candidate, np.eye(3), np.array([1.0, 0.0, 0.0]), np.zeros((0, 3)), np.zeros((0, 2)),
-        np.zeros((0, 2)), 0, 9, 3, {}, 1.2, refinement=_refined(1.0),
-    )  # fmt: skip
-    step = VerifyStep(True, 100, 100, 1.0, 0.7, np.eye(3), np.array([0.02, 0.0, 0.0]), '')
-    held = _Candidate(verified, np.arange(3), steps=(step,) * 5, methods=(Method.E, Method.F))
-    angle = 2 * np.arcsin(apart / 2)
-    t_new = np.array([np.cos(angle), np.sin(angle), 0.0])
-    points = np.array([[0.0, 0.0, 1.0], [0.1, 0.0, 1.2], [0.0, 0.1, 0.9]])
-    seed = SeedMap(method, np.eye(3), t_new, points, np.arange(3), 4.0, _refined(refit_sigma))
+    sel, held, step = _held_on_five_frames(candidate, (Method.E, Method.F))
+    seed = _seed_apart(method, apart, refit_sigma)
     fire = FireResult(Reason.INITIALIZED, rotation=RotationTest(1.0, 0.1, 10.0, 1.0), seed=seed)
     monkeypatch.setattr(selector_module, 'initialize_pair', lambda *a, **k: fire)
     decision = sel.process(texture(1), ns(0.0)).decision
@@ -1193,7 +1197,7 @@ def test_an_e_or_f_candidate_is_refused_where_the_last_frame_s_more_certain_map_
     assert bool(why) == (outcome == 'refused')
     assert (again is not None) == (outcome == 'replaced')
     if outcome == 'refused':
-        degrees = round(np.degrees(angle))
+        degrees = round(np.degrees(2 * np.arcsin(apart / 2)))
         assert why == (
             f'on frame 5 {method.value}, from the longer baseline and the more certain, moves '
             f'{degrees} degrees from its direction: the two cannot both be the motion'
