@@ -243,8 +243,9 @@ _row_minima = np.minimum.reduce  # (ndarray.min without its Python wrapper)
 _EYE3 = np.eye(3).ravel()
 
 # The fit rows (see _fit_buffer): X, Y, 1 (reference), u, v (current), |d| (the disparity),
-# -uX, -uY, -vX, -vY; the DLT reads a = (X, Y, 1), u a = (uX, uY, u) and v a = (vX, vY, v).
-# Their Gram matrix comes with a row of zeros first (see MeasuredPair: the fit rows shift by one).
+# then rows 6, 7 hold -u (X, Y) and rows 8, 9 -v (X, Y); the DLT reads a = (X, Y, 1), u, v and
+# those products. Their Gram matrix comes with a row of zeros first (see MeasuredPair: the fit
+# rows shift by one).
 _FIT_ROWS = 10
 _A, _UA, _VA, _U, _V = (0, 1, 2), (6, 7, 3), (8, 9, 4), 3, 4
 
@@ -286,6 +287,7 @@ def _dlt_terms() -> tuple[np.ndarray, np.ndarray]:
             put(8, 6 + k, w, z)
     put(8, 8, _U, _U)  # y^T y
     put(8, 8, _V, _V)
+    assert all(len(t) <= 2 for t in terms)  # (the layout above: one or two terms an entry)
     padded = [[*t, 0, 0][:2] for t in terms]
     return np.array([t[0] for t in padded]), np.array([t[1] for t in padded])
 
@@ -658,7 +660,7 @@ class MeasuredPair:
             self.finite = True
             # The Gram matrix with a zero row first: two operands at different addresses make
             # numpy call the general product, at 0.6x the cost of the symmetric one it calls
-            # for fit @ fit.T.
+            # for fit @ fit.T (a few hundred points; 0.8x at 50).
             gram = self.gram = padded @ fit.T
             sums = self.sums = gram[1:7, 0:6].tolist()  # X, Y, 1, u, v, |d| against each other
             disparity, unit = fit[5], plan._unit  # fit units: pixels / plan._unit
@@ -879,7 +881,9 @@ def _linear_homography(gram: np.ndarray) -> tuple[float, np.ndarray, float] | No
     product is left to the caller that needs h). Where M is singular to working precision (a
     homography that fits exactly, s ~ 0), A h = b is solved on its own (v = h, c = 1).
     """
-    system = (gram.take(_DLT_FIRST) + gram.take(_DLT_SECOND)).reshape(9, 9)  # (flat indices)
+    # (flat indices into the (11, 10) Gram matrix of a plan with all 10 fit rows, the only
+    # one that reaches here: see _fit_features)
+    system = (gram.take(_DLT_FIRST) + gram.take(_DLT_SECOND)).reshape(9, 9)
     ok, column = cv2.solve(system, _LAST_UNIT)
     if ok and column[8, 0] > 0.0:
         ss = 1.0 / float(column[8, 0])

@@ -1173,6 +1173,7 @@ def test_an_h_candidate_is_refused_or_replaced_by_e_or_f_from_the_last_frame(
         (Method.F, Method.E, 0.5, 0.32, 'refused'),
         (Method.E, Method.E, 0.5, 0.9, 'refused'),
         (Method.E, Method.E, 2.0, 0.9, 'kept'),  # the refit is the less certain: no evidence
+        (Method.E, Method.E, 1.0, 0.9, 'kept'),  # as certain as the verified map: no evidence
         (Method.E, Method.E, 0.5, 0.2, 'replaced'),  # within the looser bound: the same motion
         (Method.E, Method.H, 0.5, 0.9, 'kept'),  # an H refit says nothing of E's direction
     ],
