@@ -1246,23 +1246,21 @@ class Selector:
                     'decomposition says nothing about the motion'
                 )
         verified_sigma = _direction_sigma_deg(init.refinement)
-        if (
-            not h_candidate
-            and fire.reason is Reason.INITIALIZED
-            and fire.seed is not None
-            and fire.seed.method is not Method.H
-            and _direction_sigma_deg(fire.seed.refinement) < verified_sigma
-        ):
-            apart = float(np.linalg.norm(fire.seed.t - t_pnp))
-            if apart > LAST_FRAME_MORE_CERTAIN_MAX_E_T:
-                return None, (
-                    f'on frame {len(candidate.steps)} {fire.seed.method.value}, from the longer '
-                    f'baseline and the more certain, moves '
-                    f'{_chordal_degrees(apart):.0f} degrees from its '
-                    'direction: the two cannot both be the motion'
-                )
         if fire.reason is Reason.INITIALIZED and fire.seed is not None:
-            seeds = [(seed, False) for seed in (fire.seed, *fire.alternatives)]
+            best = fire.seed  # an E or F candidate: E or F, more certain and far away, refuses it
+            if (
+                not h_candidate
+                and best.method is not Method.H
+                and _direction_sigma_deg(best.refinement) < verified_sigma
+                and (apart := float(np.linalg.norm(best.t - t_pnp)))
+                > LAST_FRAME_MORE_CERTAIN_MAX_E_T
+            ):
+                return None, (
+                    f'on frame {len(candidate.steps)} {best.method.value}, from the longer '
+                    f'baseline and the more certain, moves {_chordal_degrees(apart):.0f} '
+                    'degrees from its direction: the two cannot both be the motion'
+                )
+            seeds = [(seed, False) for seed in (best, *fire.alternatives)]
         else:  # an H refused only as ambiguous: the verified map tells its decomposition
             seeds = [
                 (seed, True)
